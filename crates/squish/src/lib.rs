@@ -1,0 +1,20 @@
+//! # Squish — a time-independent deformer for elastic contacts
+//!
+//! The core library: pure computation on triangle meshes in `f64`, no file formats and no UI.
+//! It implements the thesis *Time-independent geometrical deformation for elastic contacts*
+//! (Brunel 2022; method A: Brunel, Bénard, Guennebaud, Barla 2020; method B: Brunel, Bénard,
+//! Guennebaud, SIGGRAPH 2021): meshes that intersect at one frame go in, meshes in clean contact
+//! with a volume-preserving bulge come out, and no frame depends on another.
+//!
+//! Modules follow the pipeline (see `docs/architecture.md`):
+//! - [`mesh`]: triangle meshes, topology, geometry, working regions, procedural shapes;
+//! - [`linalg`]: cotangent Laplacian with cut-face weights, least-squares edge constraints,
+//!   sparse Cholesky with symbolic reuse (thesis App. B);
+//! - [`spatial`]: bounding volume hierarchies, ray and segment queries, exact triangle tests.
+
+pub mod linalg;
+pub mod mesh;
+pub mod spatial;
+
+pub use glam::DVec3;
+pub use mesh::{MeshError, SubMesh, Topology, TriMesh};

@@ -1,0 +1,1 @@
+//! Placeholder: filled by the linear-algebra work (thesis App. B).

@@ -1,0 +1,1 @@
+//! Placeholder: filled by the spatial-query work.
