@@ -12,8 +12,10 @@
 //!   sparse Cholesky with symbolic reuse (thesis App. B);
 //! - [`spatial`]: bounding volume hierarchies, ray and segment queries, exact triangle tests.
 
+pub mod animation;
 pub mod linalg;
 pub mod mesh;
+pub mod skinning;
 pub mod spatial;
 
 pub use glam::DVec3;

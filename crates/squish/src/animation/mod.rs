@@ -1,0 +1,1 @@
+//! Placeholder: skeletons and animation clips.

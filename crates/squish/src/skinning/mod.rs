@@ -1,0 +1,1 @@
+//! Placeholder: skinning (thesis ch. 6) and linear blend skinning.
