@@ -1,1 +1,50 @@
-//! Placeholder.
+//! # squish-render — preview pictures and quality plots with no GPU and no system libraries
+//!
+//! The `squish` command line renders its results to PNG with this crate:
+//! - [`render`]: a tile-parallel software rasterizer (z-buffer, supersampling, two-sided
+//!   Blinn-Phong lighting with tinted back faces, smooth or flat shading, per-vertex or per-face
+//!   colours, wireframe overlay), deterministic to the bit whatever the thread count;
+//! - [`Camera`]: perspective cameras, with [`Camera::framing`] to fit a bounding box and
+//!   [`Camera::orbit`] to look from azimuth/elevation angles (z up);
+//! - [`Image`], [`encode_png`], [`hstack`], [`vstack`], [`grid`] and a built-in bitmap font
+//!   ([`draw_text`], [`label`]) to compose and caption pictures;
+//! - colour maps for debug views ([`Label`], [`sequential`], [`scalar_colors`]);
+//! - line plots as standalone SVG ([`svg_line_plot`]) or as pictures ([`plot_image`]).
+//!
+//! Colours passed in are linear RGB ([`Rgb`]); use [`srgb8`] to write them as the usual
+//! 8-bit hex values.
+
+mod camera;
+mod colormap;
+mod font;
+mod image;
+mod plot;
+mod raster;
+mod shading;
+
+pub use camera::{Camera, orbit_direction};
+pub use colormap::{Label, MISSING_COLOR, categorical, label_colors, scalar_colors, sequential};
+pub use font::{ADVANCE, GLYPH_HEIGHT, GLYPH_WIDTH, LINE_HEIGHT, draw_text, draw_text_vertical, glyph, label, text_size};
+pub use image::{Image, MAX_IMAGE_SIDE, encode_png, grid, hstack, rgba8, vstack};
+// pub use plot::{Plot, Series, plot_image, svg_line_plot};
+pub use raster::{Background, RenderMesh, RenderOptions, Shading, clay, render};
+pub use shading::{Light, Lighting, Rgb, linear_to_srgb, linear_to_srgb8, srgb_to_linear, srgb8};
+
+/// Why a picture could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("invalid image size {width}×{height}: each side must be between 1 and {max} pixels", max = MAX_IMAGE_SIDE)]
+    InvalidImageSize { width: u32, height: u32 },
+    #[error("supersampling {0} is out of range: use 1 (none) to 4 (4×4 samples per pixel)")]
+    InvalidSupersampling(u32),
+    #[error("an image of {width}×{height} needs {expected} RGBA bytes but the buffer has {actual}")]
+    BufferSize { width: u32, height: u32, expected: usize, actual: usize },
+    #[error("mesh {mesh} has {actual} {kind} colours but needs one per {kind}, {expected} in all")]
+    ColorCount { mesh: usize, kind: &'static str, expected: usize, actual: usize },
+    #[error("triangle {triangle} of mesh {mesh} refers to vertex {index}, but the mesh has only {vertices} vertices")]
+    IndexOutOfRange { mesh: usize, triangle: usize, index: u32, vertices: usize },
+    #[error("the scene is too large to render ({vertices} vertices, {triangles} triangles; at most 2^32 of each)")]
+    SceneTooLarge { vertices: usize, triangles: usize },
+    #[error("PNG encoding failed: {0}")]
+    Png(#[from] png::EncodingError),
+}

@@ -1,0 +1,1 @@
+//! Line plots (placeholder while being written).
