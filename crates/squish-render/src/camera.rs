@@ -135,9 +135,6 @@ impl Camera {
     /// the horizontal and the vertical field of view. An empty or non-finite box frames the unit
     /// cube around the origin; a flat or point-like box is inflated a little.
     pub fn framing(bbox: &Aabb3, view_direction: DVec3, up: DVec3, fov_deg: f64, aspect: f64) -> Self {
-        let fov = sane_fov(fov_deg);
-        let aspect = sane_aspect(aspect);
-        let frame = basis(view_direction, up);
         let (mut min, mut max) = (bbox.min, bbox.max);
         if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
             (min, max) = (DVec3::splat(-0.5), DVec3::splat(0.5));
@@ -146,44 +143,70 @@ impl Camera {
         // Inflate degenerate boxes so that the eye ends up at a positive distance.
         let size = (max - min).max_element().max(1e-9 * center.abs().max_element()).max(1e-12);
         let half = (0.5 * (max - min)).max(DVec3::splat(1e-3 * size));
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            center
+                + DVec3::new(
+                    if i & 1 == 0 { -half.x } else { half.x },
+                    if i & 2 == 0 { -half.y } else { half.y },
+                    if i & 4 == 0 { -half.z } else { half.z },
+                )
+        });
+        Self::fit(&corners, center, view_direction, up, fov_deg, aspect)
+    }
 
+    /// Like [`Self::framing`], but fits the points themselves (e.g. a mesh's vertices, or those of
+    /// several meshes) rather than their bounding box: tighter for elongated or diagonal shapes
+    /// seen from an angle. Non-finite points are ignored; with no usable point it frames the unit
+    /// cube around the origin.
+    pub fn framing_points(points: &[DVec3], view_direction: DVec3, up: DVec3, fov_deg: f64, aspect: f64) -> Self {
+        let bbox = Aabb3::from_points(points.iter().copied().filter(|p| p.is_finite()));
+        let size = if bbox.min.cmple(bbox.max).all() { bbox.extent().max_element() } else { 0.0 };
+        if !(size > 1e-9 * bbox.center().abs().max_element().max(1e-3)) {
+            // Nothing, or everything at one point: the box path inflates that sensibly.
+            return Self::framing(&bbox, view_direction, up, fov_deg, aspect);
+        }
+        let finite: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
+        Self::fit(&finite, bbox.center(), view_direction, up, fov_deg, aspect)
+    }
+
+    /// The closest camera looking along `view_direction` that keeps every point (not all at one
+    /// place, all finite) inside the margin-reduced field of view, with the points' projection
+    /// centred.
+    fn fit(points: &[DVec3], center: DVec3, view_direction: DVec3, up: DVec3, fov_deg: f64, aspect: f64) -> Self {
+        let fov = sane_fov(fov_deg);
+        let aspect = sane_aspect(aspect);
+        let frame = basis(view_direction, up);
         let tan_v = (0.5 * fov.to_radians()).tan() * (1.0 - FRAMING_MARGIN);
         let tan_h = tan_v * aspect;
-        // Every corner q (camera-frame coordinates relative to the centre) must satisfy
+        // Every point q (camera-frame coordinates relative to the centre) must satisfy
         // |q.x - e.x| <= tan_h (q.z - e.z), and the same vertically. With A = max(q.x - tan_h q.z)
         // and B = max(-q.x - tan_h q.z), the farthest-forward eye that satisfies the horizontal
         // constraints is e.x = (A - B)/2, e.z = -(A + B)/(2 tan_h); likewise vertically. The eye
         // must satisfy both, so it takes the smaller e.z (further back), which keeps the other
-        // axis's constraints satisfied with the same lateral offset.
+        // axis's constraints satisfiable.
+        let local: Vec<DVec3> = points.iter().map(|&p| frame.to_view(p - center)).collect();
         let (mut a, mut b, mut c, mut d) = (f64::MIN, f64::MIN, f64::MIN, f64::MIN);
-        let mut corners = [DVec3::ZERO; 8];
-        for (i, corner) in corners.iter_mut().enumerate() {
-            let offset = DVec3::new(
-                if i & 1 == 0 { -half.x } else { half.x },
-                if i & 2 == 0 { -half.y } else { half.y },
-                if i & 4 == 0 { -half.z } else { half.z },
-            );
-            let q = frame.to_view(offset);
+        for q in &local {
             a = a.max(q.x - tan_h * q.z);
             b = b.max(-q.x - tan_h * q.z);
             c = c.max(q.y - tan_v * q.z);
             d = d.max(-q.y - tan_v * q.z);
-            *corner = q;
         }
         let ez = (-(a + b) / (2.0 * tan_h)).min(-(c + d) / (2.0 * tan_v));
-        // On the looser axis the eye is further back than that axis needs, and the offsets
-        // above no longer centre the projection exactly: re-centre both axes for the final depth.
-        let ex = centre_offset(corners.iter().map(|q| (q.x, q.z - ez)), 0.5 * (a - b));
-        let ey = centre_offset(corners.iter().map(|q| (q.y, q.z - ez)), 0.5 * (c - d));
+        // On the looser axis the eye is further back than that axis needs, and the offset above
+        // no longer centres the projection exactly: re-centre both axes for the final depth (the
+        // centred offset minimizes the larger side, so it stays inside the field of view).
+        let ex = centre_offset(local.iter().map(|q| (q.x, q.z - ez)), 0.5 * (a - b));
+        let ey = centre_offset(local.iter().map(|q| (q.y, q.z - ez)), 0.5 * (c - d));
         let eye = center + frame.right * ex + frame.up * ey + frame.forward * ez;
-        let nearest = corners.iter().map(|q| q.z - ez).fold(f64::INFINITY, f64::min);
+        let nearest = local.iter().map(|q| q.z - ez).fold(f64::INFINITY, f64::min);
         Self {
             eye,
             target: eye - frame.forward * ez,
             up: frame.up,
             fov_y_deg: fov,
             aspect,
-            // Half the distance to the nearest corner: nothing in the box is clipped, and depth
+            // Half the distance to the nearest point: nothing framed is clipped, and depth
             // precision (1/w) does not depend on the near plane anyway.
             near: (0.5 * nearest).max(1e-6 * -ez),
         }

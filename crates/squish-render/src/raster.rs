@@ -592,7 +592,9 @@ impl Context<'_> {
             let sum = c.element_sum();
             if sum > 0.0 && sum.is_finite() { c / sum } else { Vec3::splat(1.0 / 3.0) }
         };
-        let geometric = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        // The view frame (right, up, forward) is left-handed, so the outward normal of a
+        // counter-clockwise triangle is e2 × e1 there, not e1 × e2.
+        let geometric = (p[2] - p[0]).cross(p[1] - p[0]).normalize_or_zero();
         // The eye is at the origin: the viewer sees the front side when the normal points back
         // along the ray.
         let front = geometric.dot(d) < 0.0;
