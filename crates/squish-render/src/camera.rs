@@ -41,7 +41,7 @@ pub(crate) struct Basis {
 impl Basis {
     /// Camera-relative coordinates of `p`: (right, up, depth in front of the eye).
     #[inline]
-    pub fn to_view(&self, p: DVec3) -> DVec3 {
+    pub fn to_view(self, p: DVec3) -> DVec3 {
         DVec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.forward))
     }
 }
@@ -99,7 +99,7 @@ fn centre_offset(points: impl Iterator<Item = (f64, f64)> + Clone, guess: f64) -
     };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for (x, z) in points.clone() {
-        if !(z > 0.0) {
+        if z.is_nan() || z <= 0.0 {
             return guess;
         }
         lo = lo.min(x);
@@ -161,7 +161,7 @@ impl Camera {
     pub fn framing_points(points: &[DVec3], view_direction: DVec3, up: DVec3, fov_deg: f64, aspect: f64) -> Self {
         let bbox = Aabb3::from_points(points.iter().copied().filter(|p| p.is_finite()));
         let size = if bbox.min.cmple(bbox.max).all() { bbox.extent().max_element() } else { 0.0 };
-        if !(size > 1e-9 * bbox.center().abs().max_element().max(1e-3)) {
+        if size.is_nan() || size <= 1e-9 * bbox.center().abs().max_element().max(1e-3) {
             // Nothing, or everything at one point: the box path inflates that sensibly.
             return Self::framing(&bbox, view_direction, up, fov_deg, aspect);
         }
@@ -245,7 +245,7 @@ impl Camera {
         let (w, h) = (f64::from(width.max(1)), f64::from(height.max(1)));
         let (tan_h, tan_v) = self.tangents(w / h);
         let q = self.basis().to_view(p - self.eye);
-        if !(q.z > self.near) {
+        if q.z.is_nan() || q.z <= self.near {
             return None;
         }
         let x = (0.5 + 0.5 * q.x / (q.z * tan_h)) * w;
@@ -255,6 +255,7 @@ impl Camera {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
 

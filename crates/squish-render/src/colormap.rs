@@ -127,6 +127,7 @@ pub fn scalar_colors(values: &[f64], range: Option<(f64, f64)>) -> Vec<Rgb> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
 

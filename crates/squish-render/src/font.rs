@@ -233,6 +233,7 @@ pub fn label(image: &mut Image, text: &str) {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
 

@@ -237,6 +237,7 @@ pub fn encode_png(image: &Image) -> Result<Vec<u8>, RenderError> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
 

@@ -9,12 +9,14 @@
 //! - [`Image`], [`encode_png`], [`hstack`], [`vstack`], [`grid`] and a built-in bitmap font
 //!   ([`draw_text`], [`label`]) to compose and caption pictures;
 //! - colour maps for debug views ([`Label`], [`sequential`], [`scalar_colors`]);
-//! - line plots as standalone SVG ([`svg_line_plot`]) or as pictures ([`plot_image`]).
+//! - line plots as standalone SVG ([`svg_line_plot`]) or as pictures ([`plot_image`]), drawn
+//!   with anti-aliased 2D primitives ([`draw_polyline`] …).
 //!
 //! Colours passed in are linear RGB ([`Rgb`]); use [`srgb8`] to write them as the usual
 //! 8-bit hex values.
 
 mod camera;
+mod canvas;
 mod colormap;
 mod font;
 mod image;
@@ -23,10 +25,11 @@ mod raster;
 mod shading;
 
 pub use camera::{Camera, orbit_direction};
+pub use canvas::{draw_line, draw_polyline, fill_circle, stroke_rect};
 pub use colormap::{Label, MISSING_COLOR, categorical, label_colors, scalar_colors, sequential};
 pub use font::{ADVANCE, GLYPH_HEIGHT, GLYPH_WIDTH, LINE_HEIGHT, draw_text, draw_text_vertical, glyph, label, text_size};
 pub use image::{Image, MAX_IMAGE_SIDE, encode_png, grid, hstack, rgba8, vstack};
-// pub use plot::{Plot, Series, plot_image, svg_line_plot};
+pub use plot::{Plot, Series, plot_image, svg_line_plot};
 pub use raster::{Background, RenderMesh, RenderOptions, Shading, clay, render};
 pub use shading::{Light, Lighting, Rgb, linear_to_srgb, linear_to_srgb8, srgb_to_linear, srgb8};
 

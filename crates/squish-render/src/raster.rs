@@ -242,20 +242,21 @@ impl Frame {
 }
 
 fn outcode(c: DVec3, near: f64) -> u8 {
+    // Callers pass finite points only (non-finite ones are flagged outside everything).
     let mut code = 0;
-    if !(c.z >= near) {
+    if c.z < near {
         code |= 1;
     }
-    if !(c.x >= -GUARD * c.z) {
+    if c.x < -GUARD * c.z {
         code |= 2;
     }
-    if !(c.x <= GUARD * c.z) {
+    if c.x > GUARD * c.z {
         code |= 4;
     }
-    if !(c.y >= -GUARD * c.z) {
+    if c.y < -GUARD * c.z {
         code |= 8;
     }
-    if !(c.y <= GUARD * c.z) {
+    if c.y > GUARD * c.z {
         code |= 16;
     }
     code

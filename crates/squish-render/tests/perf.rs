@@ -1,6 +1,9 @@
 //! Rendering time of a 50k-triangle mesh at 800 × 600 with 2 × 2 supersampling. The bound is
 //! loose (machines differ); the printed timings are what matters.
 
+// Tests may unwrap: a panic is the failure report.
+#![allow(clippy::unwrap_used)]
+
 use std::time::Instant;
 
 use squish::mesh::{bounding_box, shapes};

@@ -1,6 +1,9 @@
 //! Properties of rendered pictures: coverage, colours, depth, back faces, framing, PNG output,
 //! determinism; and example pictures written to the test temp dir for a human to look at.
 
+// Tests may unwrap: a panic is the failure report.
+#![allow(clippy::unwrap_used)]
+
 use glam::DVec3;
 use squish::TriMesh;
 use squish::mesh::{bounding_box, face_normals, shapes};
