@@ -134,6 +134,10 @@ impl Camera {
     /// sideways so that the box's projection is centred, then back until every corner is inside
     /// the horizontal and the vertical field of view. An empty or non-finite box frames the unit
     /// cube around the origin; a flat or point-like box is inflated a little.
+    ///
+    /// Seen from an angle, a box's corners stick out beyond the shape it holds (a sphere seen
+    /// from above sits high in the frame, under the box's projected bottom corners); for
+    /// previews, [`Self::framing_points`] on the vertices frames the shape itself.
     pub fn framing(bbox: &Aabb3, view_direction: DVec3, up: DVec3, fov_deg: f64, aspect: f64) -> Self {
         let (mut min, mut max) = (bbox.min, bbox.max);
         if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {

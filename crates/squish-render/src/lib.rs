@@ -14,6 +14,22 @@
 //!
 //! Colours passed in are linear RGB ([`Rgb`]); use [`srgb8`] to write them as the usual
 //! 8-bit hex values.
+//!
+//! ```
+//! use squish::mesh::{bounding_box, shapes};
+//! use squish_render::*;
+//!
+//! let sphere = shapes::icosphere(1.0, 3);
+//! let u: Vec<f64> = sphere.positions.iter().map(|p| 0.5 + 0.5 * p.z).collect();
+//! let colors = scalar_colors(&u, Some((0.0, 1.0)));
+//! let options = RenderOptions::new(320, 240);
+//! let camera = Camera::orbit(&bounding_box(&sphere), 30.0, 20.0, 40.0, options.aspect());
+//! let mut image = render(&[RenderMesh::new(&sphere).with_vertex_colors(&colors)], &camera, &options)?;
+//! label(&mut image, "frame 12");
+//! let png: Vec<u8> = encode_png(&image)?; // write it atomically where it belongs
+//! assert!(png.starts_with(b"\x89PNG"));
+//! # Ok::<(), RenderError>(())
+//! ```
 
 mod camera;
 mod canvas;

@@ -36,6 +36,20 @@ fn fifty_thousand_triangles_at_800x600_render_fast() {
             assert!(best < 2.0, "{best} s");
         }
     }
+    // Worst case for shading: a 51,200-triangle grid seen from above fills the picture's height.
+    let grid = shapes::grid(2.0, 2.0, 160, 160);
+    let camera = Camera::orbit(&bounding_box(&grid), 0.0, 90.0, 40.0, 800.0 / 600.0);
+    let options = RenderOptions { supersampling: 2, ..RenderOptions::new(800, 600) };
+    let scene = [RenderMesh::new(&grid).with_wireframe(true)];
+    let _ = render(&scene, &camera, &options).unwrap();
+    let start = Instant::now();
+    let _ = render(&scene, &camera, &options).unwrap();
+    eprintln!(
+        "{} triangles filling the frame, 800x600, 2x2, wireframe: {:.1} ms",
+        grid.num_triangles(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+
     // Encoding is part of producing a preview too.
     let options = RenderOptions { supersampling: 2, ..RenderOptions::new(800, 600) };
     let image = render(&[RenderMesh::new(&mesh)], &camera, &options).unwrap();
