@@ -42,6 +42,7 @@ fn icosphere_covers_the_expected_disc() {
     let radius_px = (1.0f64 / distance).asin().tan() / tan_v * f64::from(h) / 2.0;
     let expected = std::f64::consts::PI * radius_px * radius_px;
     let covered = coverage(&image);
+    eprintln!("sphere coverage {covered:.1} px, expected {expected:.1} px");
     assert!((covered / expected - 1.0).abs() < 0.02, "covered {covered:.0} px, expected {expected:.0} px");
 
     let centre = camera.project(DVec3::ZERO, w, h).unwrap();
