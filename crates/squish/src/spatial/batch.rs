@@ -188,45 +188,77 @@ mod tests {
     #[test]
     #[ignore]
     fn spatial_timings() {
-        let mesh = shapes::icosphere(1.0, 6); // 81 920 triangles
-        let t0 = Instant::now();
-        let mut tree = TriangleBvh::new(&mesh).unwrap();
-        let build = t0.elapsed();
-        let t0 = Instant::now();
-        tree.refit(&mesh.positions).unwrap();
-        let refit = t0.elapsed();
-        let segments = pseudo_random_segments(100_000, 1, 1.2);
-        let short: Vec<[DVec3; 2]> = segments.iter().map(|&[a, b]| [a, a + 0.02 * (b - a)]).collect();
-        let rays: Vec<Ray> = segments.iter().map(|&[a, b]| Ray::new(a, b - a)).collect();
-        let time = |name: &str, f: &dyn Fn() -> usize| {
+        let time = |name: &str, f: &mut dyn FnMut() -> usize| {
             let t0 = Instant::now();
             let n = f();
-            println!("{name:<44} {:>9.2} ms  ({n} results)", t0.elapsed().as_secs_f64() * 1e3);
+            println!("  {name:<46} {:>9.2} ms  ({n} results)", t0.elapsed().as_secs_f64() * 1e3);
         };
-        println!("icosphere level 6: {} triangles, {} threads", mesh.num_triangles(), rayon::current_num_threads());
-        println!("{:<44} {:>9.2} ms", "build", build.as_secs_f64() * 1e3);
-        println!("{:<44} {:>9.2} ms", "refit", refit.as_secs_f64() * 1e3);
-        time("100k long segments, all hits, sequential", &|| {
-            let mut out = Vec::new();
-            segments.iter().map(|&[a, b]| {
-                tree.segment_hits(a, b, &mut out);
-                out.len()
-            }).sum()
-        });
-        time("100k long segments, all hits, batch", &|| tree.segment_hits_batch(&segments).total());
-        time("100k short segments (edge-like), batch", &|| tree.segment_hits_batch(&short).total());
-        time("100k rays, farthest hit, batch", &|| tree.ray_farthest_batch(&rays).iter().flatten().count());
-        time("100k rays, nearest hit, batch", &|| tree.ray_nearest_batch(&rays).iter().flatten().count());
-        let points: Vec<DVec3> = segments.iter().map(|s| s[0]).collect();
-        time("100k closest points, batch", &|| tree.closest_point_batch(&points).iter().flatten().count());
-        time("100k winding numbers (crossing count)", &|| {
-            points.par_iter().map(|&p| tree.winding_number(p)).filter(|&w| w != 0).count()
-        });
-        let other = shapes::icosphere(0.8, 5);
-        time("self-intersections of the 81 920-face sphere", &|| tree.self_intersections().faces.len());
-        let t0 = Instant::now();
-        let other_tree = TriangleBvh::new(&other).unwrap();
-        let pairs = tree.intersections_with(&other_tree).len();
-        println!("{:<44} {:>9.2} ms  ({pairs} results)", "mesh–mesh pairs vs a 20k-face sphere", t0.elapsed().as_secs_f64() * 1e3);
+        println!("{} rayon threads", rayon::current_num_threads());
+        for (label, mesh) in [("UV sphere 200 × 101", shapes::uv_sphere(1.0, 200, 101)), ("icosphere level 6", shapes::icosphere(1.0, 6))] {
+            println!("{label}: {} triangles", mesh.num_triangles());
+            let mut tree = None;
+            time("build", &mut || {
+                tree = Some(TriangleBvh::new(&mesh).unwrap());
+                1
+            });
+            let mut tree = tree.unwrap();
+            let moved: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.01).collect();
+            time("refit", &mut || {
+                tree.refit(&moved).unwrap();
+                1
+            });
+            tree.refit(&mesh.positions).unwrap();
+            let segments = pseudo_random_segments(100_000, 1, 1.2);
+            // Edge-like segments: about one mesh edge long, near the surface.
+            let edge_len = 2.0 * std::f64::consts::PI / 200.0;
+            let short: Vec<[DVec3; 2]> = segments
+                .iter()
+                .map(|&[a, b]| {
+                    let p = a.normalize_or_zero();
+                    [p * 0.99, p * 0.99 + (b - a).normalize_or_zero() * edge_len]
+                })
+                .collect();
+            let rays: Vec<Ray> = segments.iter().map(|&[a, b]| Ray::new(a, b - a)).collect();
+            let points: Vec<DVec3> = segments.iter().map(|s| s[0]).collect();
+            time("100k long segments, all hits, 1 thread", &mut || {
+                let mut out = Vec::new();
+                segments
+                    .iter()
+                    .map(|&[a, b]| {
+                        tree.segment_hits(a, b, &mut out);
+                        out.len()
+                    })
+                    .sum()
+            });
+            time("100k long segments, all hits, batch", &mut || tree.segment_hits_batch(&segments).total());
+            time("100k edge-like segments, batch", &mut || tree.segment_hits_batch(&short).total());
+            time("100k rays, farthest hit, batch", &mut || tree.ray_farthest_batch(&rays).iter().flatten().count());
+            time("100k rays, nearest hit, batch", &mut || tree.ray_nearest_batch(&rays).iter().flatten().count());
+            time("100k closest points, batch", &mut || tree.closest_point_batch(&points).iter().flatten().count());
+            let near_surface: Vec<DVec3> = points.iter().map(|p| p.normalize_or_zero() * (0.95 + 0.1 * (p.x * 40.0).sin().abs())).collect();
+            time("100k closest points near the surface, batch", &mut || tree.closest_point_batch(&near_surface).iter().flatten().count());
+            time("  pass 1 only (parry project_point)", &mut || {
+                near_surface
+                    .par_iter()
+                    .filter_map(|&p| {
+                        tree.bvh.project_point(p, f64::MAX, |leaf, _| {
+                            let t = &tree.corners[leaf as usize];
+                            let bary = crate::spatial::closest::closest_point_on_triangle(p, t);
+                            Some(parry3d_f64::query::PointProjection::new(false, crate::spatial::closest::barycentric_point(t, bary)))
+                        })
+                    })
+                    .count()
+            });
+            time("100k winding numbers (crossings), parallel", &mut || {
+                points.par_iter().map(|&p| tree.winding_number(p)).filter(|&w| w != 0).count()
+            });
+            time("self-intersections (faces found)", &mut || tree.self_intersections().faces.len());
+            let mut other = shapes::icosphere(0.8, 5);
+            other.map_positions(|p| p + DVec3::new(1.0, 0.1, 0.2));
+            time("build + pairs vs a 20k-face sphere", &mut || {
+                let other_tree = TriangleBvh::new(&other).unwrap();
+                tree.intersections_with(&other_tree).len()
+            });
+        }
     }
 }

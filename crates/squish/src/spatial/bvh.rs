@@ -238,6 +238,21 @@ mod tests {
     }
 
     #[test]
+    fn tiny_trees_refit_too() {
+        // One and two leaves are stored in parry's root node itself: check they move as well.
+        let grid = shapes::grid(1.0, 1.0, 1, 1); // two triangles
+        for faces in [vec![0u32], vec![0, 1]] {
+            let mut tree = TriangleBvh::with_faces(&grid, faces.iter().copied()).unwrap();
+            let up: Vec<DVec3> = grid.positions.iter().map(|p| *p + DVec3::new(5.0, 0.0, 3.0)).collect();
+            tree.refit(&up).unwrap();
+            let c = tree.leaf_corners(0);
+            let centroid = (c[0] + c[1] + c[2]) / 3.0;
+            assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z, centroid - DVec3::Z), 1);
+            assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z - DVec3::new(5.0, 0.0, 3.0), centroid - DVec3::Z - DVec3::new(5.0, 0.0, 3.0)), 0);
+        }
+    }
+
+    #[test]
     fn invalid_input_is_an_error() {
         let mut mesh = shapes::icosphere(1.0, 0);
         let mut tree = TriangleBvh::new(&mesh).unwrap();

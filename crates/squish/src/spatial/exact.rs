@@ -81,8 +81,9 @@ fn lexicographic_sign(v: [f64; 3]) -> i8 {
     0
 }
 
+/// Sign of `x` as −1, 0 or +1 (unlike `f64::signum`, 0 for ±0).
 #[inline(always)]
-fn sign(x: f64) -> i8 {
+pub(crate) fn sign(x: f64) -> i8 {
     if x > 0.0 {
         1
     } else if x < 0.0 {

@@ -429,6 +429,31 @@ mod tests {
     }
 
     #[test]
+    fn segments_through_the_vertices_of_a_sphere_cross_once_per_passage() {
+        // [2v, 0] passes exactly through the vertex v (t = ½ is exact), where 5 or 6 faces meet
+        // at different angles: one crossing, entering. [2v, −2v] also leaves through −v (also a
+        // vertex, the icosphere being symmetric): two crossings.
+        let mesh = shapes::icosphere(1.0, 3);
+        let tree = TriangleBvh::new(&mesh).unwrap();
+        let mut hits = Vec::new();
+        for &v in &mesh.positions {
+            tree.segment_hits(2.0 * v, DVec3::ZERO, &mut hits);
+            assert_eq!(hits.len(), 1, "{v}: {hits:?}");
+            assert!(hits[0].entering);
+            assert_eq!(hits[0].point, v);
+            assert_eq!(hits[0].bary.iter().filter(|&&b| b == 1.0).count(), 1);
+            tree.segment_hits(2.0 * v, -2.0 * v, &mut hits);
+            assert_eq!(hits.len(), 2, "{v}: {hits:?}");
+            assert!(hits[0].entering && !hits[1].entering);
+        }
+        // Through edge midpoints (rounded, so near-degenerate rather than exact): still one.
+        for t in &mesh.triangles {
+            let m = 0.5 * (mesh.positions[t[0] as usize] + mesh.positions[t[1] as usize]);
+            assert_eq!(tree.segment_crossing_count(3.0 * m, DVec3::ZERO), 1);
+        }
+    }
+
+    #[test]
     fn crossing_counts_through_a_closed_box_are_even_along_its_edges() {
         // Rays along the cube's faces, edges and through its corners: the crossing count of a
         // segment whose ends are both outside a closed surface is always even.

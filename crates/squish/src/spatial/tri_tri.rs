@@ -20,7 +20,10 @@
 
 use glam::DVec3;
 
-use super::exact::{cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d, triangles_touch_2d};
+use super::exact::{
+    cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d, sign,
+    triangles_touch_2d,
+};
 
 /// True if the closed triangles `t1` and `t2` share at least one point (touching counts).
 pub fn triangles_intersect(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
@@ -103,8 +106,9 @@ pub fn triangles_intersect_away_from_shared(t1: &[DVec3; 3], t2: &[DVec3; 3]) ->
                 return false;
             };
             let (pu, pv) = (project(u, axis), project(v, axis));
-            let side1 = orient2d(pu, pv, project(w1, axis)).signum();
-            let side2 = orient2d(pu, pv, project(w2, axis)).signum();
+            // Both non-zero: each triangle is non-degenerate and the projection is one-to-one.
+            let side1 = sign(orient2d(pu, pv, project(w1, axis)));
+            let side2 = sign(orient2d(pu, pv, project(w2, axis)));
             side1 == side2
         }
         _ => true,
