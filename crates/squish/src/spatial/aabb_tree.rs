@@ -19,6 +19,7 @@ use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
 use rayon::prelude::*;
 
+use super::batch::Batch;
 use super::bvh::{box_distance_squared, to_parry, SegmentProbe};
 use super::exact::segment_segment_2d;
 use super::SpatialError;
@@ -285,6 +286,11 @@ impl SegmentTree2 {
         out.sort_unstable_by(|x, y| x.s.total_cmp(&y.s).then(x.segment.cmp(&y.segment)));
     }
 
+    /// [`Self::crossings`] for each query segment `[p, q]`, in parallel; results in input order.
+    pub fn crossings_batch(&self, queries: &[[DVec2; 2]]) -> Batch<Segment2Hit> {
+        Batch::gather(queries, |&[p, q], out| self.crossings(p, q, out))
+    }
+
     /// Stored segments whose box overlaps the 2D box `[min, max]`, sorted, written to `out`.
     pub fn overlapping(&self, min: DVec2, max: DVec2, out: &mut Vec<u32>) {
         self.tree.overlapping(&Aabb3 { min: min.extend(0.0), max: max.extend(0.0) }, out);
@@ -425,6 +431,9 @@ mod tests {
         }
         tree.crossings(DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5), &mut hits);
         assert_eq!(hits.len(), 2);
+        let batch = tree.crossings_batch(&[[DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5)], [DVec2::new(5.0, 5.0), DVec2::new(6.0, 5.0)]]);
+        assert_eq!(batch.get(0), &hits[..]);
+        assert!(batch.get(1).is_empty() && batch.len() == 2);
         assert_eq!(hits[0].segment, 3);
         assert!((hits[0].s - 1.0 / 3.0).abs() < 1e-15);
         // From the inside to the outside: one crossing, whatever the exit point.

@@ -15,15 +15,25 @@ use super::queries::{hit_order, ClosestPoint, Hit, Ray};
 /// Queries per parallel task: large enough to amortize task overhead, small enough to balance.
 const CHUNK: usize = 128;
 
-/// Hits of a batch of segment or ray queries, stored flat: the hits of query `i` are
-/// [`Self::get`]`(i)`, sorted like [`TriangleBvh::segment_hits`].
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct BatchHits {
+/// Results of a batch of queries, stored flat: the results of query `i` are [`Self::get`]`(i)`,
+/// in the order the single query returns them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Batch<T> {
     offsets: Vec<usize>,
-    hits: Vec<Hit>,
+    hits: Vec<T>,
 }
 
-impl BatchHits {
+/// Hits of a batch of segment or ray queries; each query's hits are sorted like
+/// [`TriangleBvh::segment_hits`].
+pub type BatchHits = Batch<Hit>;
+
+impl<T> Default for Batch<T> {
+    fn default() -> Self {
+        Self { offsets: Vec::new(), hits: Vec::new() }
+    }
+}
+
+impl<T: Clone + Send> Batch<T> {
     /// Number of queries.
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)
@@ -34,31 +44,32 @@ impl BatchHits {
         self.len() == 0
     }
 
-    /// The hits of query `i` (empty if `i` is out of range).
-    pub fn get(&self, i: usize) -> &[Hit] {
+    /// The results of query `i` (empty if `i` is out of range).
+    pub fn get(&self, i: usize) -> &[T] {
         match (self.offsets.get(i), self.offsets.get(i + 1)) {
             (Some(&s), Some(&e)) => &self.hits[s..e],
             _ => &[],
         }
     }
 
-    /// The hits of each query, in query order.
-    pub fn iter(&self) -> impl ExactSizeIterator<Item = &[Hit]> + '_ {
+    /// The results of each query, in query order.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = &[T]> + '_ {
         self.offsets.windows(2).map(|w| &self.hits[w[0]..w[1]])
     }
 
-    /// All hits, query after query.
-    pub fn all_hits(&self) -> &[Hit] {
+    /// All results, query after query.
+    pub fn all(&self) -> &[T] {
         &self.hits
     }
 
-    /// Total number of hits.
+    /// Total number of results.
     pub fn total(&self) -> usize {
         self.hits.len()
     }
 
-    fn gather<Q: Sync>(queries: &[Q], run: impl Fn(&Q, &mut Vec<Hit>) + Sync) -> Self {
-        let chunks: Vec<(Vec<usize>, Vec<Hit>)> = queries
+    /// Runs `run(query, out)` (which must clear `out` and fill it) on every query in parallel.
+    pub(crate) fn gather<Q: Sync>(queries: &[Q], run: impl Fn(&Q, &mut Vec<T>) + Sync) -> Self {
+        let chunks: Vec<(Vec<usize>, Vec<T>)> = queries
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut counts = Vec::with_capacity(chunk.len());

@@ -29,11 +29,13 @@ mod closest;
 mod exact;
 mod queries;
 mod self_intersection;
+#[cfg(test)]
+mod test_meshes;
 mod tri_tri;
 mod winding;
 
 pub use aabb_tree::{AabbTree, PointTree, ProjectionPlane, Segment2Hit, SegmentTree2};
-pub use batch::BatchHits;
+pub use batch::{Batch, BatchHits};
 pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
 pub use queries::{ClosestPoint, Hit, Ray};

@@ -93,32 +93,10 @@ impl TriangleBvh {
 mod tests {
     use super::*;
     use crate::mesh::shapes;
+    use crate::spatial::test_meshes::bunny;
     use glam::DVec3;
 
     /// Loads the `v`/`f` lines of an OBJ file (polygons fanned), or `None` if it is absent.
-    fn load_obj(path: &str) -> Option<TriMesh> {
-        let text = std::fs::read_to_string(path).ok()?;
-        let mut mesh = TriMesh::default();
-        for line in text.lines() {
-            let mut it = line.split_whitespace();
-            match it.next() {
-                Some("v") => {
-                    let c: Vec<f64> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                    mesh.positions.push(DVec3::new(c[0], c[1], c[2]));
-                }
-                Some("f") => {
-                    let ids: Vec<u32> =
-                        it.map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
-                    for k in 1..ids.len() - 1 {
-                        mesh.triangles.push([ids[0], ids[k], ids[k + 1]]);
-                    }
-                }
-                _ => {}
-            }
-        }
-        Some(mesh)
-    }
-
     fn brute_force(mesh: &TriMesh) -> Vec<[u32; 2]> {
         let n = mesh.num_triangles();
         let mut pairs = Vec::new();
@@ -142,9 +120,7 @@ mod tests {
 
     #[test]
     fn bunny_has_no_self_intersection() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/bunny_3301.obj");
-        let Some(mesh) = load_obj(path) else {
-            eprintln!("skipping: {path} not found");
+        let Some(mesh) = bunny() else {
             return;
         };
         assert!(mesh.num_triangles() > 6000);

@@ -296,6 +296,28 @@ mod tests {
     }
 
     #[test]
+    fn bunny_inside_outside_agrees_between_crossings_and_solid_angles() {
+        let Some(bunny) = crate::spatial::test_meshes::bunny() else {
+            return;
+        };
+        let tree = TriangleBvh::new(&bunny).unwrap();
+        let b = tree.bounds();
+        let mut inside = 0;
+        for (i, u) in sample_points(400, 0.5).into_iter().enumerate() {
+            let p = b.center() + u * b.extent();
+            let w = tree.winding_number(p);
+            let g = tree.generalized_winding_number(p);
+            assert!(w == 0 || w == 1, "{p}: {w}");
+            assert!((g - w as f64).abs() < 1e-6, "{i} {p}: {w} vs {g}");
+            inside += w;
+        }
+        assert!(inside > 20, "{inside}");
+        // Every vertex lies on the surface: depth 0 whichever side the perturbation picks.
+        let depths = tree.penetration_depths(&bunny.positions);
+        assert!(depths.iter().all(|&d| d < 1e-12));
+    }
+
+    #[test]
     fn fast_winding_is_close_to_the_exact_sum() {
         let mesh = shapes::icosphere(1.0, 4);
         let tree = TriangleBvh::new(&mesh).unwrap();
