@@ -33,7 +33,7 @@ impl<T> Default for Batch<T> {
     }
 }
 
-impl<T: Clone + Send> Batch<T> {
+impl<T> Batch<T> {
     /// Number of queries.
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)
@@ -67,6 +67,9 @@ impl<T: Clone + Send> Batch<T> {
         self.hits.len()
     }
 
+}
+
+impl<T: Clone + Send> Batch<T> {
     /// Runs `run(query, out)` (which must clear `out` and fill it) on every query in parallel.
     pub(crate) fn gather<Q: Sync>(queries: &[Q], run: impl Fn(&Q, &mut Vec<T>) + Sync) -> Self {
         let chunks: Vec<(Vec<usize>, Vec<T>)> = queries

@@ -116,13 +116,13 @@ impl TriangleBvh {
     }
 
     /// Corner positions of leaf `leaf` (index into [`Self::faces`]).
-    pub fn leaf_corners(&self, leaf: usize) -> [DVec3; 3] {
-        self.corners[leaf]
+    pub fn leaf_corners(&self, leaf: usize) -> Option<[DVec3; 3]> {
+        self.corners.get(leaf).copied()
     }
 
     /// Vertex indices of leaf `leaf` in the mesh.
-    pub fn leaf_indices(&self, leaf: usize) -> [u32; 3] {
-        self.indices[leaf]
+    pub fn leaf_indices(&self, leaf: usize) -> Option<[u32; 3]> {
+        self.indices.get(leaf).copied()
     }
 
     /// Direct access to parry's tree (leaf data = leaf index), for traversals not offered here.
@@ -245,7 +245,7 @@ mod tests {
             let mut tree = TriangleBvh::with_faces(&grid, faces.iter().copied()).unwrap();
             let up: Vec<DVec3> = grid.positions.iter().map(|p| *p + DVec3::new(5.0, 0.0, 3.0)).collect();
             tree.refit(&up).unwrap();
-            let c = tree.leaf_corners(0);
+            let c = tree.leaf_corners(0).unwrap();
             let centroid = (c[0] + c[1] + c[2]) / 3.0;
             assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z, centroid - DVec3::Z), 1);
             assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z - DVec3::new(5.0, 0.0, 3.0), centroid - DVec3::Z - DVec3::new(5.0, 0.0, 3.0)), 0);

@@ -18,9 +18,9 @@
 //! Robustness: crossing decisions are exact (Shewchuk's predicates) and degenerate cases (a
 //! segment through a mesh edge or vertex, an endpoint exactly on a face) are resolved by a
 //! symbolic perturbation of the query, so crossings are never missed nor double counted (the
-//! rule is stated on [`TriangleBvh::segment_hits`] and in the source of `exact.rs`). Results are deterministic: the tree build is
-//! deterministic, hit lists are sorted, ties are broken by face id, and batch queries return their
-//! results in input order whatever the number of threads.
+//! rule is stated on [`TriangleBvh::segment_hits`] and derived in `exact.rs`). Results are
+//! deterministic: the tree build is deterministic, hit lists are sorted, ties are broken by face
+//! id, and batch queries return their results in input order whatever the number of threads.
 
 mod aabb_tree;
 mod batch;
