@@ -1,0 +1,286 @@
+//! [`TriangleBvh`]: a bounding volume hierarchy over a mesh's triangles, built once per working
+//! region and refitted when the vertices move.
+//!
+//! Thesis §4.1, implementation details: "The computation is accelerated by a 3D AABB tree built
+//! once for each mesh at the selection of the working regions and then updated at each frame if the
+//! surface is animated non-rigidly. This update consists in the refitting of the existing boxes
+//! without changing the tree structure." The tree is parry's [`Bvh`] (binned SAH build, which is
+//! deterministic: the same boxes give the same tree); refitting rewrites the leaf boxes in place
+//! and recomputes the inner boxes bottom-up, so the topology, and with it the traversal order, is
+//! kept. The queries themselves live in [`super::queries`].
+//!
+//! The tree keeps its own copy of the corner positions of its triangles, so that queries read one
+//! contiguous array and cannot be handed a mismatched mesh.
+
+use glam::DVec3;
+use parry3d_f64::bounding_volume::Aabb;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
+
+use super::SpatialError;
+use crate::mesh::{Aabb3, MeshError, TriMesh};
+
+/// A BVH over (a subset of) the triangles of a mesh. Results name triangles by their face id in
+/// the mesh the tree was built from.
+#[derive(Clone, Debug)]
+pub struct TriangleBvh {
+    pub(super) bvh: Bvh,
+    /// Leaf `i` is face `faces[i]` of the mesh.
+    pub(super) faces: Vec<u32>,
+    /// Vertex indices of each leaf's triangle (to refit from new positions).
+    pub(super) indices: Vec<[u32; 3]>,
+    /// Corner positions of each leaf's triangle.
+    pub(super) corners: Vec<[DVec3; 3]>,
+    /// Number of vertices of the mesh (refit expects that many positions).
+    pub(super) num_vertices: usize,
+    /// Box of all the leaves.
+    pub(super) bounds: Aabb3,
+}
+
+impl TriangleBvh {
+    /// Builds the tree over all triangles of `mesh`. Fails on an out-of-range index or a
+    /// non-finite coordinate; an empty mesh gives an empty tree (queries find nothing).
+    pub fn new(mesh: &TriMesh) -> Result<Self, SpatialError> {
+        Self::with_faces(mesh, 0..mesh.triangles.len() as u32)
+    }
+
+    /// Builds the tree over the given faces of `mesh` (e.g. a working region), reporting results
+    /// with these face ids. Duplicate ids are kept (and reported twice).
+    pub fn with_faces(mesh: &TriMesh, faces: impl IntoIterator<Item = u32>) -> Result<Self, SpatialError> {
+        let faces: Vec<u32> = faces.into_iter().collect();
+        let nv = mesh.positions.len();
+        let mut indices = Vec::with_capacity(faces.len());
+        for &f in &faces {
+            let tri = *mesh
+                .triangles
+                .get(f as usize)
+                .ok_or(SpatialError::FaceOutOfRange { face: f, faces: mesh.triangles.len() })?;
+            for &i in &tri {
+                if i as usize >= nv {
+                    return Err(MeshError::IndexOutOfRange { triangle: f as usize, index: i as u64, vertices: nv }.into());
+                }
+            }
+            indices.push(tri);
+        }
+        check_finite(&mesh.positions)?;
+        let corners: Vec<[DVec3; 3]> = indices.iter().map(|t| t.map(|i| mesh.positions[i as usize])).collect();
+        let boxes: Vec<Aabb> = corners.iter().map(triangle_aabb).collect();
+        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
+        let bounds = bounds_of(&corners);
+        Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds })
+    }
+
+    /// Moves the triangles to new vertex positions (same mesh connectivity, `positions.len()` equal
+    /// to the mesh's vertex count) and refits the boxes, keeping the tree topology.
+    pub fn refit(&mut self, positions: &[DVec3]) -> Result<(), SpatialError> {
+        if positions.len() != self.num_vertices {
+            return Err(SpatialError::PositionCount { expected: self.num_vertices, got: positions.len() });
+        }
+        check_finite(positions)?;
+        for (leaf, (tri, corners)) in self.indices.iter().zip(self.corners.iter_mut()).enumerate() {
+            *corners = tri.map(|i| positions[i as usize]);
+            let _ = self.bvh.update_partially_if_present(triangle_aabb(corners), leaf as u32, 0.0);
+        }
+        // Recomputes inner boxes bottom-up without reordering nodes: the traversal order is kept.
+        self.bvh.refit_without_opt();
+        self.bounds = bounds_of(&self.corners);
+        Ok(())
+    }
+
+    /// Number of triangles in the tree.
+    pub fn len(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// True if the tree holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    /// Box of all the triangles ([`Aabb3::EMPTY`] for an empty tree).
+    pub fn bounds(&self) -> Aabb3 {
+        self.bounds
+    }
+
+    /// The face ids of the tree's triangles, in leaf order.
+    pub fn faces(&self) -> &[u32] {
+        &self.faces
+    }
+
+    /// Corner positions of mesh face `face`, if it is in the tree (linear search for subsets; use
+    /// [`Self::leaf_corners`] in hot loops).
+    pub fn face_corners(&self, face: u32) -> Option<[DVec3; 3]> {
+        if self.faces.get(face as usize) == Some(&face) {
+            return Some(self.corners[face as usize]);
+        }
+        self.faces.iter().position(|&f| f == face).map(|leaf| self.corners[leaf])
+    }
+
+    /// Corner positions of leaf `leaf` (index into [`Self::faces`]).
+    pub fn leaf_corners(&self, leaf: usize) -> Option<[DVec3; 3]> {
+        self.corners.get(leaf).copied()
+    }
+
+    /// Vertex indices of leaf `leaf` in the mesh.
+    pub fn leaf_indices(&self, leaf: usize) -> Option<[u32; 3]> {
+        self.indices.get(leaf).copied()
+    }
+
+    /// Direct access to parry's tree (leaf data = leaf index), for traversals not offered here.
+    pub fn raw(&self) -> &Bvh {
+        &self.bvh
+    }
+}
+
+fn check_finite(positions: &[DVec3]) -> Result<(), SpatialError> {
+    for (v, p) in positions.iter().enumerate() {
+        for value in p.to_array() {
+            if !value.is_finite() {
+                return Err(MeshError::NonFiniteCoordinate { vertex: v, value }.into());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn bounds_of(corners: &[[DVec3; 3]]) -> Aabb3 {
+    Aabb3::from_points(corners.iter().flatten().copied())
+}
+
+/// Exact box of a triangle: min/max of coordinates involve no rounding, so tree pruning can only be
+/// wrong through the traversal tests, which are made conservative instead.
+#[inline]
+pub(super) fn triangle_aabb(t: &[DVec3; 3]) -> Aabb {
+    Aabb::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+}
+
+/// Conversion between our box type and parry's.
+#[inline]
+pub(super) fn to_parry(b: &Aabb3) -> Aabb {
+    Aabb::new(b.min, b.max)
+}
+
+/// A segment `a + t (b − a)`, `t ∈ [0, 1]`, prepared for conservative slab tests against boxes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SegmentProbe {
+    a: DVec3,
+    d: DVec3,
+    inv: DVec3,
+}
+
+impl SegmentProbe {
+    pub(super) fn new(a: DVec3, b: DVec3) -> Self {
+        let d = b - a;
+        Self { a, d, inv: DVec3::ONE / d }
+    }
+
+    /// Parameter interval `[t_in, t_out] ⊂ [0, 1]` (slightly widened) in which the segment may be
+    /// inside the box, or `None` if it certainly misses it. Conservative: rounding can only add
+    /// boxes, never drop one the exact segment touches.
+    #[inline]
+    pub(super) fn clip(&self, mins: DVec3, maxs: DVec3) -> Option<(f64, f64)> {
+        let mut lo = 0.0f64;
+        let mut hi = 1.0f64;
+        for k in 0..3 {
+            let (o, d, inv) = (self.a[k], self.d[k], self.inv[k]);
+            if !inv.is_finite() {
+                // Zero (or subnormal) extent along this axis: the segment stays within |d| of o.
+                if o + d.abs() < mins[k] || o - d.abs() > maxs[k] {
+                    return None;
+                }
+                continue;
+            }
+            let t0 = (mins[k] - o) * inv;
+            let t1 = (maxs[k] - o) * inv;
+            let (near, far) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+            lo = lo.max(near);
+            hi = hi.min(far);
+        }
+        // Each slab bound carries at most three roundings (relative error ≤ 3·2⁻⁵³); widen by far
+        // more than that (Ize 2013 shows a relative widening of this kind makes the test robust).
+        let slack = 1e-12 * lo.abs().max(hi.abs());
+        (lo - slack <= hi + slack).then_some((lo - slack, hi + slack))
+    }
+}
+
+/// Squared distance from `p` to the box (0 inside).
+#[inline]
+pub(super) fn box_distance_squared(mins: DVec3, maxs: DVec3, p: DVec3) -> f64 {
+    let d = (mins - p).max(p - maxs).max(DVec3::ZERO);
+    d.length_squared()
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes;
+
+    #[test]
+    fn builds_are_deterministic_and_refit_keeps_the_topology() {
+        let mesh = shapes::icosphere(1.0, 3);
+        let a = TriangleBvh::new(&mesh).unwrap();
+        let b = TriangleBvh::new(&mesh).unwrap();
+        let order = |t: &TriangleBvh| t.bvh.leaves(|_| true).collect::<Vec<u32>>();
+        assert_eq!(order(&a), order(&b));
+        assert_eq!(order(&a).len(), mesh.num_triangles());
+        let mut moved = a.clone();
+        let shifted: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.5 + DVec3::new(3.0, -2.0, 1.0)).collect();
+        moved.refit(&shifted).unwrap();
+        assert_eq!(order(&moved), order(&a));
+        assert!((moved.bounds().center() - DVec3::new(3.0, -2.0, 1.0)).length() < 1e-12);
+        // Every leaf box in the refitted tree bounds its triangle.
+        for (leaf, c) in moved.corners.iter().enumerate() {
+            let node = moved.bvh.leaf_node(leaf as u32).unwrap();
+            for p in c {
+                assert!(p.cmpge(node.mins()).all() && p.cmple(node.maxs()).all());
+            }
+        }
+    }
+
+    #[test]
+    fn tiny_trees_refit_too() {
+        // One and two leaves are stored in parry's root node itself: check they move as well.
+        let grid = shapes::grid(1.0, 1.0, 1, 1); // two triangles
+        for faces in [vec![0u32], vec![0, 1]] {
+            let mut tree = TriangleBvh::with_faces(&grid, faces.iter().copied()).unwrap();
+            let up: Vec<DVec3> = grid.positions.iter().map(|p| *p + DVec3::new(5.0, 0.0, 3.0)).collect();
+            tree.refit(&up).unwrap();
+            let c = tree.leaf_corners(0).unwrap();
+            let centroid = (c[0] + c[1] + c[2]) / 3.0;
+            assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z, centroid - DVec3::Z), 1);
+            assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z - DVec3::new(5.0, 0.0, 3.0), centroid - DVec3::Z - DVec3::new(5.0, 0.0, 3.0)), 0);
+        }
+    }
+
+    #[test]
+    fn invalid_input_is_an_error() {
+        let mut mesh = shapes::icosphere(1.0, 0);
+        let mut tree = TriangleBvh::new(&mesh).unwrap();
+        assert!(matches!(tree.refit(&mesh.positions[1..]), Err(SpatialError::PositionCount { .. })));
+        let mut bad = mesh.positions.clone();
+        bad[3].y = f64::NAN;
+        assert!(tree.refit(&bad).is_err());
+        assert!(matches!(TriangleBvh::with_faces(&mesh, [0, 99]), Err(SpatialError::FaceOutOfRange { face: 99, .. })));
+        mesh.triangles[2][1] = 500;
+        assert!(TriangleBvh::new(&mesh).is_err());
+        let empty = TriangleBvh::new(&TriMesh::default()).unwrap();
+        assert!(empty.is_empty());
+    }
+
+    #[test]
+    fn slab_test_handles_axis_aligned_and_flat_cases() {
+        let (mins, maxs) = (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)); // a flat box
+        let down = SegmentProbe::new(DVec3::new(0.5, 0.5, 1.0), DVec3::new(0.5, 0.5, -1.0));
+        let (lo, hi) = down.clip(mins, maxs).unwrap();
+        assert!(lo <= 0.5 && hi >= 0.5);
+        let in_plane = SegmentProbe::new(DVec3::new(-1.0, 0.5, 0.0), DVec3::new(2.0, 0.5, 0.0));
+        assert!(in_plane.clip(mins, maxs).is_some());
+        let above = SegmentProbe::new(DVec3::new(-1.0, 0.5, 0.1), DVec3::new(2.0, 0.5, 0.1));
+        assert!(above.clip(mins, maxs).is_none());
+        let short = SegmentProbe::new(DVec3::new(0.5, 0.5, 1.0), DVec3::new(0.5, 0.5, 0.5));
+        assert!(short.clip(mins, maxs).is_none());
+        // Touching the box at the segment's end.
+        let touch = SegmentProbe::new(DVec3::new(0.5, 0.5, 1.0), DVec3::new(0.5, 0.5, 0.0));
+        assert!(touch.clip(mins, maxs).is_some());
+    }
+}

@@ -1,0 +1,341 @@
+//! Exact triangle–triangle intersection of closed triangles, and its variant for mesh faces that
+//! share vertices.
+//!
+//! Used to find self-intersecting faces (`squish info`, input validation: the thesis' collision
+//! detection assumes "manifolds with boundaries without self-intersections", §4.1, Discussion) and
+//! faces of two meshes in contact.
+//!
+//! Construction (all decisions are signs of exact `orient3d`/`orient2d`):
+//! 1. Each triangle's vertices are classified against the other's plane; if all three lie strictly
+//!    on one side, the triangles are disjoint (this rejects almost every candidate pair).
+//! 2. If both triangles lie in one plane, they are projected on the coordinate plane where that
+//!    plane's normal has its largest component (dropping a coordinate is exact, and along that
+//!    axis the projection is one-to-one), and the 2D closed triangles are tested: an edge pair
+//!    touches, or one triangle contains a vertex of the other.
+//! 3. Otherwise the intersection, if any, is a segment of the line where the planes meet; its ends
+//!    lie on edges of the triangles, so the triangles intersect iff an edge of one touches the
+//!    other (closed segment–triangle tests; an edge lying in the other plane is tested in 2D).
+//!
+//! Zero-area triangles are handled as the segment (or point) they cover.
+
+use glam::DVec3;
+
+use super::exact::{
+    cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d, sign,
+    triangles_touch_2d,
+};
+
+/// True if the closed triangles `t1` and `t2` share at least one point (touching counts).
+pub fn triangles_intersect(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
+    let n1 = cross_exact(t1[0], t1[1], t1[2]);
+    let n2 = cross_exact(t2[0], t2[1], t2[2]);
+    let degenerate1 = n1 == [0.0; 3];
+    let degenerate2 = n2 == [0.0; 3];
+    if degenerate1 || degenerate2 {
+        return degenerate_case(t1, degenerate1, t2, n2, degenerate2);
+    }
+    let s1 = t1.map(|p| orient3d(t2[0], t2[1], t2[2], p));
+    if same_strict_side(s1) {
+        return false;
+    }
+    let s2 = t2.map(|p| orient3d(t1[0], t1[1], t1[2], p));
+    if same_strict_side(s2) {
+        return false;
+    }
+    if s1 == [0.0; 3] {
+        return coplanar(t1, t2, n1);
+    }
+    for k in 0..3 {
+        let (i, j) = (k, (k + 1) % 3);
+        if segment_touches_triangle(t1[i], t1[j], s1[i], s1[j], t2, n2)
+            || segment_touches_triangle(t2[i], t2[j], s2[i], s2[j], t1, n1)
+        {
+            return true;
+        }
+    }
+    false
+}
+
+/// True if mesh faces `t1` and `t2` intersect anywhere other than the vertices or edge they share.
+/// Sharing is by position: corners at the same coordinates count as the same vertex (so that
+/// unwelded seams are not reported).
+///
+/// - No shared vertex: [`triangles_intersect`].
+/// - One shared vertex `v`: they intersect elsewhere iff the edge of one opposite `v` touches the
+///   other triangle (the intersection is convex and contains `v`, so if it holds another point `x`
+///   it holds the segment `vx`, and the ray from `v` through `x` leaves the two triangles through
+///   their opposite edges; the one it leaves first lies in the other triangle).
+/// - A shared edge: non-coplanar faces meet exactly on that edge; coplanar ones overlap iff their
+///   third vertices are on the same side of the edge (a fold-over).
+/// - Three shared vertices: the faces coincide.
+///
+/// Zero-area faces are never reported (they are reported as degenerate by mesh validation).
+pub fn triangles_intersect_away_from_shared(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
+    let n1 = cross_exact(t1[0], t1[1], t1[2]);
+    let n2 = cross_exact(t2[0], t2[1], t2[2]);
+    if n1 == [0.0; 3] || n2 == [0.0; 3] {
+        return false;
+    }
+    // shared[i] = index in t2 of the corner equal to t1[i].
+    let mut shared = [None; 3];
+    let mut count = 0;
+    for i in 0..3 {
+        shared[i] = (0..3).find(|&j| t1[i] == t2[j]);
+        count += shared[i].is_some() as usize;
+    }
+    match count {
+        0 => triangles_intersect(t1, t2),
+        1 => {
+            let i = (0..3).find(|&i| shared[i].is_some()).unwrap_or(0);
+            let j = shared[i].unwrap_or(0);
+            let (a1, b1) = (t1[(i + 1) % 3], t1[(i + 2) % 3]);
+            let (a2, b2) = (t2[(j + 1) % 3], t2[(j + 2) % 3]);
+            let plane2 = |p: DVec3| orient3d(t2[0], t2[1], t2[2], p);
+            let plane1 = |p: DVec3| orient3d(t1[0], t1[1], t1[2], p);
+            segment_touches_triangle(a1, b1, plane2(a1), plane2(b1), t2, n2)
+                || segment_touches_triangle(a2, b2, plane1(a2), plane1(b2), t1, n1)
+        }
+        2 => {
+            let i = (0..3).find(|&i| shared[i].is_none()).unwrap_or(0);
+            let j = (0..3).find(|&j| !shared.contains(&Some(j))).unwrap_or(0);
+            let (u, v, w1, w2) = (t1[(i + 1) % 3], t1[(i + 2) % 3], t1[i], t2[j]);
+            if orient3d(u, v, w1, w2) != 0.0 {
+                return false;
+            }
+            let Some(axis) = projection_axis(n1) else {
+                return false;
+            };
+            let (pu, pv) = (project(u, axis), project(v, axis));
+            // Both non-zero: each triangle is non-degenerate and the projection is one-to-one.
+            let side1 = sign(orient2d(pu, pv, project(w1, axis)));
+            let side2 = sign(orient2d(pu, pv, project(w2, axis)));
+            side1 == side2
+        }
+        _ => true,
+    }
+}
+
+#[inline]
+fn same_strict_side(s: [f64; 3]) -> bool {
+    (s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0) || (s[0] < 0.0 && s[1] < 0.0 && s[2] < 0.0)
+}
+
+fn coplanar(t1: &[DVec3; 3], t2: &[DVec3; 3], n1: [f64; 3]) -> bool {
+    let Some(axis) = projection_axis(n1) else {
+        return false;
+    };
+    let p1 = t1.map(|p| project(p, axis));
+    let p2 = t2.map(|p| project(p, axis));
+    triangles_touch_2d(&p1, &p2)
+}
+
+/// The segment covered by collinear points: their lexicographic extremes.
+fn as_segment(t: &[DVec3; 3]) -> (DVec3, DVec3) {
+    let mut lo = t[0];
+    let mut hi = t[0];
+    for &p in &t[1..] {
+        if lex_less(p, lo) {
+            lo = p;
+        }
+        if lex_less(hi, p) {
+            hi = p;
+        }
+    }
+    (lo, hi)
+}
+
+fn degenerate_case(t1: &[DVec3; 3], degenerate1: bool, t2: &[DVec3; 3], n2: [f64; 3], degenerate2: bool) -> bool {
+    match (degenerate1, degenerate2) {
+        (true, true) => {
+            let (a, b) = as_segment(t1);
+            let (c, d) = as_segment(t2);
+            segments_touch_3d(a, b, c, d)
+        }
+        (true, false) => {
+            let (a, b) = as_segment(t1);
+            let plane = |p: DVec3| orient3d(t2[0], t2[1], t2[2], p);
+            segment_touches_triangle(a, b, plane(a), plane(b), t2, n2)
+        }
+        (false, true) => {
+            let n1 = cross_exact(t1[0], t1[1], t1[2]);
+            degenerate_case(t2, true, t1, n1, false)
+        }
+        (false, false) => triangles_intersect(t1, t2),
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn t(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [DVec3; 3] {
+        [DVec3::from_array(a), DVec3::from_array(b), DVec3::from_array(c)]
+    }
+
+    fn both_orders(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
+        let r = triangles_intersect(t1, t2);
+        assert_eq!(r, triangles_intersect(t2, t1), "asymmetric");
+        // Invariant under cyclic permutations and orientation flips.
+        assert_eq!(r, triangles_intersect(&[t1[1], t1[2], t1[0]], &[t2[2], t2[1], t2[0]]));
+        r
+    }
+
+    #[test]
+    fn crossing_triangles_intersect() {
+        let a = t([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
+        let b = t([0.5, 0.5, -1.0], [0.5, 0.5, 1.0], [3.0, 3.0, 0.5]);
+        assert!(both_orders(&a, &b));
+        // Piercing through the middle without any edge of a crossing b's interior.
+        let c = t([-1.0, 0.5, -1.0], [3.0, 0.5, -1.0], [0.5, 0.5, 3.0]);
+        assert!(both_orders(&a, &c));
+    }
+
+    #[test]
+    fn touching_at_a_vertex_or_an_edge_counts() {
+        let a = t([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        // b's vertex lies in a's interior.
+        let b = t([0.2, 0.2, 0.0], [0.2, 0.2, 1.0], [1.0, 1.0, 1.0]);
+        assert!(both_orders(&a, &b));
+        // Vertex on vertex.
+        let c = t([1.0, 0.0, 0.0], [2.0, 0.0, 1.0], [2.0, 1.0, 1.0]);
+        assert!(both_orders(&a, &c));
+        // Moved off by one ulp-ish: apart.
+        let d = t([1.0 + 1e-15, 0.0, 0.0], [2.0, 0.0, 1.0], [2.0, 1.0, 1.0]);
+        assert!(!both_orders(&a, &d));
+        // Edge on edge, crossing.
+        let e = t([0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 1.0]);
+        assert!(both_orders(&a, &e));
+    }
+
+    #[test]
+    fn coplanar_triangles() {
+        let a = t([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let overlapping = t([0.2, 0.2, 0.0], [2.0, 0.2, 0.0], [0.2, 2.0, 0.0]);
+        assert!(both_orders(&a, &overlapping));
+        let inside = t([0.1, 0.1, 0.0], [0.3, 0.1, 0.0], [0.1, 0.3, 0.0]);
+        assert!(both_orders(&a, &inside));
+        let disjoint = t([0.6, 0.6, 0.0], [2.0, 0.6, 0.0], [0.6, 2.0, 0.0]);
+        assert!(!both_orders(&a, &disjoint));
+        let touching = t([0.5, 0.5, 0.0], [2.0, 0.5, 0.0], [0.5, 2.0, 0.0]);
+        assert!(both_orders(&a, &touching));
+        // Tilted plane: x + y + z = 1, exact coordinates.
+        let p = t([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+        let q = t([0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [-1.0, 1.0, 1.0]);
+        assert!(both_orders(&p, &q));
+        let r = t([-1.0, 1.0, 1.0], [-1.0, 2.0, 0.0], [-2.0, 2.0, 1.0]);
+        assert!(!both_orders(&p, &r));
+    }
+
+    #[test]
+    fn parallel_planes_do_not_intersect() {
+        let a = t([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let b = t([0.0, 0.0, 1e-12], [1.0, 0.0, 1e-12], [0.0, 1.0, 1e-12]);
+        assert!(!both_orders(&a, &b));
+    }
+
+    #[test]
+    fn shared_edge_counts_only_when_folding_over() {
+        let (u, v) = ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
+        let a = t(u, v, [0.0, 1.0, 0.0]);
+        let flat = t(v, u, [0.5, -1.0, 0.0]);
+        assert!(triangles_intersect(&a, &flat)); // they touch along the edge
+        assert!(!triangles_intersect_away_from_shared(&a, &flat));
+        let bent = t(v, u, [0.5, -1.0, 0.7]);
+        assert!(!triangles_intersect_away_from_shared(&a, &bent));
+        let folded = t(v, u, [0.7, 0.5, 0.0]);
+        assert!(triangles_intersect_away_from_shared(&a, &folded));
+        assert!(triangles_intersect_away_from_shared(&folded, &a));
+        // Folded almost flat but not coplanar: meets only on the edge.
+        let nearly = t(v, u, [0.7, 0.5, 1e-9]);
+        assert!(!triangles_intersect_away_from_shared(&a, &nearly));
+        assert!(triangles_intersect_away_from_shared(&a, &a));
+    }
+
+    #[test]
+    fn shared_vertex_counts_only_when_intersecting_elsewhere() {
+        let o = [0.0, 0.0, 0.0];
+        let a = t(o, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let fan_neighbor = t(o, [0.0, 1.0, 0.5], [-1.0, 0.0, 0.0]);
+        assert!(!triangles_intersect_away_from_shared(&a, &fan_neighbor));
+        // Through a's interior.
+        let piercing = t(o, [0.5, 0.5, 1.0], [0.5, 0.5, -1.0]);
+        assert!(triangles_intersect_away_from_shared(&a, &piercing));
+        // Coplanar, overlapping a wedge from the shared vertex.
+        let overlapping = t(o, [1.0, 1.0, 0.0], [-1.0, 2.0, 0.0]);
+        assert!(triangles_intersect_away_from_shared(&a, &overlapping));
+        // Coplanar, only the vertex in common.
+        let apart = t(o, [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]);
+        assert!(!triangles_intersect_away_from_shared(&a, &apart));
+        // Touching along a ray from the shared vertex: b's edge lies along a's edge.
+        let along = t(o, [0.5, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        assert!(triangles_intersect_away_from_shared(&a, &along));
+    }
+
+    #[test]
+    fn degenerate_triangles_are_their_segments() {
+        let a = t([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let needle = t([0.2, 0.2, -1.0], [0.2, 0.2, 1.0], [0.2, 0.2, 0.5]);
+        assert!(both_orders(&a, &needle));
+        let short = t([0.2, 0.2, 0.5], [0.2, 0.2, 1.0], [0.2, 0.2, 0.7]);
+        assert!(!both_orders(&a, &short));
+        let point = t([0.2, 0.2, 0.0], [0.2, 0.2, 0.0], [0.2, 0.2, 0.0]);
+        assert!(both_orders(&a, &point));
+        assert!(both_orders(&needle, &point.map(|p| p + DVec3::new(0.0, 0.0, 0.3))));
+    }
+
+    /// Separating-axis test in floating point, as an independent reference on generic pairs.
+    fn sat_separation(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> f64 {
+        let mut axes = vec![(t1[1] - t1[0]).cross(t1[2] - t1[0]), (t2[1] - t2[0]).cross(t2[2] - t2[0])];
+        for i in 0..3 {
+            for j in 0..3 {
+                axes.push((t1[(i + 1) % 3] - t1[i]).cross(t2[(j + 1) % 3] - t2[j]));
+            }
+        }
+        let mut best = f64::NEG_INFINITY;
+        for axis in axes {
+            if axis.length() < 1e-9 {
+                continue;
+            }
+            let axis = axis.normalize();
+            let (mut lo1, mut hi1, mut lo2, mut hi2) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+            for p in t1 {
+                lo1 = lo1.min(p.dot(axis));
+                hi1 = hi1.max(p.dot(axis));
+            }
+            for p in t2 {
+                lo2 = lo2.min(p.dot(axis));
+                hi2 = hi2.max(p.dot(axis));
+            }
+            best = best.max(lo2 - hi1).max(lo1 - hi2);
+        }
+        best // > 0: separated by that gap; < 0: overlapping on every axis
+    }
+
+    #[test]
+    fn agrees_with_a_separating_axis_reference_on_random_pairs() {
+        let mut s = 12345u64;
+        let mut rnd = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut yes, mut no) = (0, 0);
+        for _ in 0..20000 {
+            let c = DVec3::new(rnd(), rnd(), rnd()) * 0.6;
+            let t1 = [0; 3].map(|_| DVec3::new(rnd(), rnd(), rnd()));
+            let t2 = [0; 3].map(|_| c + DVec3::new(rnd(), rnd(), rnd()));
+            let gap = sat_separation(&t1, &t2);
+            if gap.abs() < 1e-9 {
+                continue;
+            }
+            let exact = triangles_intersect(&t1, &t2);
+            assert_eq!(exact, gap < 0.0, "{t1:?} {t2:?} gap {gap}");
+            if exact {
+                yes += 1;
+            } else {
+                no += 1;
+            }
+        }
+        assert!(yes > 2000 && no > 2000, "{yes} {no}");
+    }
+}
