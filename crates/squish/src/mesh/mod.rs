@@ -19,7 +19,7 @@ pub use geometry::{
     bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length,
     signed_volume, triangle_area, vertex_areas, vertex_normals, Aabb3,
 };
-pub use submesh::SubMesh;
+pub use submesh::{SubMesh, NOT_IN_SUBMESH};
 pub use topology::{Topology, NO_FACE};
 
 use glam::DVec3;
