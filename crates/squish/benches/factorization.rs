@@ -8,9 +8,9 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use squish::linalg::{cotangent_stiffness, NumericFactor, SparsePattern, SymbolicFactor, SymmetricMatrix};
-use squish::mesh::{shapes, Topology};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use squish::linalg::{NumericFactor, SparsePattern, SymbolicFactor, SymmetricMatrix, cotangent_stiffness};
+use squish::mesh::{Topology, shapes};
 
 /// `K + diag(d)` with a seeded pseudo-random positive diagonal, so every variant is a new set of
 /// values with the same pattern (what a new frame or a new diffusion looks like).

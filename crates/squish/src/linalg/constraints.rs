@@ -112,6 +112,8 @@ pub struct ConstrainedSystem {
     rows: Vec<ConstraintRow>,
     values: Vec<f64>,
     pinned: Vec<u32>,
+    /// False after a failed reassembly, until the next success.
+    assembled: bool,
     // Scratch of the reachability analysis, kept to reassemble without allocating.
     union_find: Vec<u32>,
     component: Vec<u32>,
@@ -148,6 +150,7 @@ impl ConstrainedSystem {
             rows: Vec::with_capacity(constraints.len()),
             values: Vec::with_capacity(constraints.len()),
             pinned: Vec::new(),
+            assembled: false,
             union_find: Vec::new(),
             component: Vec::new(),
             group: Vec::new(),
@@ -157,12 +160,14 @@ impl ConstrainedSystem {
     }
 
     /// Reassembles in place for a new operator (same pattern) and/or constraints: a new frame.
+    /// After an error the system refuses to build right-hand sides until a successful reassembly.
     pub fn reassemble(
         &mut self,
         operator: &Operator,
         constraints: &[EdgeConstraint],
         params: &ConstraintParams,
     ) -> Result<(), SolveError> {
+        self.assembled = false;
         if !operator.matrix().same_pattern(&self.matrix) {
             return Err(SolveError::PatternMismatch);
         }
@@ -212,6 +217,7 @@ impl ConstrainedSystem {
             let slot = pattern.diag_slot(v);
             self.matrix.values_mut()[slot] += 1.0;
         }
+        self.assembled = true;
         Ok(())
     }
 
@@ -330,6 +336,9 @@ impl ConstrainedSystem {
         pin_value: f64,
         out: &mut [f64],
     ) -> Result<(), SolveError> {
+        if !self.assembled {
+            return Err(SolveError::NotAssembled);
+        }
         let n = self.matrix.dimension();
         if values.len() != self.rows.len() {
             return Err(SolveError::DimensionMismatch {
@@ -449,6 +458,13 @@ mod tests {
             ConstrainedSystem::new(&op, &[], &p.with_weight_factor(-1.0)),
             Err(SolveError::InvalidWeightFactor { .. })
         ));
+        // A failed reassembly leaves the system unusable until the next success.
+        let mut system = ConstrainedSystem::new(&op, &[EdgeConstraint::vertex(0, 1.0)], &p).unwrap();
+        assert!(system.reassemble(&op, &[EdgeConstraint::vertex(99, 1.0)], &p).is_err());
+        let mut rhs = vec![0.0; 9];
+        assert_eq!(system.rhs_into(None, 0.0, &mut rhs), Err(SolveError::NotAssembled));
+        system.reassemble(&op, &[EdgeConstraint::vertex(1, 1.0)], &p).unwrap();
+        assert!(system.rhs_into(None, 0.0, &mut rhs).is_ok());
         // α = 1 is a vertex constraint on j: no edge needed.
         assert!(ConstrainedSystem::new(&op, &[EdgeConstraint::on_edge(0, far, 1.0, 1.0)], &p).is_ok());
     }

@@ -47,6 +47,8 @@ pub enum SolveError {
     NotPositiveDefinite { pivot: usize, dimension: usize, vertex: u32, min_diagonal: f64 },
     #[error("solve called before a successful numeric factorization")]
     NotFactorized,
+    #[error("the constrained system is unusable after a failed reassembly; reassemble it successfully first")]
+    NotAssembled,
     #[error("sparse analysis failed: {reason}")]
     Analysis { reason: String },
 }

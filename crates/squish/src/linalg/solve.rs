@@ -43,13 +43,15 @@ impl ConstrainedSolver {
     }
 
     /// Reassembles and refactorizes in place for a new operator and/or constraints on the same
-    /// pattern (the next frame): the symbolic analysis and all storage are reused.
+    /// pattern (the next frame): the symbolic analysis and all storage are reused. After an error
+    /// the solver refuses to solve until a successful update.
     pub fn update(
         &mut self,
         operator: &Operator,
         constraints: &[EdgeConstraint],
         params: &ConstraintParams,
     ) -> Result<(), SolveError> {
+        // A failed reassembly leaves the system unassembled, so solves fail at the rhs stage.
         self.system.reassemble(operator, constraints, params)?;
         self.factor.factorize(self.system.matrix())
     }
