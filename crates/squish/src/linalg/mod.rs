@@ -60,7 +60,10 @@ mod timing;
 mod test_support;
 
 pub use cholesky::{NumericFactor, SymbolicFactor};
-pub use constraints::{ConstrainedSystem, ConstraintParams, DEFAULT_CONSTRAINT_WEIGHT_FACTOR, EdgeConstraint};
+pub use constraints::{
+    ConstrainedSystem, ConstraintParams, DEFAULT_CONSTRAINT_WEIGHT_FACTOR, EdgeConstraint,
+    NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NEGLIGIBLE_FACE_WEIGHT,
+};
 pub use cut_weights::{DEFAULT_CUT_ALPHA, EdgePoint, cut_face_weights};
 pub use error::SolveError;
 pub use laplacian::{Operator, cotangent_stiffness, lumped_mass};
