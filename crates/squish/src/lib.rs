@@ -10,9 +10,12 @@
 //! - [`mesh`]: triangle meshes, topology, geometry, working regions, procedural shapes;
 //! - [`linalg`]: cotangent Laplacian with cut-face weights, least-squares edge constraints,
 //!   sparse Cholesky with symbolic reuse (thesis App. B);
-//! - [`spatial`]: bounding volume hierarchies, ray and segment queries, exact triangle tests.
+//! - [`spatial`]: bounding volume hierarchies, ray and segment queries, exact triangle tests;
+//! - [`contact`]: intersection, mapping, potential contact surface and contact zones (ch. 4);
+//! - [`animation`], [`skinning`]: skeletal animation evaluation and linear blend skinning.
 
 pub mod animation;
+pub mod contact;
 pub mod linalg;
 pub mod mesh;
 pub mod skinning;
