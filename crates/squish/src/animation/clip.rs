@@ -91,6 +91,7 @@ pub fn evaluate(clip: &AnimationClip, skeleton: &Skeleton, time: f64) -> Result<
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::animation::{Interpolation, SkeletonNode};

@@ -201,8 +201,8 @@ impl<T: Keyframe> Sampler<T> {
     /// The value at `time`, clamped to the first / last key outside the keyed range.
     pub fn sample(&self, time: f64) -> T {
         let last = self.times.len() - 1;
-        // NaN compares false everywhere: it falls through to the first key, a defined value.
-        if !(time > self.times[0]) {
+        // NaN gives the first key: a defined value rather than a NaN pose.
+        if time.is_nan() || time <= self.times[0] {
             return self.key_value(0);
         }
         if time >= self.times[last] {
@@ -243,13 +243,14 @@ impl Sampler<DQuat> {
             if len == 0.0 {
                 return Err(AnimationError::ZeroRotation { key: i / per_key });
             }
-            *q = *q / len;
+            *q /= len;
         }
         Self::new(times, values, interpolation)
     }
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use std::f64::consts::{FRAC_PI_2, PI};

@@ -139,6 +139,7 @@ impl Skeleton {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::animation::Trs;

@@ -179,6 +179,7 @@ pub fn linear_blend_skinning(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::animation::{
