@@ -408,6 +408,15 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
     if !unsupported.is_empty() {
         return Err(IoError::format(path, format!("the file requires unsupported glTF extensions: {}", unsupported.join(", "))));
     }
+    // glTF requires min/max on POSITION accessors, and the validator rejects files without
+    // them; several exporters omit them. They are metadata this reader never uses (bounds are
+    // recomputed from the data), so fill placeholders rather than refuse the file.
+    for accessor in &mut root.accessors {
+        if matches!(accessor.type_, Checked::Valid(gltf::json::accessor::Type::Vec3)) {
+            accessor.min.get_or_insert_with(|| gltf::json::Value::from(vec![0.0; 3]));
+            accessor.max.get_or_insert_with(|| gltf::json::Value::from(vec![0.0; 3]));
+        }
+    }
     gltf::Document::from_json(root).map_err(|e| {
         let detail = match e {
             gltf::Error::Validation(errors) => {
@@ -607,12 +616,42 @@ impl<'a> Reader<'a> {
         let column_stride = if columns > 1 { (rows * size).div_ceil(4) * 4 } else { rows * size };
         let element_size = columns * column_stride;
         let count = acc.count.0;
-        let total = count.checked_mul(components as u64).filter(|&t| t <= (1u64 << 31));
-        let Some(total) = total else {
-            return Err(self.err(element, format!("count {count} is implausibly large; the file is corrupt")));
+        // Where the elements are, checked before anything is allocated: a corrupt count must not
+        // allocate gigabytes.
+        let count = usize::try_from(count).unwrap_or(usize::MAX);
+        let dense = match acc.buffer_view {
+            Some(view) => {
+                let (bytes, stride) = self.view_bytes(view.value(), &element)?;
+                let stride = stride.unwrap_or(element_size);
+                if stride < element_size {
+                    return Err(self.err(element, format!("byteStride {stride} is smaller than an element ({element_size} bytes)")));
+                }
+                let offset = acc.byte_offset.map_or(0, |o| o.0) as usize;
+                let needed = match count {
+                    0 => Some(0),
+                    _ => (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(element_size)),
+                };
+                if !needed.is_some_and(|n| n <= bytes.len()) {
+                    return Err(self.err(
+                        element,
+                        format!(
+                            "{count} elements of {element_size} bytes (stride {stride}, offset {offset}) do not fit in buffer view {} ({} bytes); the file is truncated or corrupt",
+                            view.value(),
+                            bytes.len()
+                        ),
+                    ));
+                }
+                Some((&bytes[offset.min(bytes.len())..], stride))
+            }
+            None => {
+                // Only sparse data (or nothing): zeros. Bound the size, since no data backs it.
+                if count.saturating_mul(components) > (1 << 24) {
+                    return Err(self.err(element, format!("count {count} is implausibly large for an accessor without data; the file is corrupt")));
+                }
+                None
+            }
         };
-        let count = count as usize;
-        let mut values = vec![0.0f64; total as usize];
+        let mut values = vec![0.0f64; count * components];
         let decode_into = |values: &mut [f64], bytes: &[u8], stride: usize, n: usize, dest: &mut dyn FnMut(usize) -> usize| {
             for i in 0..n {
                 let base = i * stride;
@@ -625,30 +664,8 @@ impl<'a> Reader<'a> {
                 }
             }
         };
-        if let Some(view) = acc.buffer_view {
-            let (bytes, stride) = self.view_bytes(view.value(), &element)?;
-            let stride = stride.unwrap_or(element_size);
-            if stride < element_size {
-                return Err(self.err(element, format!("byteStride {stride} is smaller than an element ({element_size} bytes)")));
-            }
-            let offset = acc.byte_offset.map_or(0, |o| o.0) as usize;
-            if count > 0 {
-                let needed = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset + element_size));
-                match needed {
-                    Some(n) if n <= bytes.len() => {}
-                    _ => {
-                        return Err(self.err(
-                            element,
-                            format!(
-                                "{count} elements of {element_size} bytes (stride {stride}, offset {offset}) do not fit in buffer view {} ({} bytes); the file is truncated or corrupt",
-                                view.value(),
-                                bytes.len()
-                            ),
-                        ));
-                    }
-                }
-                decode_into(&mut values, &bytes[offset..], stride, count, &mut |i| i);
-            }
+        if let Some((bytes, stride)) = dense {
+            decode_into(&mut values, bytes, stride, count, &mut |i| i);
         }
         if let Some(sparse) = &acc.sparse {
             let n = sparse.count.0 as usize;
