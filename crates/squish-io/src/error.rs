@@ -5,9 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
+use squish::MeshError;
 use squish::animation::AnimationError;
 use squish::skinning::SkinError;
-use squish::MeshError;
 
 /// Errors of `squish-io`.
 #[derive(Debug, thiserror::Error)]

@@ -14,11 +14,11 @@ use std::path::Path;
 
 use base64::Engine as _;
 use glam::DVec3;
-use serde_json::{json, Value};
-use squish::mesh::vertex_normals;
+use serde_json::{Value, json};
 use squish::TriMesh;
+use squish::mesh::vertex_normals;
 
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 
 /// Options of the glTF writers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -141,7 +141,10 @@ fn to_f32(path: &Path, positions: &[DVec3], what: &str) -> Result<Vec<[f32; 3]>,
             if q.iter().all(|c| c.is_finite()) {
                 Ok(q)
             } else {
-                Err(IoError::invalid_input(path, format!("{what} vertex {v} ({p}) is not finite in 32-bit floats, which glTF uses")))
+                Err(IoError::invalid_input(
+                    path,
+                    format!("{what} vertex {v} ({p}) is not finite in 32-bit floats, which glTF uses"),
+                ))
             }
         })
         .collect()
@@ -228,7 +231,10 @@ pub fn write_animated_glb(
     TriMesh::new(first.clone(), triangles.to_vec()).map_err(|e| IoError::mesh(path, e))?;
     for (k, frame) in frames.iter().enumerate() {
         if frame.len() != first.len() {
-            return Err(IoError::invalid_input(path, format!("frame {k} has {} vertices but frame 0 has {}", frame.len(), first.len())));
+            return Err(IoError::invalid_input(
+                path,
+                format!("frame {k} has {} vertices but frame 0 has {}", frame.len(), first.len()),
+            ));
         }
     }
     let mut builder = Builder::default();
@@ -285,13 +291,17 @@ fn is_glb(path: &Path) -> Result<bool, IoError> {
 fn finish(path: &Path, builder: Builder, extra: Value, binary: bool) -> Result<(), IoError> {
     if binary {
         let doc = builder.document(extra, None);
-        let json_bytes = serde_json::to_vec(&doc).map_err(|e| IoError::invalid_input(path, format!("JSON encoding failed: {e}")))?;
+        let json_bytes =
+            serde_json::to_vec(&doc).map_err(|e| IoError::invalid_input(path, format!("JSON encoding failed: {e}")))?;
         write_atomically(path, |w| write_glb_container(w, &json_bytes, &builder.buffer))
     } else {
-        let uri = format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&builder.buffer));
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&builder.buffer)
+        );
         let doc = builder.document(extra, Some(uri));
-        let json_bytes =
-            serde_json::to_vec_pretty(&doc).map_err(|e| IoError::invalid_input(path, format!("JSON encoding failed: {e}")))?;
+        let json_bytes = serde_json::to_vec_pretty(&doc)
+            .map_err(|e| IoError::invalid_input(path, format!("JSON encoding failed: {e}")))?;
         write_atomically(path, |w| w.write_all(&json_bytes))
     }
 }

@@ -16,7 +16,9 @@
 
 mod atomic;
 mod error;
+mod gltf_binary;
 mod gltf_read;
+mod gltf_scene;
 mod gltf_write;
 mod obj;
 mod ply;
@@ -28,16 +30,15 @@ use squish::TriMesh;
 
 pub use atomic::write_atomically;
 pub use error::IoError;
-pub use gltf_read::{
-    read_gltf, GltfAnimation, GltfMesh, GltfNode, GltfReadOptions, GltfScene, GltfSkin, MeshInstance, MorphWeightsTrack,
-};
-pub use gltf_write::{write_animated_glb, write_gltf, write_gltf_meshes, GltfWriteOptions, NamedMesh};
+pub use gltf_read::{GltfReadOptions, read_gltf};
+pub use gltf_scene::{GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, MeshInstance, MorphWeightsTrack};
+pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
 pub use obj::{parse_obj, read_obj, write_obj};
 pub use ply::{
-    read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply, PlyData, PlyFormat, PlyWriteOptions,
-    ScalarType, VertexProperty,
+    PlyData, PlyFormat, PlyWriteOptions, ScalarType, VertexProperty, read_ply, read_ply_data, write_ply,
+    write_ply_with, write_point_cloud_ply,
 };
-pub use weld::{weld_positions, WeldMode, Welded};
+pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -19,7 +19,7 @@ use std::path::Path;
 use glam::DVec3;
 use squish::TriMesh;
 
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 
 /// Reads an OBJ file into a triangle mesh (see the module documentation for what is kept).
 pub fn read_obj(path: &Path) -> Result<TriMesh, IoError> {
@@ -68,7 +68,10 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<TriMesh, IoError> {
                         return Err(IoError::line(
                             path,
                             line_no,
-                            format!("vertex {} has a non-finite {name} coordinate ({token}); every coordinate must be a finite number (fix the exporting tool or the modelling step that produced it)", positions.len() + 1),
+                            format!(
+                                "vertex {} has a non-finite {name} coordinate ({token}); every coordinate must be a finite number (fix the exporting tool or the modelling step that produced it)",
+                                positions.len() + 1
+                            ),
                         ));
                     }
                 }
@@ -94,7 +97,11 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<TriMesh, IoError> {
                             return Err(IoError::line(
                                 path,
                                 line_no,
-                                format!("relative index {index} in face {} points before the first vertex: only {} vertices are defined above this line", faces + 1, positions.len()),
+                                format!(
+                                    "relative index {index} in face {} points before the first vertex: only {} vertices are defined above this line",
+                                    faces + 1,
+                                    positions.len()
+                                ),
                             ));
                         }
                         r
@@ -102,11 +109,18 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<TriMesh, IoError> {
                         return Err(IoError::line(
                             path,
                             line_no,
-                            format!("vertex index 0 in face {}; OBJ indices start at 1 (negative indices count back from the last vertex)", faces + 1),
+                            format!(
+                                "vertex index 0 in face {}; OBJ indices start at 1 (negative indices count back from the last vertex)",
+                                faces + 1
+                            ),
                         ));
                     };
                     if resolved > u32::MAX as i64 - 1 {
-                        return Err(IoError::line(path, line_no, format!("vertex index {index} in face {} is too large", faces + 1)));
+                        return Err(IoError::line(
+                            path,
+                            line_no,
+                            format!("vertex index {index} in face {} is too large", faces + 1),
+                        ));
                     }
                     corners.push(resolved);
                 }
@@ -114,7 +128,11 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<TriMesh, IoError> {
                     return Err(IoError::line(
                         path,
                         line_no,
-                        format!("face {} has {} vertices; a face needs at least 3 (the file may be truncated)", faces + 1, corners.len()),
+                        format!(
+                            "face {} has {} vertices; a face needs at least 3 (the file may be truncated)",
+                            faces + 1,
+                            corners.len()
+                        ),
                     ));
                 }
                 faces += 1;
@@ -134,14 +152,19 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<TriMesh, IoError> {
             return Err(IoError::line(
                 path,
                 triangle_lines[t] as usize,
-                format!("face refers to vertex {} but the file defines only {n} vertices; the file may be truncated or the indices wrong", bad as u64 + 1),
+                format!(
+                    "face refers to vertex {} but the file defines only {n} vertices; the file may be truncated or the indices wrong",
+                    bad as u64 + 1
+                ),
             ));
         }
     }
     if triangles.is_empty() {
         return Err(IoError::format(
             path,
-            format!("no faces found ({n} vertices, 0 faces); a mesh needs 'f' lines — is this an OBJ mesh export (not a point cloud or curves)?"),
+            format!(
+                "no faces found ({n} vertices, 0 faces); a mesh needs 'f' lines — is this an OBJ mesh export (not a point cloud or curves)?"
+            ),
         ));
     }
     TriMesh::new(positions, triangles).map_err(|e| IoError::mesh(path, e))

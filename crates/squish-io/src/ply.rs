@@ -17,7 +17,7 @@ use std::path::Path;
 use glam::DVec3;
 use squish::TriMesh;
 
-use crate::{write_atomically, IoError};
+use crate::{IoError, write_atomically};
 
 /// PLY body encodings.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -213,7 +213,10 @@ pub fn read_ply(path: &Path) -> Result<TriMesh, IoError> {
     if data.triangles.is_empty() && !data.positions.is_empty() {
         return Err(IoError::format(
             path,
-            format!("no faces ({} vertices, 0 faces): this is a point cloud, not a mesh; export the mesh with its faces", data.positions.len()),
+            format!(
+                "no faces ({} vertices, 0 faces): this is a point cloud, not a mesh; export the mesh with its faces",
+                data.positions.len()
+            ),
         ));
     }
     TriMesh::new(data.positions, data.triangles).map_err(|e| IoError::mesh(path, e))
@@ -291,7 +294,9 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header, IoError> {
                         return Err(IoError::line(
                             path,
                             line_no,
-                            format!("unknown PLY format '{name}'; expected ascii, binary_little_endian or binary_big_endian"),
+                            format!(
+                                "unknown PLY format '{name}'; expected ascii, binary_little_endian or binary_big_endian"
+                            ),
                         ));
                     }
                 });
@@ -301,26 +306,52 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header, IoError> {
                 let name = tokens.next().unwrap_or("");
                 let count_text = tokens.next().unwrap_or("");
                 let count = count_text.parse::<u64>().map_err(|_| {
-                    IoError::line(path, line_no, format!("element '{name}' has a malformed count '{count_text}'; expected 'element <name> <count>'"))
+                    IoError::line(
+                        path,
+                        line_no,
+                        format!(
+                            "element '{name}' has a malformed count '{count_text}'; expected 'element <name> <count>'"
+                        ),
+                    )
                 })?;
                 if name.is_empty() {
-                    return Err(IoError::line(path, line_no, "element without a name; expected 'element <name> <count>'"));
+                    return Err(IoError::line(
+                        path,
+                        line_no,
+                        "element without a name; expected 'element <name> <count>'",
+                    ));
                 }
                 elements.push(ElementDecl { name: name.to_string(), count, properties: Vec::new(), line: line_no });
             }
             "property" => {
                 let Some(element) = elements.last_mut() else {
-                    return Err(IoError::line(path, line_no, "property declared before any element; put it after an 'element' line"));
+                    return Err(IoError::line(
+                        path,
+                        line_no,
+                        "property declared before any element; put it after an 'element' line",
+                    ));
                 };
                 let first = tokens.next().unwrap_or("");
-                let unknown = |t: &str| IoError::line(path, line_no, format!("unknown property type '{t}'; expected char, uchar, short, ushort, int, uint, float, double (or int8 … float64)"));
+                let unknown = |t: &str| {
+                    IoError::line(
+                        path,
+                        line_no,
+                        format!(
+                            "unknown property type '{t}'; expected char, uchar, short, ushort, int, uint, float, double (or int8 … float64)"
+                        ),
+                    )
+                };
                 let kind = if first == "list" {
                     let count_name = tokens.next().unwrap_or("");
                     let item_name = tokens.next().unwrap_or("");
                     let count = ScalarType::parse(count_name).ok_or_else(|| unknown(count_name))?;
                     let item = ScalarType::parse(item_name).ok_or_else(|| unknown(item_name))?;
                     if count.is_float() {
-                        return Err(IoError::line(path, line_no, format!("list count type '{count_name}' is a float type; list counts must be integers")));
+                        return Err(IoError::line(
+                            path,
+                            line_no,
+                            format!("list count type '{count_name}' is a float type; list counts must be integers"),
+                        ));
                     }
                     PropertyKind::List { count, item }
                 } else {
@@ -336,13 +367,19 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header, IoError> {
                 return Err(IoError::line(
                     path,
                     line_no,
-                    format!("unexpected header line starting with '{other}'; expected format, comment, element, property or end_header"),
+                    format!(
+                        "unexpected header line starting with '{other}'; expected format, comment, element, property or end_header"
+                    ),
                 ));
             }
         }
     }
     let Some(format) = format else {
-        return Err(IoError::line(path, line_no, "the header has no 'format' line (e.g. 'format binary_little_endian 1.0')"));
+        return Err(IoError::line(
+            path,
+            line_no,
+            "the header has no 'format' line (e.g. 'format binary_little_endian 1.0')",
+        ));
     };
     Ok(Header { format, elements, body_start: pos, lines: line_no })
 }
@@ -364,8 +401,18 @@ impl ValueSite<'_> {
 /// The body as a source of values.
 enum Body<'a> {
     /// One record per line, as the PLY specification requires; tokens of the current line.
-    Ascii { lines: std::slice::Split<'a, u8, fn(&u8) -> bool>, line_no: usize, tokens: Vec<String>, next: usize },
-    Binary { data: &'a [u8], pos: usize, big_endian: bool, base: usize },
+    Ascii {
+        lines: std::slice::Split<'a, u8, fn(&u8) -> bool>,
+        line_no: usize,
+        tokens: Vec<String>,
+        next: usize,
+    },
+    Binary {
+        data: &'a [u8],
+        pos: usize,
+        big_endian: bool,
+        base: usize,
+    },
 }
 
 fn is_newline(b: &u8) -> bool {
@@ -412,7 +459,13 @@ impl<'a> Body<'a> {
         match self {
             Body::Ascii { tokens, next, .. } => {
                 let Some(token) = tokens.get(*next) else {
-                    return Err(self.error(path, format!("{}: the line ends too early; each record must be one line with all its values", site.describe())));
+                    return Err(self.error(
+                        path,
+                        format!(
+                            "{}: the line ends too early; each record must be one line with all its values",
+                            site.describe()
+                        ),
+                    ));
                 };
                 *next += 1;
                 let value = if ty.is_float() {
@@ -427,14 +480,20 @@ impl<'a> Body<'a> {
                     Some(v) => Ok(v),
                     None => {
                         let token = token.clone();
-                        Err(self.error(path, format!("{}: malformed value '{token}' for type {}", site.describe(), ty.ply_name())))
+                        Err(self.error(
+                            path,
+                            format!("{}: malformed value '{token}' for type {}", site.describe(), ty.ply_name()),
+                        ))
                     }
                 }
             }
             Body::Binary { data, pos, big_endian, .. } => {
                 let size = ty.size();
                 let Some(raw) = data.get(*pos..*pos + size) else {
-                    return Err(self.error(path, format!("{}: unexpected end of data; the file is truncated (export it again)", site.describe())));
+                    return Err(self.error(
+                        path,
+                        format!("{}: unexpected end of data; the file is truncated (export it again)", site.describe()),
+                    ));
                 };
                 let mut b = [0u8; 8];
                 b[..size].copy_from_slice(raw);
@@ -470,7 +529,11 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
         match vertex_decl.properties.iter().find(|p| p.name == axis) {
             Some(PropertyDecl { kind: PropertyKind::Scalar(_), .. }) => {}
             Some(_) => {
-                return Err(IoError::line(path, vertex_decl.line, format!("vertex property '{axis}' is a list; coordinates must be scalar properties")));
+                return Err(IoError::line(
+                    path,
+                    vertex_decl.line,
+                    format!("vertex property '{axis}' is a list; coordinates must be scalar properties"),
+                ));
             }
             None => {
                 return Err(IoError::line(
@@ -492,7 +555,11 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
     }
     let vertex_count = usize::try_from(vertex_decl.count).unwrap_or(usize::MAX);
     if vertex_decl.count > u32::MAX as u64 {
-        return Err(IoError::line(path, vertex_decl.line, format!("{} vertices is more than the 2^32 − 1 this library indexes", vertex_decl.count)));
+        return Err(IoError::line(
+            path,
+            vertex_decl.line,
+            format!("{} vertices is more than the 2^32 − 1 this library indexes", vertex_decl.count),
+        ));
     }
 
     let body_bytes = &bytes[header.body_start..];
@@ -525,7 +592,11 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
         if is_vertex {
             for p in &element.properties {
                 if let (PropertyKind::Scalar(ty), false) = (&p.kind, ["x", "y", "z"].contains(&p.name.as_str())) {
-                    data.properties.push(VertexProperty { name: p.name.clone(), ty: *ty, values: Vec::with_capacity(vertex_count.min(RESERVE_CAP)) });
+                    data.properties.push(VertexProperty {
+                        name: p.name.clone(),
+                        ty: *ty,
+                        values: Vec::with_capacity(vertex_count.min(RESERVE_CAP)),
+                    });
                 }
             }
         }
@@ -533,7 +604,10 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
             if !body.start_record() {
                 return Err(body.error(
                     path,
-                    format!("the file ends after {record} of {} {} records; it is truncated (export it again)", element.count, element.name),
+                    format!(
+                        "the file ends after {record} of {} {} records; it is truncated (export it again)",
+                        element.count, element.name
+                    ),
                 ));
             }
             let mut xyz = [0.0f64; 3];
@@ -556,7 +630,10 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
                             if ["x", "y", "z"].contains(&p.name.as_str()) && !v.is_finite() {
                                 return Err(body.error(
                                     path,
-                                    format!("{}: non-finite coordinate ({v}); every coordinate must be a finite number", site.describe()),
+                                    format!(
+                                        "{}: non-finite coordinate ({v}); every coordinate must be a finite number",
+                                        site.describe()
+                                    ),
                                 ));
                             }
                         }
@@ -672,17 +749,29 @@ fn check_for_writing(
         return Err(IoError::invalid_input(path, "more vertices than PLY 'int' indices can address"));
     }
     if let Some(tris) = triangles
-        && let Some((t, &bad)) = tris.iter().enumerate().find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= positions.len()).map(|i| (t, i)))
+        && let Some((t, &bad)) = tris
+            .iter()
+            .enumerate()
+            .find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= positions.len()).map(|i| (t, i)))
     {
-        return Err(IoError::invalid_input(path, format!("triangle {t} refers to vertex {bad}, but there are {} vertices", positions.len())));
+        return Err(IoError::invalid_input(
+            path,
+            format!("triangle {t} refers to vertex {bad}, but there are {} vertices", positions.len()),
+        ));
     }
     let mut names: Vec<&str> = vec!["x", "y", "z"];
     for p in properties {
         if p.name.is_empty() || p.name.chars().any(char::is_whitespace) {
-            return Err(IoError::invalid_input(path, format!("property name '{}' must be non-empty without spaces", p.name)));
+            return Err(IoError::invalid_input(
+                path,
+                format!("property name '{}' must be non-empty without spaces", p.name),
+            ));
         }
         if names.contains(&p.name.as_str()) {
-            return Err(IoError::invalid_input(path, format!("property '{}' is given twice (x, y, z are the positions)", p.name)));
+            return Err(IoError::invalid_input(
+                path,
+                format!("property '{}' is given twice (x, y, z are the positions)", p.name),
+            ));
         }
         names.push(&p.name);
         if p.values.len() != positions.len() {
@@ -693,7 +782,11 @@ fn check_for_writing(
         }
         let (lo, hi) = p.ty.int_range();
         if let Some((v, &value)) = p.values.iter().enumerate().find(|(_, v)| {
-            if p.ty.is_float() { v.is_finite() && (**v < lo || **v > hi) } else { !(**v >= lo && **v <= hi && v.fract() == 0.0) }
+            if p.ty.is_float() {
+                v.is_finite() && (**v < lo || **v > hi)
+            } else {
+                !(**v >= lo && **v <= hi && v.fract() == 0.0)
+            }
         }) {
             return Err(IoError::invalid_input(
                 path,

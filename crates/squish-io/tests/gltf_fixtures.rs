@@ -31,7 +31,8 @@ fn containers_index_types_and_modes() {
                 let scene = read(&path);
                 let mesh = &scene.meshes[0];
                 assert_eq!(mesh.positions.len(), 4);
-                let expected: Vec<[u32; 3]> = if mode == 4 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[1, 2, 0], [2, 3, 0]] };
+                let expected: Vec<[u32; 3]> =
+                    if mode == 4 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[1, 2, 0], [2, 3, 0]] };
                 assert_eq!(mesh.triangles, expected, "{} type {index_type} mode {mode}", path.display());
                 assert_eq!(read_mesh(&path).unwrap().triangles, expected);
                 assert_eq!(scene.nodes[0].name, "square");
@@ -69,13 +70,19 @@ fn quantized_and_sparse_accessors() {
     let dir = tempfile::tempdir().unwrap();
     let mut f = Fixture::new();
     // Normalized i16 positions (KHR_mesh_quantization): 32767 ↦ 1, −32767 ↦ −1.
-    let pos = f.accessor_ex(I16, "VEC3", &[0.0, 0.0, 0.0, 32767.0, 0.0, 0.0, 0.0, -32767.0, 0.0, 16384.0, 16384.0, 0.0], true);
+    let pos = f.accessor_ex(
+        I16,
+        "VEC3",
+        &[0.0, 0.0, 0.0, 32767.0, 0.0, 0.0, 0.0, -32767.0, 0.0, 16384.0, 16384.0, 0.0],
+        true,
+    );
     // Sparse override of vertex 3's position through an F32 sparse block.
     let sparse_idx = f.accessor(U8, "SCALAR", &[3.0]);
     let sparse_val = f.accessor(I16, "VEC3", &[0.0, 0.0, 32767.0]);
     let idx = f.accessor(U8, "SCALAR", &[0.0, 1.0, 2.0, 0.0, 1.0, 3.0]);
     let (iv, vv) = (f.accessors[sparse_idx]["bufferView"].clone(), f.accessors[sparse_val]["bufferView"].clone());
-    f.accessors[pos]["sparse"] = json!({ "count": 1, "indices": { "bufferView": iv, "componentType": U8 }, "values": { "bufferView": vv } });
+    f.accessors[pos]["sparse"] =
+        json!({ "count": 1, "indices": { "bufferView": iv, "componentType": U8 }, "values": { "bufferView": vv } });
     f.root = json!({
         "extensionsUsed": ["KHR_mesh_quantization"],
         "extensionsRequired": ["KHR_mesh_quantization"],
@@ -113,7 +120,9 @@ fn skinned_fixture(variant: u32) -> Fixture {
         (j, f.accessor(F32, "VEC4", &[2.0, 2.0, 0.0, 0.0].repeat(6)))
     };
     let mut ibm = Vec::new();
-    for m in [DMat4::from_translation(DVec3::new(-10.0, 0.0, 0.0)), DMat4::from_translation(DVec3::new(-10.0, -1.0, 0.0))] {
+    for m in
+        [DMat4::from_translation(DVec3::new(-10.0, 0.0, 0.0)), DMat4::from_translation(DVec3::new(-10.0, -1.0, 0.0))]
+    {
         ibm.extend_from_slice(&m.to_cols_array());
     }
     let ibm = f.accessor(F32, "MAT4", &ibm);
@@ -123,7 +132,11 @@ fn skinned_fixture(variant: u32) -> Fixture {
     let t_step = f.accessor(F32, "SCALAR", &[0.0, 0.5]);
     let v_step = f.accessor(F32, "VEC3", &[0.0, 0.0, 0.0, 0.0, 0.0, 5.0]);
     let t_cubic = f.accessor(F32, "SCALAR", &[0.0, 2.0]);
-    let v_cubic = f.accessor(F32, "VEC3", &[0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 3.0, 3.0, 3.0, 0.0, 0.0, 0.0]);
+    let v_cubic = f.accessor(
+        F32,
+        "VEC3",
+        &[0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 3.0, 3.0, 3.0, 0.0, 0.0, 0.0],
+    );
     let root_matrix = DMat4::from_translation(DVec3::new(10.0, 0.0, 0.0)).to_cols_array();
     let mut skin = json!({ "name": "rig", "joints": [1, 2], "skeleton": 1 });
     if variant == 0 {
@@ -244,7 +257,10 @@ fn bad_contents_are_located() {
     let mut f = square_fixture(U16, 4);
     f.buffer[48 + 10] = 9; // last index (u16 at byte 48 + 10) := 9
     let e = read_error(&f.write_glb(dir.path(), "range"));
-    assert!(e.contains("indices of mesh 0 'square' primitive 0") && e.contains("index 5 is 9") && e.contains("4 vertices"), "{e}");
+    assert!(
+        e.contains("indices of mesh 0 'square' primitive 0") && e.contains("index 5 is 9") && e.contains("4 vertices"),
+        "{e}"
+    );
     // Index count not a multiple of 3.
     let mut f = square_fixture(U16, 4);
     f.accessors[1]["count"] = json!(5);
@@ -256,7 +272,12 @@ fn bad_contents_are_located() {
     f.accessors[0].as_object_mut().unwrap().remove("min");
     f.accessors[0].as_object_mut().unwrap().remove("max");
     let e = read_error(&f.write_glb(dir.path(), "nan"));
-    assert!(e.contains("accessor 0 (POSITION of mesh 0 'square' primitive 0)") && e.contains("vertex 1") && e.contains("non-finite"), "{e}");
+    assert!(
+        e.contains("accessor 0 (POSITION of mesh 0 'square' primitive 0)")
+            && e.contains("vertex 1")
+            && e.contains("non-finite"),
+        "{e}"
+    );
     // Accessor larger than its view.
     let mut f = square_fixture(U16, 4);
     f.accessors[0]["count"] = json!(40);
@@ -310,7 +331,10 @@ fn bad_contents_are_located() {
     f.accessors[t]["min"] = json!([1.0]);
     f.accessors[t]["max"] = json!([5.0]);
     let e = read_error(&f.write_glb(dir.path(), "times"));
-    assert!(e.contains("animation 0 'bend' channel 0 (node 2 rotation)") && e.contains("key times must increase"), "{e}");
+    assert!(
+        e.contains("animation 0 'bend' channel 0 (node 2 rotation)") && e.contains("key times must increase"),
+        "{e}"
+    );
     // A node that is the child of two parents.
     let mut f = square_fixture(U16, 4);
     f.root["nodes"] = json!([{ "mesh": 0 }, { "children": [0] }, { "children": [0] }]);

@@ -6,8 +6,8 @@
 
 mod common;
 
-use squish::mesh::bounding_box;
 use squish::Topology;
+use squish::mesh::bounding_box;
 use squish_io::*;
 
 struct Expected {
@@ -21,10 +21,38 @@ struct Expected {
 }
 
 const FILES: &[Expected] = &[
-    Expected { name: "RiggedSimple", file_vertices: 96, welded_vertices: 96, triangles: 188, joints: 2, animations: &[("", 2.083333)] },
-    Expected { name: "RiggedCylinder4", file_vertices: 960, welded_vertices: 448, triangles: 892, joints: 4, animations: &[("Anim_0_Armature", 6.666667)] },
-    Expected { name: "Fox", file_vertices: 1728, welded_vertices: 290, triangles: 576, joints: 24, animations: &[("Survey", 3.416667), ("Walk", 0.708333), ("Run", 1.158333)] },
-    Expected { name: "CesiumMan", file_vertices: 3273, welded_vertices: 2338, triangles: 4672, joints: 19, animations: &[("Anim_0", 2.0)] },
+    Expected {
+        name: "RiggedSimple",
+        file_vertices: 96,
+        welded_vertices: 96,
+        triangles: 188,
+        joints: 2,
+        animations: &[("", 2.083333)],
+    },
+    Expected {
+        name: "RiggedCylinder4",
+        file_vertices: 960,
+        welded_vertices: 448,
+        triangles: 892,
+        joints: 4,
+        animations: &[("Anim_0_Armature", 6.666667)],
+    },
+    Expected {
+        name: "Fox",
+        file_vertices: 1728,
+        welded_vertices: 290,
+        triangles: 576,
+        joints: 24,
+        animations: &[("Survey", 3.416667), ("Walk", 0.708333), ("Run", 1.158333)],
+    },
+    Expected {
+        name: "CesiumMan",
+        file_vertices: 3273,
+        welded_vertices: 2338,
+        triangles: 4672,
+        joints: 19,
+        animations: &[("Anim_0", 2.0)],
+    },
 ];
 
 #[test]
@@ -39,7 +67,12 @@ fn vertex_counts_and_welding() {
         assert_eq!(read_mesh(&path).unwrap().num_vertices(), e.file_vertices);
         let raw_mesh = m.to_tri_mesh().unwrap();
         let raw_topology = Topology::new(&raw_mesh);
-        assert_eq!(raw_topology.is_closed(), e.file_vertices == e.welded_vertices, "{}: seams open the raw mesh", e.name);
+        assert_eq!(
+            raw_topology.is_closed(),
+            e.file_vertices == e.welded_vertices,
+            "{}: seams open the raw mesh",
+            e.name
+        );
 
         for weld in [WeldMode::Exact, WeldMode::Within(1e-6 * bounding_box(&raw_mesh).diagonal())] {
             let welded = read_gltf(&path, &GltfReadOptions::default().with_weld(weld)).unwrap();

@@ -4,8 +4,8 @@
 #![allow(clippy::unwrap_used)]
 
 use glam::{DMat4, DQuat, DVec3};
-use squish::mesh::shapes;
 use squish::TriMesh;
+use squish::mesh::shapes;
 use squish_io::*;
 
 fn f32_rounded(p: &[DVec3]) -> Vec<DVec3> {

@@ -119,7 +119,15 @@ fn foreign_layouts_are_read() {
     let path = dir.path().join("hand.ply");
     std::fs::write(&path, text).unwrap();
     let data = read_ply_data(&path).unwrap();
-    assert_eq!(data.positions, vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)]);
+    assert_eq!(
+        data.positions,
+        vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0)
+        ]
+    );
     assert_eq!(data.triangles, vec![[0, 1, 2], [0, 2, 3]]);
     assert_eq!(data.property("red").unwrap().values, vec![10.0, 20.0, 30.0, 40.0]);
     assert_eq!(data.property("flags").unwrap().values, vec![-1.0, -2.0, -3.0, -4.0]);
@@ -160,15 +168,24 @@ fn header_errors() {
     assert!(e.contains("a.ply:1:") && e.contains("first line must be 'ply'"), "{e}");
     let e = error_for("b.ply", b"ply\nformat binary_middle_endian 1.0\nend_header\n");
     assert!(e.contains("b.ply:2:") && e.contains("unknown PLY format 'binary_middle_endian'"), "{e}");
-    let e = error_for("c.ply", b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n3 0 1 2\n");
+    let e = error_for(
+        "c.ply",
+        b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n3 0 1 2\n",
+    );
     assert!(e.contains("no 'vertex' element"), "{e}");
-    let e = error_for("d.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n");
+    let e = error_for(
+        "d.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n",
+    );
     assert!(e.contains("d.ply:3:") && e.contains("no 'z' property"), "{e}");
     let e = error_for("e.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
     assert!(e.contains("no 'end_header'"), "{e}");
     let e = error_for("f.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n");
     assert!(e.contains("f.ply:4:") && e.contains("unknown property type 'quad'"), "{e}");
-    let e = error_for("g.ply", b"ply\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n");
+    let e = error_for(
+        "g.ply",
+        b"ply\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",
+    );
     assert!(e.contains("no 'format' line"), "{e}");
     let e = error_for("h.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty uchar n\nend_header\n0 0 0\n1\n");
     assert!(e.contains("no 'vertex_indices'"), "{e}");
@@ -221,7 +238,14 @@ fn truncation_at_every_byte_is_a_clean_error() {
     let mesh = shapes::cube(1.0, 1);
     for format in [PlyFormat::BinaryLittleEndian, PlyFormat::BinaryBigEndian, PlyFormat::Ascii] {
         let path = dir.path().join("full.ply");
-        write_ply_with(&path, &mesh.positions, Some(&mesh.triangles), &[VertexProperty::int("label", &vec![7; 8])], &PlyWriteOptions::default().with_format(format)).unwrap();
+        write_ply_with(
+            &path,
+            &mesh.positions,
+            Some(&mesh.triangles),
+            &[VertexProperty::int("label", &[7; 8])],
+            &PlyWriteOptions::default().with_format(format),
+        )
+        .unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let cut = dir.path().join("cut.ply");
         for len in 0..bytes.len() {

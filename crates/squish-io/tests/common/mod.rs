@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 
 /// `../shared/data/<relative>` if the shared data directory exists; otherwise prints a note and
 /// returns `None` so that the test can skip.
@@ -52,7 +52,7 @@ impl Fixture {
     }
 
     pub fn accessor_ex(&mut self, component: u32, ty: &str, values: &[f64], normalized: bool) -> usize {
-        while self.buffer.len() % 4 != 0 {
+        while !self.buffer.len().is_multiple_of(4) {
             self.buffer.push(0);
         }
         let start = self.buffer.len();
@@ -124,7 +124,10 @@ impl Fixture {
 
     /// Writes `<dir>/<name>.gltf` with the buffer embedded as a base64 data URI.
     pub fn write_gltf_embedded(&self, dir: &Path, name: &str) -> PathBuf {
-        let uri = format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&self.buffer));
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&self.buffer)
+        );
         let path = dir.join(format!("{name}.gltf"));
         std::fs::write(&path, serde_json::to_vec_pretty(&self.json_with(Some(uri))).unwrap()).unwrap();
         path
@@ -142,11 +145,11 @@ impl Fixture {
     /// The GLB bytes.
     pub fn glb_bytes(&self) -> Vec<u8> {
         let mut json = serde_json::to_vec(&self.json_with(None)).unwrap();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let mut bin = self.buffer.clone();
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };

@@ -129,7 +129,8 @@ mod tests {
         // x scaled by 2, rotated onto +y, offset by the rest translation.
         let p = world[1].transform_point3(DVec3::X);
         assert!((p - DVec3::new(0.0, 3.0, 0.0)).length() < 1e-12, "{p}");
-        let bad = AnimationClip { name: String::new(), channels: vec![Channel { node: 7, ..clip.channels[0].clone() }] };
+        let bad =
+            AnimationClip { name: String::new(), channels: vec![Channel { node: 7, ..clip.channels[0].clone() }] };
         assert!(matches!(bad.evaluate(&skeleton, 0.0), Err(AnimationError::ChannelNodeOutOfRange { node: 7, .. })));
     }
 }

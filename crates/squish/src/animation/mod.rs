@@ -20,8 +20,8 @@ mod sampler;
 mod skeleton;
 mod transform;
 
-pub use clip::{evaluate, AnimationClip, Channel, ChannelValues};
-pub use sampler::{slerp_shortest, Interpolation, Keyframe, Sampler};
+pub use clip::{AnimationClip, Channel, ChannelValues, evaluate};
+pub use sampler::{Interpolation, Keyframe, Sampler, slerp_shortest};
 pub use skeleton::{Skeleton, SkeletonNode};
 pub use transform::{NodeTransform, Trs};
 

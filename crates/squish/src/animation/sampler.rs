@@ -92,7 +92,13 @@ impl Keyframe for DQuat {
         // glTF: the spline runs on the raw components and the result is normalized. A spline
         // through q and -q may pass near zero; fall back to the nearer key then.
         let len = q.length();
-        if len > 1e-12 { q / len } else if s < 0.5 { p0 } else { p1 }
+        if len > 1e-12 {
+            q / len
+        } else if s < 0.5 {
+            p0
+        } else {
+            p1
+        }
     }
     fn is_finite_value(&self) -> bool {
         self.is_finite()
@@ -232,7 +238,11 @@ impl Sampler<DQuat> {
     /// Builds a rotation sampler, normalizing every key value (files store f32 or quantized
     /// quaternions that are only approximately unit). Tangents of cubic splines are left as
     /// they are: they are derivatives, not rotations. A zero quaternion is an error.
-    pub fn new_rotation(times: Vec<f64>, mut values: Vec<DQuat>, interpolation: Interpolation) -> Result<Self, AnimationError> {
+    pub fn new_rotation(
+        times: Vec<f64>,
+        mut values: Vec<DQuat>,
+        interpolation: Interpolation,
+    ) -> Result<Self, AnimationError> {
         let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
         let offset = if interpolation == Interpolation::CubicSpline { 1 } else { 0 };
         for (i, q) in values.iter_mut().enumerate() {

@@ -207,7 +207,10 @@ mod tests {
         let err = linear_blend_skinning(&[DVec3::ZERO], &w, &[DMat4::IDENTITY]).unwrap_err();
         assert_eq!(err, SkinError::JointOutOfRange { vertex: 0, joint: 5, joints: 1 });
         let skin = Skin::new(vec![0, 3], None).unwrap();
-        assert!(matches!(joint_matrices(&skin, &[DMat4::IDENTITY]), Err(SkinError::JointNodeOutOfRange { joint: 1, node: 3, .. })));
+        assert!(matches!(
+            joint_matrices(&skin, &[DMat4::IDENTITY]),
+            Err(SkinError::JointNodeOutOfRange { joint: 1, node: 3, .. })
+        ));
         assert!(matches!(Skin::new(vec![0], Some(vec![])), Err(SkinError::InverseBindCount { .. })));
     }
 
@@ -239,7 +242,8 @@ mod tests {
 
         // The rest pose reproduces the mesh.
         let rest_world = skeleton.rest_world_transforms();
-        let rest = linear_blend_skinning(&mesh.positions, &weights, &joint_matrices(&skin, &rest_world).unwrap()).unwrap();
+        let rest =
+            linear_blend_skinning(&mesh.positions, &weights, &joint_matrices(&skin, &rest_world).unwrap()).unwrap();
         for (a, b) in rest.iter().zip(&mesh.positions) {
             assert!((*a - *b).length() < 1e-12);
         }
@@ -279,8 +283,11 @@ mod tests {
         assert!((bent[tip] - DVec3::new(0.0, -1.0, 1.0)).length() < 1e-12);
 
         // Serial and parallel paths agree bit for bit.
-        let many: Vec<DVec3> = (0..PARALLEL_MIN_VERTICES + 10).map(|i| mesh.positions[i % mesh.positions.len()]).collect();
-        let many_weights = weights.select(&(0..many.len() as u32).map(|i| i % mesh.positions.len() as u32).collect::<Vec<_>>()).unwrap();
+        let many: Vec<DVec3> =
+            (0..PARALLEL_MIN_VERTICES + 10).map(|i| mesh.positions[i % mesh.positions.len()]).collect();
+        let many_weights = weights
+            .select(&(0..many.len() as u32).map(|i| i % mesh.positions.len() as u32).collect::<Vec<_>>())
+            .unwrap();
         let jm = joint_matrices(&skin, &world).unwrap();
         let par = linear_blend_skinning(&many, &many_weights, &jm).unwrap();
         for (i, q) in par.iter().enumerate() {

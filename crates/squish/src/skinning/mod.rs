@@ -4,4 +4,4 @@
 
 pub mod lbs;
 
-pub use lbs::{joint_matrices, linear_blend_skinning, Skin, SkinError, SkinWeights};
+pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
