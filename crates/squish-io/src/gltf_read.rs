@@ -428,9 +428,14 @@ impl<'a> Reader<'a> {
         };
         if weld != WeldMode::Off {
             let welded = weld_positions(&out.positions, &out.triangles, weld);
-            out.skin_weights = out.skin_weights.as_ref().and_then(|w| w.select(&welded.representatives));
+            let kept = welded.positions.len();
+            if let Some(w) = &out.skin_weights {
+                let weights = average_skin_weights(w, &welded.vertex_map, kept)
+                    .map_err(|source| IoError::Skin { path: self.path.to_path_buf(), element: element.clone(), source })?;
+                out.skin_weights = Some(weights);
+            }
             for target in &mut out.morph_targets {
-                *target = welded.representatives.iter().map(|&i| target[i as usize]).collect();
+                *target = average_rows(target, &welded.vertex_map, kept);
             }
             out.positions = welded.positions;
             out.triangles = welded.triangles;
@@ -563,6 +568,57 @@ impl<'a> Reader<'a> {
         }
         Ok(GltfAnimation { name, clip, morph_weights })
     }
+}
+
+/// Skin weights of welded vertices: the average over the file vertices merged into each one
+/// (as joint → weight sums), keeping the four largest influences (ties: lower joint first).
+/// Exporters may give seam copies slightly different weights (RiggedCylinder4's differ by up to
+/// 0.06), so that the file's own surface cracks along seams when animated; averaging is the
+/// closed surface closest to both sides.
+fn average_skin_weights(
+    weights: &SkinWeights,
+    vertex_map: &[u32],
+    kept: usize,
+) -> Result<SkinWeights, squish::skinning::SkinError> {
+    let mut sums: Vec<Vec<(u32, f64)>> = vec![Vec::new(); kept];
+    for (v, &w) in vertex_map.iter().enumerate() {
+        let slot = &mut sums[w as usize];
+        for (&j, &x) in weights.joints()[v].iter().zip(&weights.weights()[v]) {
+            if x == 0.0 {
+                continue;
+            }
+            match slot.iter_mut().find(|(jj, _)| *jj == j) {
+                Some((_, sum)) => *sum += x,
+                None => slot.push((j, x)),
+            }
+        }
+    }
+    let mut joints = Vec::with_capacity(kept);
+    let mut rows = Vec::with_capacity(kept);
+    for mut slot in sums {
+        slot.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        let mut jr = [0u32; 4];
+        let mut wr = [0.0f64; 4];
+        for (k, (j, x)) in slot.into_iter().take(4).enumerate() {
+            jr[k] = j;
+            wr[k] = x;
+        }
+        joints.push(jr);
+        rows.push(wr);
+    }
+    // Dividing by the number of copies is left to the normalization in `SkinWeights::new`.
+    SkinWeights::new(joints, rows)
+}
+
+/// Per-vertex vectors of welded vertices: the average over the merged file vertices.
+fn average_rows(rows: &[DVec3], vertex_map: &[u32], kept: usize) -> Vec<DVec3> {
+    let mut sum = vec![DVec3::ZERO; kept];
+    let mut count = vec![0u32; kept];
+    for (v, &w) in vertex_map.iter().enumerate() {
+        sum[w as usize] += rows[v];
+        count[w as usize] += 1;
+    }
+    sum.iter().zip(&count).map(|(s, &c)| *s / c.max(1) as f64).collect()
 }
 
 fn target_names(mesh: &gltf::Mesh) -> Vec<String> {

@@ -67,7 +67,9 @@ pub struct GltfMesh {
     pub primitive_vertices: Vec<Range<usize>>,
     /// Number of vertices in the file (before welding).
     pub file_vertex_count: usize,
-    /// With welding: for each file vertex, its welded vertex.
+    /// With welding: for each file vertex, its welded vertex. The skin weights and morph
+    /// displacements of a welded vertex are the average of its file copies' (exporters may
+    /// give seam copies slightly different weights).
     pub vertex_map: Option<Vec<u32>>,
     /// With welding: triangles dropped because two of their corners were merged.
     pub collapsed_triangles: usize,

@@ -233,6 +233,46 @@ fn u16_joints_float_weights_and_default_inverse_binds() {
     assert_eq!(w.weights()[0], [0.5, 0.5, 0.0, 0.0]);
 }
 
+/// Two triangles sharing an edge whose two vertices are duplicated (a UV seam), each copy with
+/// different skin weights: welding merges the copies and averages their weights.
+#[test]
+fn welding_averages_the_weights_of_seam_copies() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut f = Fixture::new();
+    let pos = f.accessor(
+        F32,
+        "VEC3",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, /* copies: */ 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0],
+    );
+    let idx = f.accessor(U8, "SCALAR", &[0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+    let joints = f.accessor(U8, "VEC4", &[0.0, 1.0, 2.0, 0.0].repeat(6));
+    let weights = f.accessor(
+        F32,
+        "VEC4",
+        &[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 1.0, 0.0], [0.5, 0.0, 0.5], [1.0, 0.0, 0.0]]
+            .iter()
+            .flat_map(|w| [w[0], w[1], w[2], 0.0])
+            .collect::<Vec<_>>(),
+    );
+    f.root = json!({
+        "nodes": [{ "mesh": 0, "skin": 0 }, { "name": "j0" }, { "name": "j1" }, { "name": "j2" }],
+        "skins": [{ "joints": [1, 2, 3] }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": pos, "JOINTS_0": joints, "WEIGHTS_0": weights }, "indices": idx }] }],
+    });
+    let path = f.write_glb(dir.path(), "seam");
+    let scene = read_gltf(&path, &GltfReadOptions::default().with_weld(WeldMode::Exact)).unwrap();
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.positions.len(), 4);
+    assert_eq!(mesh.vertex_map.as_ref().unwrap(), &vec![0, 1, 2, 0, 2, 3]);
+    assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    let w = mesh.skin_weights.as_ref().unwrap();
+    // Vertex 0 = copies 0 (j0: 1) and 3 (j1: 1) → j0 and j1 at 0.5 each (ties: lower joint first).
+    assert_eq!((w.joints()[0], w.weights()[0]), ([0, 1, 0, 0], [0.5, 0.5, 0.0, 0.0]));
+    // Vertex 2 = copies 2 (j0 .5, j1 .5) and 4 (j0 .5, j2 .5) → j0 .5, j1 .25, j2 .25.
+    assert_eq!((w.joints()[2], w.weights()[2]), ([0, 1, 2, 0], [0.5, 0.25, 0.25, 0.0]));
+    assert_eq!((w.joints()[3], w.weights()[3]), ([0, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]));
+}
+
 fn read_error(path: &std::path::Path) -> String {
     let e = read_gltf(path, &GltfReadOptions::default()).unwrap_err().to_string();
     let name = path.file_name().unwrap().to_string_lossy();

@@ -137,10 +137,27 @@ pub fn slerp_shortest(a: DQuat, b: DQuat, s: f64) -> DQuat {
 /// make a jump (the later key wins from that time on), which is what exporters that write them
 /// intend.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "SamplerParts<T>", bound(deserialize = "T: Keyframe + serde::Deserialize<'de>"))]
 pub struct Sampler<T> {
     times: Vec<f64>,
     values: Vec<T>,
     interpolation: Interpolation,
+}
+
+/// The serialized form of a [`Sampler`]; deserialization goes through [`Sampler::new`] so that
+/// a sampler read from a file upholds the same invariants as one built in code.
+#[derive(serde::Deserialize)]
+struct SamplerParts<T> {
+    times: Vec<f64>,
+    values: Vec<T>,
+    interpolation: Interpolation,
+}
+
+impl<T: Keyframe> TryFrom<SamplerParts<T>> for Sampler<T> {
+    type Error = AnimationError;
+    fn try_from(parts: SamplerParts<T>) -> Result<Self, Self::Error> {
+        Self::new(parts.times, parts.values, parts.interpolation)
+    }
 }
 
 impl<T: Keyframe> Sampler<T> {
@@ -363,6 +380,15 @@ mod tests {
         assert!((q.length() - 1.0).abs() < 1e-14);
         // Zero tangents and symmetric basis: the midpoint is the normalized average = slerp(0.5).
         assert!(q.dot(DQuat::from_rotation_z(0.5)) > 1.0 - 1e-14);
+    }
+
+    #[test]
+    fn deserialization_checks_invariants() {
+        let s = Sampler::new(vec![0.0, 1.0], vec![1.0, 2.0], Interpolation::Step).unwrap();
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<Sampler<f64>>(&json).unwrap(), s);
+        let bad = r#"{"times":[],"values":[],"interpolation":"Linear"}"#;
+        assert!(serde_json::from_str::<Sampler<f64>>(bad).is_err());
     }
 
     #[test]

@@ -18,7 +18,10 @@ pub struct SkeletonNode {
 /// A forest of nodes. Nodes may be listed in any order; [`Skeleton::new`] checks the parent
 /// links and computes an order with parents before children once, so that world transforms
 /// are a single pass.
+///
+/// Serialized as its list of nodes; deserialization goes through [`Skeleton::new`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "Vec<SkeletonNode>", into = "Vec<SkeletonNode>")]
 pub struct Skeleton {
     nodes: Vec<SkeletonNode>,
     /// Node ids with every parent before its children (roots in id order, then depth-first).
@@ -138,6 +141,19 @@ impl Skeleton {
     }
 }
 
+impl TryFrom<Vec<SkeletonNode>> for Skeleton {
+    type Error = AnimationError;
+    fn try_from(nodes: Vec<SkeletonNode>) -> Result<Self, Self::Error> {
+        Self::new(nodes)
+    }
+}
+
+impl From<Skeleton> for Vec<SkeletonNode> {
+    fn from(skeleton: Skeleton) -> Self {
+        skeleton.nodes
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -162,6 +178,15 @@ mod tests {
         assert_eq!(world[0].transform_point3(DVec3::ZERO), DVec3::new(111.0, 0.0, 0.0));
         assert_eq!(world[1].transform_point3(DVec3::ZERO), DVec3::new(110.0, 0.0, 0.0));
         assert_eq!(skeleton.find("n10"), Some(1));
+    }
+
+    #[test]
+    fn serde_round_trip_and_validation() {
+        let skeleton = Skeleton::new(vec![node(None, 1.0), node(Some(0), 2.0)]).unwrap();
+        let json = serde_json::to_string(&skeleton).unwrap();
+        assert_eq!(serde_json::from_str::<Skeleton>(&json).unwrap(), skeleton);
+        let cyclic = serde_json::to_string(&vec![node(Some(0), 1.0)]).unwrap();
+        assert!(serde_json::from_str::<Skeleton>(&cyclic).is_err());
     }
 
     #[test]

@@ -30,10 +30,26 @@ pub enum SkinError {
 /// weights are all zero is *unskinned*: [`linear_blend_skinning`] leaves it at its rest position
 /// rather than collapsing it to the origin. Negative weights down to −1e−6 (quantization noise)
 /// are clamped to zero; below that they are an error.
+///
+/// Deserialization goes through [`SkinWeights::new`].
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "SkinWeightsParts")]
 pub struct SkinWeights {
     joints: Vec<[u32; 4]>,
     weights: Vec<[f64; 4]>,
+}
+
+#[derive(serde::Deserialize)]
+struct SkinWeightsParts {
+    joints: Vec<[u32; 4]>,
+    weights: Vec<[f64; 4]>,
+}
+
+impl TryFrom<SkinWeightsParts> for SkinWeights {
+    type Error = SkinError;
+    fn try_from(parts: SkinWeightsParts) -> Result<Self, Self::Error> {
+        Self::new(parts.joints, parts.weights)
+    }
 }
 
 impl SkinWeights {
@@ -199,6 +215,9 @@ mod tests {
             Err(SkinError::InvalidWeight { vertex: 0, .. })
         ));
         assert!(matches!(SkinWeights::new(vec![[0; 4]], vec![]), Err(SkinError::RowCount { .. })));
+        assert!(serde_json::from_str::<SkinWeights>(r#"{"joints":[[0,0,0,0]],"weights":[]}"#).is_err());
+        let json = serde_json::to_string(&w).unwrap();
+        assert_eq!(serde_json::from_str::<SkinWeights>(&json).unwrap(), w);
     }
 
     #[test]
