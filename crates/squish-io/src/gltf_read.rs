@@ -51,6 +51,7 @@ impl GltfReadOptions {
         self
     }
 }
+
 // ---------------------------------------------------------------------------------------------
 // Reading
 
@@ -91,7 +92,6 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
             true
         }
     });
-    root.extensions_used.retain(|ext| root.extensions_required.contains(ext));
     if !unsupported.is_empty() {
         return Err(IoError::format(
             path,
