@@ -170,7 +170,7 @@ impl PlyData {
     pub fn colors(&self) -> Option<Vec<[u8; 3]>> {
         let channel = |a: &str, b: &str| self.property(a).or_else(|| self.property(b));
         let (r, g, b) = (channel("red", "r")?, channel("green", "g")?, channel("blue", "b")?);
-        Some((0..self.positions.len()).map(|i| [r.values[i] as u8, g.values[i] as u8, b.values[i] as u8]).collect())
+        Some(r.values.iter().zip(&g.values).zip(&b.values).map(|((r, g), b)| [*r as u8, *g as u8, *b as u8]).collect())
     }
 }
 
