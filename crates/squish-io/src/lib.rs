@@ -1,1 +1,99 @@
-//! Placeholder.
+//! # squish-io — file formats for Squish
+//!
+//! Meshes in and out of the tools riggers and animators use: Wavefront OBJ, Stanford PLY (ASCII
+//! and binary) and glTF 2.0 (`.gltf` and `.glb`, with node hierarchies, skins and animations),
+//! converted into the core types of [`squish`] (`TriMesh`, `Skeleton`, `AnimationClip`, `Skin`,
+//! `SkinWeights`).
+//!
+//! - [`read_mesh`] / [`write_mesh`] pick the format from the extension;
+//! - every writer replaces its file atomically ([`write_atomically`]): an error never leaves a
+//!   half-written file behind;
+//! - every error ([`IoError`]) names the file, the place in it (line, byte offset or glTF
+//!   element) and what to do about it.
+//!
+//! Readers keep the file's vertices exactly, in order and in number, so that per-vertex data and
+//! frame-to-frame correspondence survive; glTF seams can be welded on request ([`WeldMode`]).
+
+mod atomic;
+mod error;
+mod gltf_binary;
+mod gltf_read;
+mod gltf_scene;
+mod gltf_write;
+mod obj;
+mod ply;
+mod weld;
+
+use std::path::Path;
+
+use squish::TriMesh;
+
+pub use atomic::write_atomically;
+pub use error::IoError;
+pub use gltf_read::{GltfReadOptions, read_gltf};
+pub use gltf_scene::{GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, MeshInstance, MorphWeightsTrack};
+pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
+pub use obj::{parse_obj, read_obj, write_obj};
+pub use ply::{
+    PlyData, PlyFormat, PlyWriteOptions, ScalarType, VertexProperty, read_ply, read_ply_data, write_ply,
+    write_ply_with, write_point_cloud_ply,
+};
+pub use weld::{WeldMode, Welded, weld_positions};
+
+/// The mesh formats, recognized by extension (case-insensitive).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MeshFormat {
+    Obj,
+    Ply,
+    Gltf,
+    Glb,
+}
+
+impl MeshFormat {
+    /// The format of `path`, from its extension.
+    pub fn from_path(path: &Path) -> Result<Self, IoError> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("obj") => Ok(Self::Obj),
+            Some("ply") => Ok(Self::Ply),
+            Some("gltf") => Ok(Self::Gltf),
+            Some("glb") => Ok(Self::Glb),
+            _ => Err(IoError::UnsupportedExtension { path: path.to_path_buf() }),
+        }
+    }
+}
+
+/// Reads a triangle mesh from `.obj`, `.ply`, `.gltf` or `.glb`, keeping the file's vertices.
+/// For glTF: every mesh instance of the file, posed at rest (skinned meshes skinned by the rest
+/// pose, others moved by their node's world transform), concatenated in node order; seams are
+/// not welded (use [`read_mesh_with`]).
+pub fn read_mesh(path: &Path) -> Result<TriMesh, IoError> {
+    read_mesh_with(path, WeldMode::Off)
+}
+
+/// As [`read_mesh`], welding vertices first (glTF: per mesh, before posing; OBJ/PLY: the whole
+/// mesh). Welding can drop triangles that collapse (only with a tolerance).
+pub fn read_mesh_with(path: &Path, weld: WeldMode) -> Result<TriMesh, IoError> {
+    let mesh = match MeshFormat::from_path(path)? {
+        MeshFormat::Obj => read_obj(path)?,
+        MeshFormat::Ply => read_ply(path)?,
+        MeshFormat::Gltf | MeshFormat::Glb => {
+            return read_gltf(path, &GltfReadOptions { weld })?.merged_mesh();
+        }
+    };
+    if weld == WeldMode::Off {
+        return Ok(mesh);
+    }
+    let welded = weld_positions(&mesh.positions, &mesh.triangles, weld);
+    TriMesh::new(welded.positions, welded.triangles).map_err(|e| IoError::mesh(path, e))
+}
+
+/// Writes a mesh as `.obj`, `.ply` (binary little endian, doubles), `.gltf` (embedded buffer)
+/// or `.glb`, atomically. glTF rounds coordinates to `f32`.
+pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
+    match MeshFormat::from_path(path)? {
+        MeshFormat::Obj => write_obj(path, mesh),
+        MeshFormat::Ply => write_ply(path, mesh, &PlyWriteOptions::default()),
+        MeshFormat::Gltf | MeshFormat::Glb => write_gltf(path, mesh, &GltfWriteOptions::default()),
+    }
+}

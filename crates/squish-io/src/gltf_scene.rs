@@ -1,0 +1,289 @@
+//! The glTF document model returned by [`crate::read_gltf`]: nodes, meshes, skins and
+//! animations as plain data, with conversions to the core types and posing (morph weights,
+//! skeletal animation, linear blend skinning) at any time.
+
+use std::ops::Range;
+use std::path::PathBuf;
+
+use glam::{DMat4, DVec3};
+use squish::TriMesh;
+use squish::animation::{AnimationClip, NodeTransform, Sampler, Skeleton};
+use squish::skinning::{Skin, SkinWeights, joint_matrices, linear_blend_skinning};
+
+use crate::IoError;
+
+/// A glTF file as read.
+#[derive(Clone, Debug)]
+pub struct GltfScene {
+    /// The file read (errors of later conversions name it).
+    pub path: PathBuf,
+    /// All nodes, indexed as in the file.
+    pub nodes: Vec<GltfNode>,
+    /// The node hierarchy as a skeleton whose node ids are the file's node indices, so that
+    /// skin joints and animation channels index it directly.
+    pub skeleton: Skeleton,
+    /// Root nodes of the default scene (or of the first scene, or every parentless node when
+    /// the file has no scene).
+    pub roots: Vec<usize>,
+    pub meshes: Vec<GltfMesh>,
+    pub skins: Vec<GltfSkin>,
+    pub animations: Vec<GltfAnimation>,
+}
+
+/// A node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfNode {
+    /// Name (empty if the file has none).
+    pub name: String,
+    pub parent: Option<usize>,
+    pub children: Vec<usize>,
+    /// Local transform.
+    pub transform: NodeTransform,
+    /// Mesh instanced at this node.
+    pub mesh: Option<usize>,
+    /// Skin deforming that mesh.
+    pub skin: Option<usize>,
+    /// Morph-target weights of this instance (overrides the mesh's defaults).
+    pub weights: Option<Vec<f64>>,
+}
+
+/// A mesh: all its primitives concatenated (welded if asked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfMesh {
+    pub name: String,
+    /// Positions in the mesh's own space.
+    pub positions: Vec<DVec3>,
+    /// Counter-clockwise triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Skin weights, when the primitives have `JOINTS_0` / `WEIGHTS_0`.
+    pub skin_weights: Option<SkinWeights>,
+    /// Position displacements of each morph target (one per vertex).
+    pub morph_targets: Vec<Vec<DVec3>>,
+    /// Default morph-target weights.
+    pub default_weights: Vec<f64>,
+    /// Names of the morph targets (`extras.targetNames`, as Blender writes them), if present.
+    pub target_names: Vec<String>,
+    /// The file vertices of each primitive, in file numbering (before welding).
+    pub primitive_vertices: Vec<Range<usize>>,
+    /// Number of vertices in the file (before welding).
+    pub file_vertex_count: usize,
+    /// With welding: for each file vertex, its welded vertex. The skin weights and morph
+    /// displacements of a welded vertex are the average of its file copies' (exporters may
+    /// give seam copies slightly different weights).
+    pub vertex_map: Option<Vec<u32>>,
+    /// With welding: triangles dropped because two of their corners were merged.
+    pub collapsed_triangles: usize,
+}
+
+impl GltfMesh {
+    /// The mesh as a [`TriMesh`] in its own space (checked by [`TriMesh::new`]).
+    pub fn to_tri_mesh(&self) -> Result<TriMesh, squish::MeshError> {
+        TriMesh::new(self.positions.clone(), self.triangles.clone())
+    }
+
+    /// Positions with morph targets applied with `weights` (missing weights count as zero).
+    pub fn morphed_positions(&self, weights: &[f64]) -> Vec<DVec3> {
+        let mut positions = self.positions.clone();
+        for (target, &w) in self.morph_targets.iter().zip(weights) {
+            if w != 0.0 {
+                for (p, d) in positions.iter_mut().zip(target) {
+                    *p += w * *d;
+                }
+            }
+        }
+        positions
+    }
+}
+
+/// A skin.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfSkin {
+    pub name: String,
+    /// Joints (node ids) and inverse bind matrices.
+    pub skin: Skin,
+    /// The `skeleton` property: the common root of the joints, if the file names it.
+    pub skeleton_root: Option<usize>,
+}
+
+/// An animation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfAnimation {
+    pub name: String,
+    /// Translation, rotation and scale channels.
+    pub clip: AnimationClip,
+    /// Morph-target weight channels.
+    pub morph_weights: Vec<MorphWeightsTrack>,
+}
+
+impl GltfAnimation {
+    /// Latest key time over all channels, morph weights included (the animation plays from 0).
+    pub fn duration(&self) -> f64 {
+        self.morph_weights
+            .iter()
+            .flat_map(|t| t.samplers.iter().map(|s| s.end_time()))
+            .fold(self.clip.duration(), f64::max)
+    }
+}
+
+/// Morph-target weights of one node over time: one sampler per target.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MorphWeightsTrack {
+    pub node: usize,
+    pub samplers: Vec<Sampler<f64>>,
+}
+
+impl MorphWeightsTrack {
+    /// The weights at `time`.
+    pub fn weights_at(&self, time: f64) -> Vec<f64> {
+        self.samplers.iter().map(|s| s.sample(time)).collect()
+    }
+}
+
+/// A node that instances a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshInstance {
+    pub node: usize,
+    pub mesh: usize,
+    pub skin: Option<usize>,
+}
+
+impl GltfScene {
+    /// Nodes that instance a mesh, in node order.
+    pub fn instances(&self) -> Vec<MeshInstance> {
+        self.nodes
+            .iter()
+            .enumerate()
+            .filter_map(|(node, n)| n.mesh.map(|mesh| MeshInstance { node, mesh, skin: n.skin }))
+            .collect()
+    }
+
+    /// The animation with this name.
+    pub fn find_animation(&self, name: &str) -> Option<usize> {
+        self.animations.iter().position(|a| a.name == name)
+    }
+
+    /// Local node transforms: the rest pose, or `animation` evaluated at `time`.
+    pub fn local_transforms(&self, animation: Option<usize>, time: f64) -> Result<Vec<NodeTransform>, IoError> {
+        match animation {
+            None => Ok(self.skeleton.rest_pose()),
+            Some(a) => {
+                let anim = self.animation(a)?;
+                anim.clip.evaluate(&self.skeleton, time).map_err(|source| IoError::Animation {
+                    path: self.path.clone(),
+                    element: format!("animation {a} '{}'", anim.name),
+                    source,
+                })
+            }
+        }
+    }
+
+    /// World transforms of every node: the rest pose, or `animation` evaluated at `time`.
+    pub fn world_transforms(&self, animation: Option<usize>, time: f64) -> Result<Vec<DMat4>, IoError> {
+        Ok(self.skeleton.world_transforms(&self.local_transforms(animation, time)?))
+    }
+
+    fn animation(&self, a: usize) -> Result<&GltfAnimation, IoError> {
+        self.animations.get(a).ok_or_else(|| {
+            IoError::element(
+                &self.path,
+                format!("animation {a}"),
+                format!("no such animation; the file has {}", self.animations.len()),
+            )
+        })
+    }
+
+    /// The mesh of `node` in world space, posed: morph weights (animated, else the node's,
+    /// else the mesh's defaults), then skinning by the node's skin if any (glTF ignores the
+    /// transform of a skinned mesh's node: the joints place it) or else the node's world
+    /// transform. `animation: None` gives the rest pose.
+    pub fn posed_mesh(&self, node: usize, animation: Option<usize>, time: f64) -> Result<TriMesh, IoError> {
+        let world = self.world_transforms(animation, time)?;
+        self.posed_mesh_with(node, animation, time, &world)
+    }
+
+    /// Every instance posed as in [`GltfScene::posed_mesh`], in node order.
+    pub fn posed_meshes(&self, animation: Option<usize>, time: f64) -> Result<Vec<(usize, TriMesh)>, IoError> {
+        let world = self.world_transforms(animation, time)?;
+        self.instances()
+            .iter()
+            .map(|inst| Ok((inst.node, self.posed_mesh_with(inst.node, animation, time, &world)?)))
+            .collect()
+    }
+
+    /// The mesh of `node` transformed by the node's rest world transform, without skinning or
+    /// morphing (the "world-transformed" mesh of a static scene).
+    pub fn world_mesh(&self, node: usize) -> Result<TriMesh, IoError> {
+        let (mesh, _) = self.node_mesh(node)?;
+        let world = self.skeleton.rest_world_transforms();
+        let m = world[node];
+        let positions = mesh.positions.iter().map(|p| m.transform_point3(*p)).collect();
+        TriMesh::new(positions, mesh.triangles.clone()).map_err(|e| IoError::mesh(&self.path, e))
+    }
+
+    fn node_mesh(&self, node: usize) -> Result<(&GltfMesh, &GltfNode), IoError> {
+        let n = self.nodes.get(node).ok_or_else(|| {
+            IoError::element(
+                &self.path,
+                format!("node {node}"),
+                format!("no such node; the file has {}", self.nodes.len()),
+            )
+        })?;
+        let mesh = n
+            .mesh
+            .and_then(|m| self.meshes.get(m))
+            .ok_or_else(|| IoError::element(&self.path, format!("node {node} '{}'", n.name), "the node has no mesh"))?;
+        Ok((mesh, n))
+    }
+
+    fn posed_mesh_with(
+        &self,
+        node: usize,
+        animation: Option<usize>,
+        time: f64,
+        world: &[DMat4],
+    ) -> Result<TriMesh, IoError> {
+        let (mesh, n) = self.node_mesh(node)?;
+        let animated_weights = match animation {
+            Some(a) => {
+                self.animation(a)?.morph_weights.iter().rev().find(|t| t.node == node).map(|t| t.weights_at(time))
+            }
+            None => None,
+        };
+        let weights = animated_weights.or_else(|| n.weights.clone()).unwrap_or_else(|| mesh.default_weights.clone());
+        let positions = mesh.morphed_positions(&weights);
+        let element = || format!("node {node} '{}'", n.name);
+        let positions = match (n.skin, &mesh.skin_weights) {
+            (Some(s), Some(skin_weights)) => {
+                let skin = &self
+                    .skins
+                    .get(s)
+                    .ok_or_else(|| IoError::element(&self.path, element(), format!("skin {s} does not exist")))?
+                    .skin;
+                let skin_error = |source| IoError::Skin { path: self.path.clone(), element: element(), source };
+                let matrices = joint_matrices(skin, world).map_err(skin_error)?;
+                linear_blend_skinning(&positions, skin_weights, &matrices).map_err(skin_error)?
+            }
+            _ => positions.iter().map(|p| world[node].transform_point3(*p)).collect(),
+        };
+        TriMesh::new(positions, mesh.triangles.clone()).map_err(|e| IoError::mesh(&self.path, e))
+    }
+
+    /// All instances posed at rest and concatenated in node order; a file with meshes but no
+    /// node instancing them gives its meshes in their own space. This is what
+    /// [`crate::read_mesh`] returns for glTF.
+    pub fn merged_mesh(&self) -> Result<TriMesh, IoError> {
+        let mut merged = TriMesh::default();
+        let instances = self.instances();
+        if instances.is_empty() {
+            for m in &self.meshes {
+                merged.append(&TriMesh { positions: m.positions.clone(), triangles: m.triangles.clone() });
+            }
+        } else {
+            for (_, mesh) in self.posed_meshes(None, 0.0)? {
+                merged.append(&mesh);
+            }
+        }
+        merged.check_structure().map_err(|e| IoError::mesh(&self.path, e))?;
+        Ok(merged)
+    }
+}
