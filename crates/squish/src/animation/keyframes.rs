@@ -321,7 +321,8 @@ impl<T: KeyValue + DeserializeOwned> KeyframedVisitor<T> {
         value: Result<T, de::value::Error>,
         unexpected: de::Unexpected<'_>,
     ) -> Result<Keyframed<T>, E> {
-        value.map(Keyframed::Constant).map_err(|_| E::invalid_type(unexpected, &Self(std::marker::PhantomData)))
+        let value = value.map_err(|_| E::invalid_type(unexpected, &Self(std::marker::PhantomData)))?;
+        finite_constant(value)
     }
 }
 
@@ -374,12 +375,13 @@ impl<'de, T: KeyValue + DeserializeOwned> Visitor<'de> for KeyframedVisitor<T> {
         if !numbers.is_empty() {
             use de::IntoDeserializer;
             let value: Result<T, de::value::Error> = T::deserialize(numbers.into_deserializer());
-            return value.map(Keyframed::Constant).map_err(|_| {
+            let value = value.map_err(|_| {
                 de::Error::custom(format!(
                     "a list of numbers is not {}; for keys write [[frame, value], …]",
                     T::DESCRIPTION
                 ))
-            });
+            })?;
+            return finite_constant(value);
         }
         Keyframed::keys(keys, T::DEFAULT_INTERPOLATION).map_err(de::Error::custom)
     }
@@ -389,6 +391,15 @@ impl<'de, T: KeyValue + DeserializeOwned> Visitor<'de> for KeyframedVisitor<T> {
         let interpolation = table.interpolation.unwrap_or(T::DEFAULT_INTERPOLATION);
         let keys = table.keys.into_iter().map(|k| (k.0, k.1)).collect();
         Keyframed::keys(keys, interpolation).map_err(de::Error::custom)
+    }
+}
+
+/// A constant, checked finite (TOML can spell `inf` and `nan`).
+fn finite_constant<T: KeyValue, E: de::Error>(value: T) -> Result<Keyframed<T>, E> {
+    if (0..T::COMPONENTS).all(|i| value.component(i).is_finite()) {
+        Ok(Keyframed::Constant(value))
+    } else {
+        Err(E::custom(format!("{value:?} is not finite; give {} made of finite numbers", T::DESCRIPTION)))
     }
 }
 
