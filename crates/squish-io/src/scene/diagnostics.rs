@@ -55,20 +55,18 @@ impl<'a> SourceText<'a> {
         (line, column)
     }
 
-    /// An error located at a byte offset.
+    /// An error located at a byte offset: `file:line: message`, with `column N: ` first when the
+    /// place is not at the start of its line (e.g. a key inside an inline table).
     pub(crate) fn error_at(&self, offset: usize, message: impl std::fmt::Display) -> IoError {
         let (line, column) = self.line_col(offset);
-        IoError::line(self.path, line, format!("{column}: {message}"))
+        let text = if column > 1 { format!("column {column}: {message}") } else { message.to_string() };
+        IoError::line(self.path, line, text)
     }
 
     /// An error located at the key `path` (or, if that key is absent, at the nearest enclosing
     /// table that is present), prefixed with the key's description.
     pub(crate) fn error_at_key(&self, path: &[Seg], message: impl std::fmt::Display) -> IoError {
-        let offset = self.locate(path);
-        IoError::line(self.path, self.line_col(offset).0, {
-            let (_, column) = self.line_col(offset);
-            format!("{column}: {}: {message}", self.describe(path))
-        })
+        self.error_at(self.locate(path), format_args!("{}: {message}", self.describe(path)))
     }
 
     /// Byte offset of the key `path` (its key, not its value), or of the nearest ancestor found.
@@ -106,8 +104,41 @@ impl<'a> SourceText<'a> {
     /// The key path whose value contains `offset`, as deep as it goes.
     pub(crate) fn path_at(&self, offset: usize) -> Vec<Seg<'_>> {
         let mut path = Vec::new();
-        if let Some(root) = &self.root {
-            walk_table(root.get_ref(), offset, &mut path);
+        let Some(root) = &self.root else { return path };
+        walk_table(root.get_ref(), offset, &mut path);
+        if !path.is_empty() {
+            return path;
+        }
+        // Tables opened by a header (`[output]`, `[[objects]]`) do not span their keys in the
+        // tree: find the last header before the offset in the text, then walk inside it (for
+        // inline tables on the line).
+        let Some(header) = self.text[..floor_char_boundary(self.text, offset)]
+            .lines()
+            .map(str::trim)
+            .filter(|l| l.starts_with('['))
+            .last()
+        else {
+            return path;
+        };
+        let array = header.starts_with("[[");
+        let name = header.trim_start_matches('[').split(']').next().unwrap_or("").trim();
+        let Some(entry) = root.get_ref().get(name) else { return path };
+        path.push(Seg::Key(name));
+        let table = if array {
+            let before = &self.text[..floor_char_boundary(self.text, offset)];
+            let count = before
+                .lines()
+                .map(str::trim)
+                .filter(|l| l.starts_with("[[") && l.trim_start_matches('[').split(']').next().map(str::trim) == Some(name))
+                .count();
+            let index = count.saturating_sub(1);
+            path.push(Seg::Index(index));
+            entry.get_ref().as_array().and_then(|a| a.get(index)).and_then(|e| e.get_ref().as_table())
+        } else {
+            entry.get_ref().as_table()
+        };
+        if let Some(table) = table {
+            walk_table(table, offset, &mut path);
         }
         path
     }

@@ -10,11 +10,11 @@
 
 use std::collections::HashMap;
 
-use squish::animation::{KeyValue, Keyframed};
+use squish::animation::{KeyInterpolation, KeyValue, Keyframed};
 
 use super::diagnostics::{Seg, SourceText, did_you_mean};
 use super::frames::FramePattern;
-use super::types::{ContactMethod, Direction, MeshSource, ObjectSpec, Region, SceneDescription};
+use super::types::{ContactMethod, Direction, MeshSource, ObjectSpec, Region, Scale, SceneDescription};
 use crate::IoError;
 
 /// Longest accepted shot: beyond this a frame range is surely a typo, and checking every frame
@@ -192,8 +192,7 @@ fn validate_object(
             .map_err(|m| err("region", format!("distance {m}")))?;
     }
     let t = &object.transform;
-    check_frames(&t.scale, frames, |s| s.0.x != 0.0 && s.0.y != 0.0 && s.0.z != 0.0, "non-zero on every axis (a zero scale flattens the mesh)")
-        .map_err(|m| err("transform", format!("scale {m}")))?;
+    check_scale(&t.scale).map_err(|m| err("transform", format!("scale {m}")))?;
     check_frames(&t.rotate, frames, |r| r.degrees == 0.0 || r.axis.length() > 1e-12, "about a non-zero axis")
         .map_err(|m| err("transform", format!("rotate {m}")))?;
     Ok(())
@@ -233,4 +232,37 @@ fn check_frames<T: KeyValue + std::fmt::Debug>(
         }
     }
     Ok(())
+}
+
+/// A scale must not be zero on any axis at any frame. Linear and smooth curves stay between
+/// their keys, so they cross zero exactly when two consecutive keys differ in sign on an axis.
+fn check_scale(k: &Keyframed<Scale>) -> Result<(), String> {
+    const ZERO: &str = "must be non-zero on every axis (a zero scale flattens the mesh)";
+    match k {
+        Keyframed::Constant(Scale(s)) => {
+            if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 { Err(format!("{ZERO}, got {s}")) } else { Ok(()) }
+        }
+        Keyframed::Keys(track) => {
+            let keys: Vec<(f64, Scale)> = track.frames().iter().copied().zip(track.values().iter().copied()).collect();
+            for &(f, Scale(s)) in &keys {
+                if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 {
+                    return Err(format!("{ZERO}, got {s} at the key on frame {f}"));
+                }
+            }
+            if track.interpolation() == KeyInterpolation::Step {
+                return Ok(());
+            }
+            for w in keys.windows(2) {
+                let ((f0, Scale(a)), (f1, Scale(b))) = (w[0], w[1]);
+                for (axis, (x, y)) in ["x", "y", "z"].iter().zip(a.to_array().into_iter().zip(b.to_array())) {
+                    if x * y < 0.0 {
+                        return Err(format!(
+                            "on axis {axis} goes from {x} at frame {f0} to {y} at frame {f1}, passing through 0 in between; keep one sign, or use interpolation = \"step\" to flip"
+                        ));
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
 }
