@@ -46,7 +46,10 @@ impl Shot {
     fn error(&self, toml: &str) -> String {
         match self.load(toml) {
             Ok(_) => panic!("the scene loaded, but an error was expected:\n{toml}"),
-            Err(e) => e.to_string(),
+            Err(e) => {
+                eprintln!("{e}");
+                e.to_string()
+            }
         }
     }
 }
@@ -123,7 +126,10 @@ fn wrong_values_name_the_key_and_line() {
     let toml = format!("{HEADER}stiffness = -1.0\n");
     let err = shot.error(&toml);
     let line = line_of(&toml, "stiffness = -1");
-    assert!(err.contains(&format!("scene.toml:{line}: [[objects]] \"ground\" stiffness: must be greater than 0")), "{err}");
+    assert!(
+        err.contains(&format!("scene.toml:{line}: [[objects]] \"ground\" stiffness: must be greater than 0")),
+        "{err}"
+    );
 
     let toml = format!("{HEADER}stiffness = [[1, 1.0], [10, 0.0]]\n");
     let err = shot.error(&toml);
@@ -139,7 +145,10 @@ fn wrong_values_name_the_key_and_line() {
 
     let toml = format!("{HEADER}stiffness = \"soft\"\n");
     let err = shot.error(&toml);
-    assert!(err.contains(&format!(":{}: column 13: [[objects]] \"ground\" stiffness:", line_of(&toml, "soft"))), "{err}");
+    assert!(
+        err.contains(&format!(":{}: column 13: [[objects]] \"ground\" stiffness:", line_of(&toml, "soft"))),
+        "{err}"
+    );
     assert!(err.contains("a number, a list of [frame, value] keys"), "{err}");
 
     let err = shot.error(&format!("{HEADER}stiffness = [[10, 1.0], [5, 2.0]]\n"));
@@ -199,7 +208,8 @@ fn object_names_and_pairs_are_checked() {
     assert!(err.contains("names the same object twice"), "{err}");
     let err = shot.error(&pair("[\"ball\", \"ground\"]", "\n[[pairs]]\nobjects = [\"ground\", \"ball\"]\n"));
     assert!(err.contains("already listed as pair #1"), "{err}");
-    let err = shot.error(&pair("[\"ball\", \"ground\"]", "").replace("name = \"ball\"", "name = \"ball\"\nrigid = true"));
+    let err =
+        shot.error(&pair("[\"ball\", \"ground\"]", "").replace("name = \"ball\"", "name = \"ball\"\nrigid = true"));
     assert!(err.contains("both \"ball\" and \"ground\" are rigid"), "{err}");
     let err = shot.error(&pair("[\"ball\", \"ground\"]", "contact_method = \"bal\"\n"));
     assert!(err.contains("did you mean \"ball\"?"), "{err}");
@@ -337,7 +347,10 @@ fn bulge_maps_and_masks_are_checked_against_vertex_count() {
     assert_eq!(mask.iter().filter(|&&m| m).count(), n - n.div_ceil(2));
 
     let err = shot.error(&with("bulge_map = \"short.txt\""));
-    assert!(err.contains("short.txt") && err.contains(&format!("has 3 values, but object \"ball\" has {n} vertices")), "{err}");
+    assert!(
+        err.contains("short.txt") && err.contains(&format!("has 3 values, but object \"ball\" has {n} vertices")),
+        "{err}"
+    );
     let err = shot.error(&with("bulge_map = \"bad.txt\""));
     assert!(err.contains("bad.txt:2: \"x\" is not a finite number"), "{err}");
     let err = shot.error(&with("bulge_map = \"nothing.txt\""));
@@ -485,9 +498,8 @@ fn parallel_evaluation_equals_sequential() {
 #[test]
 fn json_dump_holds_every_resolved_parameter() {
     let shot = basic_shot();
-    let toml = format!(
-        "{HEADER}extent = 0.4\nprofile = {{ v3 = [[1, 0.8], [48, 0.85]], interpolation = \"smooth\" }}\n"
-    );
+    let toml =
+        format!("{HEADER}extent = 0.4\nprofile = {{ v3 = [[1, 0.8], [48, 0.85]], interpolation = \"smooth\" }}\n");
     // `interpolation` is not a profile key: the error says so.
     let err = shot.error(&toml);
     assert!(err.contains("unknown key \"interpolation\""), "{err}");
@@ -572,4 +584,24 @@ fn evaluation_is_cheap() {
     let per_frame = start.elapsed().as_secs_f64() / 48.0;
     eprintln!("CesiumMan (2338 vertices, 19 joints) posed: {:.3} ms per frame", per_frame * 1e3);
     assert!(per_frame < 0.02, "{per_frame} s per frame");
+}
+
+#[test]
+fn documented_example_parses() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-format.md")).unwrap();
+    let example = doc.split("## Example").nth(1).unwrap();
+    let toml = example.split("```toml").nth(1).unwrap().split("```").next().unwrap();
+    let description = SceneDescription::parse(toml, Path::new("/shots/example/scene.toml")).unwrap();
+    assert_eq!(description.objects.len(), 3);
+    assert_eq!(description.pairs.len(), 2);
+    assert_eq!(description.objects[0].mesh.file(), Path::new("/shots/example/ball.obj"));
+    assert_eq!(description.output.dir, Path::new("/shots/example/out"));
+    assert!(matches!(&description.objects[1].mesh, MeshSource::Gltf(g) if g.repeat && g.weld == Weld::Exact));
+    assert!(description.objects[1].anisotropy.enabled.at(1.0));
+    // The keyframe spellings shown in the text parse too.
+    for line in doc.lines().filter(|l| l.starts_with("stiffness = ")) {
+        let object =
+            format!("frames = {{ start = 1, end = 48 }}\n[[objects]]\nname = \"a\"\nmesh = \"a.obj\"\n{line}\n");
+        SceneDescription::parse(&object, Path::new("scene.toml")).unwrap();
+    }
 }

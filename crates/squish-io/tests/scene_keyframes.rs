@@ -63,12 +63,12 @@ fn smooth_passes_through_keys_and_is_c1_at_keys() {
     assert!(((k.at(1.0 + h) - k.at(1.0)) / h).abs() < 1e-4);
     assert!(((k.at(30.0) - k.at(30.0 - h)) / h).abs() < 1e-4);
     // Interior derivatives are continuous everywhere (sampled densely).
-    let mut previous_slope = None;
+    let mut previous_slope: Option<f64> = None;
     let mut f = 1.0;
     while f < 30.0 {
         let slope = (k.at(f + h) - k.at(f - h)) / (2.0 * h);
         if let Some(p) = previous_slope {
-            assert!(((slope - p) as f64).abs() < 0.05, "derivative jumps near frame {f}");
+            assert!((slope - p).abs() < 0.05, "derivative jumps near frame {f}");
         }
         previous_slope = Some(slope);
         f += 0.01;

@@ -112,11 +112,8 @@ impl<'a> SourceText<'a> {
         // Tables opened by a header (`[output]`, `[[objects]]`) do not span their keys in the
         // tree: find the last header before the offset in the text, then walk inside it (for
         // inline tables on the line).
-        let Some(header) = self.text[..floor_char_boundary(self.text, offset)]
-            .lines()
-            .map(str::trim)
-            .filter(|l| l.starts_with('['))
-            .last()
+        let Some(header) =
+            self.text[..floor_char_boundary(self.text, offset)].lines().map(str::trim).rfind(|l| l.starts_with('['))
         else {
             return path;
         };
@@ -129,7 +126,9 @@ impl<'a> SourceText<'a> {
             let count = before
                 .lines()
                 .map(str::trim)
-                .filter(|l| l.starts_with("[[") && l.trim_start_matches('[').split(']').next().map(str::trim) == Some(name))
+                .filter(|l| {
+                    l.starts_with("[[") && l.trim_start_matches('[').split(']').next().map(str::trim) == Some(name)
+                })
                 .count();
             let index = count.saturating_sub(1);
             path.push(Seg::Index(index));
@@ -186,7 +185,7 @@ impl<'a> SourceText<'a> {
 
     /// Turns a toml/serde error into a located message in the scene's words: unknown keys and
     /// values get a "did you mean", and every message says which table and key it is about.
-    pub(crate) fn from_toml(&self, error: &toml::de::Error) -> IoError {
+    pub(crate) fn toml_error(&self, error: &toml::de::Error) -> IoError {
         let offset = error.span().map_or(0, |s| s.start);
         let path = self.path_at(offset);
         let place = self.describe(&path);
@@ -294,8 +293,8 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for (i, row) in d.iter_mut().enumerate() {
         row[0] = i;
     }
-    for j in 0..=b.len() {
-        d[0][j] = j;
+    for (j, cell) in d[0].iter_mut().enumerate() {
+        *cell = j;
     }
     for i in 1..=a.len() {
         for j in 1..=b.len() {

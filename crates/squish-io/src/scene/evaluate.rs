@@ -121,7 +121,9 @@ pub(crate) fn transform_at(t: &Transform, frame: f64) -> Result<impl Fn(DVec3) -
     } else if axis.length() > 1e-12 {
         DQuat::from_axis_angle(axis.normalize(), degrees.to_radians())
     } else {
-        return Err(format!("transform rotate has a zero axis at frame {frame}; give a non-zero axis [x, y, z, degrees]"));
+        return Err(format!(
+            "transform rotate has a zero axis at frame {frame}; give a non-zero axis [x, y, z, degrees]"
+        ));
     };
     let translation = t.translate.at(frame);
     Ok(move |p: DVec3| translation + rotation * (scale * p))
@@ -134,7 +136,10 @@ impl Scene {
     /// mismatched sequence frame) or the scene file and the frame.
     pub fn evaluate(&self, frame: f64) -> Result<FrameSpec, IoError> {
         if !frame.is_finite() {
-            return Err(IoError::format(&self.path, format!("cannot evaluate frame {frame}; frames are finite numbers")));
+            return Err(IoError::format(
+                &self.path,
+                format!("cannot evaluate frame {frame}; frames are finite numbers"),
+            ));
         }
         let err = |object: &str, message: String| {
             IoError::format(&self.path, format!("frame {frame}: [[objects]] \"{object}\": {message}"))

@@ -111,7 +111,7 @@ impl FramePattern {
             let inside = &tail[1..end];
             let width = match inside.strip_prefix("frame") {
                 Some("") => 0,
-                Some(spec) => match spec.strip_prefix(":0").map(str::parse::<usize>) {
+                Some(spec) if spec.starts_with(':') => match spec.strip_prefix(":0").map(str::parse::<usize>) {
                     Some(Ok(w)) if (1..=12).contains(&w) => w,
                     _ => {
                         return Err(format!(
@@ -119,7 +119,7 @@ impl FramePattern {
                         ));
                     }
                 },
-                None => {
+                _ => {
                     return Err(format!(
                         "unknown placeholder \"{{{inside}}}\" in \"{pattern}\"; the only one is {{frame}} (or {{frame:04}} for zero padding)"
                     ));

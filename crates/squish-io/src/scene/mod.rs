@@ -29,7 +29,9 @@ use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use evaluate::{AnisotropyValues, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues, RegionFrame};
+pub use evaluate::{
+    AnisotropyValues, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues, RegionFrame,
+};
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
 pub use types::{
     Anisotropy, AxisAngle, ContactMethod, DEFAULT_V2, DEFAULT_V3, DEFAULT_V4, Direction, FrameRange, GltfSource,
@@ -68,7 +70,7 @@ impl SceneDescription {
     /// scene file: messages name it, and relative paths are resolved against its folder.
     pub fn parse(text: &str, path: &Path) -> Result<Self, IoError> {
         let src = SourceText::parse(path, text)?;
-        let mut description: SceneDescription = toml::from_str(text).map_err(|e| src.from_toml(&e))?;
+        let mut description: SceneDescription = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
         validate::validate(&description, &src)?;
         description.resolve_paths(&base_dir(path));
         Ok(description)
@@ -87,10 +89,10 @@ impl SceneDescription {
             if let Some(file) = object.bulge_map.as_mut().and_then(VertexData::file_mut) {
                 resolve(file);
             }
-            if let Region::Mask(data) = &mut object.region {
-                if let Some(file) = data.file_mut() {
-                    resolve(file);
-                }
+            if let Region::Mask(data) = &mut object.region
+                && let Some(file) = data.file_mut()
+            {
+                resolve(file);
             }
         }
     }
@@ -123,11 +125,7 @@ impl Scene {
         Self::from_description(description, path, None)
     }
 
-    fn from_description(
-        description: SceneDescription,
-        path: &Path,
-        src: Option<&SourceText>,
-    ) -> Result<Self, IoError> {
+    fn from_description(description: SceneDescription, path: &Path, src: Option<&SourceText>) -> Result<Self, IoError> {
         let located = |i: usize, key: &'static str, message: String| match src {
             Some(src) => src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key(key)], message),
             None => IoError::format(path, format!("[[objects]] #{}: {key}: {message}", i + 1)),
@@ -155,7 +153,9 @@ impl Scene {
                 _ => object.mesh.file().clone(),
             };
             let own_gltf = match &source {
-                SourceAssets::Gltf(g) => g.scene.nodes[g.node].mesh.map(|mesh| OwnGltf { file: object.mesh.file(), mesh }),
+                SourceAssets::Gltf(g) => {
+                    g.scene.nodes[g.node].mesh.map(|mesh| OwnGltf { file: object.mesh.file(), mesh })
+                }
                 _ => None,
             };
             let load_data = |data: &VertexData, key: &'static str, what: &str| -> Result<Vec<f64>, IoError> {

@@ -188,24 +188,24 @@ impl SequenceAssets {
         }
         let mesh = read_static(&path)?;
         if mesh.num_vertices() != self.file_vertex_count || mesh.triangles != self.file_triangles {
-            let detail = if mesh.num_vertices() != self.file_vertex_count || mesh.num_triangles() != self.file_triangles.len()
-            {
-                format!(
-                    "{} vertices and {} triangles, but frame {} ({}) has {} and {}",
-                    mesh.num_vertices(),
-                    mesh.num_triangles(),
-                    self.reference_frame,
-                    self.reference_path.display(),
-                    self.file_vertex_count,
-                    self.file_triangles.len()
-                )
-            } else {
-                format!(
-                    "the same counts but different triangles than frame {} ({})",
-                    self.reference_frame,
-                    self.reference_path.display()
-                )
-            };
+            let detail =
+                if mesh.num_vertices() != self.file_vertex_count || mesh.num_triangles() != self.file_triangles.len() {
+                    format!(
+                        "{} vertices and {} triangles, but frame {} ({}) has {} and {}",
+                        mesh.num_vertices(),
+                        mesh.num_triangles(),
+                        self.reference_frame,
+                        self.reference_path.display(),
+                        self.file_vertex_count,
+                        self.file_triangles.len()
+                    )
+                } else {
+                    format!(
+                        "the same counts but different triangles than frame {} ({})",
+                        self.reference_frame,
+                        self.reference_path.display()
+                    )
+                };
             return Err(IoError::format(
                 &path,
                 format!(
@@ -301,7 +301,11 @@ fn load_gltf(
                     Some(s) => format!(" (did you mean \"{s}\"?)"),
                     None => String::new(),
                 };
-                let list = if names.is_empty() { "the file has none".to_string() } else { format!("the file has {}", quoted()) };
+                let list = if names.is_empty() {
+                    "the file has none".to_string()
+                } else {
+                    format!("the file has {}", quoted())
+                };
                 return Err(IoError::format(
                     &g.file,
                     format!("object \"{object}\": no animation is named \"{name}\"{hint}; {list}"),

@@ -294,10 +294,7 @@ struct MeshTable {
 
 /// True if `path` names a glTF file.
 fn is_gltf(path: &std::path::Path) -> bool {
-    matches!(
-        path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref(),
-        Some("glb") | Some("gltf")
-    )
+    matches!(path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref(), Some("glb") | Some("gltf"))
 }
 
 impl MeshSource {
@@ -684,9 +681,7 @@ impl<'de> Deserialize<'de> for Region {
                 let t = RegionTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
                 match (t.mask, t.mask_attribute, t.distance) {
                     (Some(mask), None, None) => Ok(Region::Mask(mask)),
-                    (None, Some(attribute), None) => {
-                        Ok(Region::Mask(VertexData::Attribute { file: None, attribute }))
-                    }
+                    (None, Some(attribute), None) => Ok(Region::Mask(VertexData::Attribute { file: None, attribute })),
                     (None, None, Some(d)) => Ok(Region::Distance(d)),
                     _ => Err(de::Error::custom("give exactly one of mask, mask_attribute or distance")),
                 }

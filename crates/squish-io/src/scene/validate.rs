@@ -32,7 +32,10 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
     if f.end - f.start >= MAX_FRAMES {
         return Err(src.error_at_key(
             &[Seg::Key("frames"), Seg::Key("end")],
-            format!("{} frames is more than the {MAX_FRAMES} a scene may hold; check start and end", f.end - f.start + 1),
+            format!(
+                "{} frames is more than the {MAX_FRAMES} a scene may hold; check start and end",
+                f.end - f.start + 1
+            ),
         ));
     }
     if !(f.fps.is_finite() && f.fps > 0.0) {
@@ -42,7 +45,9 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
         ));
     }
     if scene.output.dir.as_os_str().is_empty() {
-        return Err(src.error_at_key(&[Seg::Key("output"), Seg::Key("dir")], "dir is empty; give a folder, e.g. \"out\""));
+        return Err(
+            src.error_at_key(&[Seg::Key("output"), Seg::Key("dir")], "dir is empty; give a folder, e.g. \"out\"")
+        );
     }
     if scene.objects.is_empty() {
         return Err(src.error_at(0, "the scene has no [[objects]]; add at least one with a name and a mesh"));
@@ -102,9 +107,10 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
                 format!("both \"{na}\" and \"{nb}\" are rigid, so neither can deform; set rigid = false on one of them or remove the pair"),
             ));
         }
-        check_range(&pair.contact_tau, |_| true, "a finite number").map_err(|m| src.error_at_key(&at("contact_tau"), m))?;
+        check_range(&pair.contact_tau, |_| true, "a finite number")
+            .map_err(|m| src.error_at_key(&at("contact_tau"), m))?;
         if let Direction::Fixed(d) = &pair.direction {
-            check_frames(d, &frames, |v| v.length() > 1e-12, "a non-zero vector")
+            check_frames(d, &frames, |v| v.length() > 1e-12, "a non-zero vector [x, y, z]")
                 .map_err(|m| src.error_at_key(&at("direction"), m))?;
         }
         if let ContactMethod::Ball { radius } = &pair.contact_method {
@@ -165,7 +171,8 @@ fn validate_object(
     check_range(&object.bulge, |_| true, "a finite number").map_err(|m| err("bulge", m))?;
     check_range(&object.bulge_height, |_| true, "a finite number").map_err(|m| err("bulge_height", m))?;
     let p = &object.profile;
-    check_range(&p.wrinkle_frequency, |w| w >= 0.0, "≥ 0").map_err(|m| err("profile", format!("wrinkle_frequency {m}")))?;
+    check_range(&p.wrinkle_frequency, |w| w >= 0.0, "≥ 0")
+        .map_err(|m| err("profile", format!("wrinkle_frequency {m}")))?;
     // The three abscissas together: in order inside (0.2, 1) at every frame and key.
     let mut profile_frames: Vec<f64> = frames.to_vec();
     for k in [&p.v2, &p.v3, &p.v4] {
@@ -177,7 +184,7 @@ fn validate_object(
             return Err(err(
                 "profile",
                 format!(
-                    "the abscissas v2, v3, v4 are {a}, {b}, {c} at frame {f}; they must increase strictly within (0.2, 1), e.g. the defaults 0.3333, 0.8333, 0.9167"
+                    "the abscissas v2, v3, v4 are {a:.4}, {b:.4}, {c:.4} at frame {f}; they must increase strictly within (0.2, 1), e.g. the defaults 0.3333, 0.8333, 0.9167"
                 ),
             ));
         }
@@ -202,7 +209,11 @@ fn validate_object(
 fn check_range(k: &Keyframed<f64>, ok: impl Fn(f64) -> bool, requirement: &str) -> Result<(), String> {
     match k {
         Keyframed::Constant(v) => {
-            if ok(*v) { Ok(()) } else { Err(format!("must be {requirement}, got {v}")) }
+            if ok(*v) {
+                Ok(())
+            } else {
+                Err(format!("must be {requirement}, got {v}"))
+            }
         }
         Keyframed::Keys(track) => {
             for (f, v) in track.frames().iter().zip(track.values()) {
@@ -223,12 +234,12 @@ fn check_frames<T: KeyValue + std::fmt::Debug>(
     requirement: &str,
 ) -> Result<(), String> {
     if let Keyframed::Constant(v) = k {
-        return if ok(*v) { Ok(()) } else { Err(format!("must be {requirement}, got {v:?}")) };
+        return if ok(*v) { Ok(()) } else { Err(format!("must be {requirement}, got {}", show(v))) };
     }
     for &f in frames.iter().chain(k.key_frames()) {
         let v = k.at(f);
         if !ok(v) {
-            return Err(format!("must be {requirement}, got {v:?} at frame {f}"));
+            return Err(format!("must be {requirement}, got {} at frame {f}", show(&v)));
         }
     }
     Ok(())
@@ -240,7 +251,11 @@ fn check_scale(k: &Keyframed<Scale>) -> Result<(), String> {
     const ZERO: &str = "must be non-zero on every axis (a zero scale flattens the mesh)";
     match k {
         Keyframed::Constant(Scale(s)) => {
-            if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 { Err(format!("{ZERO}, got {s}")) } else { Ok(()) }
+            if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 {
+                Err(format!("{ZERO}, got {s}"))
+            } else {
+                Ok(())
+            }
         }
         Keyframed::Keys(track) => {
             let keys: Vec<(f64, Scale)> = track.frames().iter().copied().zip(track.values().iter().copied()).collect();
@@ -265,4 +280,10 @@ fn check_scale(k: &Keyframed<Scale>) -> Result<(), String> {
             Ok(())
         }
     }
+}
+
+/// A value as written in a scene file: `[x, y, z]` for vectors.
+fn show<T: KeyValue>(v: &T) -> String {
+    let parts: Vec<String> = (0..T::COMPONENTS).map(|i| v.component(i).to_string()).collect();
+    if parts.len() == 1 { parts[0].clone() } else { format!("[{}]", parts.join(", ")) }
 }

@@ -41,7 +41,9 @@ pub(crate) fn load_vertex_values(
                         let list = if names.is_empty() { "none".to_string() } else { names.join(", ") };
                         return Err(IoError::format(
                             file,
-                            format!("has no vertex property \"{name}\" (for {what} of object \"{object}\"); its extra vertex properties: {list}"),
+                            format!(
+                                "has no vertex property \"{name}\" (for {what} of object \"{object}\"); its extra vertex properties: {list}"
+                            ),
                         ));
                     }
                 }
@@ -53,13 +55,18 @@ pub(crate) fn load_vertex_values(
             MeshFormat::Obj => {
                 return Err(IoError::format(
                     file,
-                    format!("OBJ has no vertex attributes (for {what} of object \"{object}\"); use a text file with one number per line, or a PLY / glTF attribute"),
+                    format!(
+                        "OBJ has no vertex attributes (for {what} of object \"{object}\"); use a text file with one number per line, or a PLY / glTF attribute"
+                    ),
                 ));
             }
         },
     };
     if let Some(v) = values.iter().position(|x| !x.is_finite()) {
-        return Err(IoError::format(file, format!("the value of vertex {v} is not finite (for {what} of object \"{object}\")")));
+        return Err(IoError::format(
+            file,
+            format!("the value of vertex {v} is not finite (for {what} of object \"{object}\")"),
+        ));
     }
     to_object_vertices(&values, numbering).ok_or_else(|| {
         let file_count = if numbering.file_to_vertex.is_some() && numbering.file_count != numbering.count {
@@ -120,7 +127,10 @@ fn read_gltf_attribute(path: &Path, mesh: Option<usize>, name: &str) -> Result<V
         None => {
             return Err(IoError::format(
                 path,
-                format!("has {} meshes; an attribute file other than the object's own mesh must hold one mesh", json.meshes.len()),
+                format!(
+                    "has {} meshes; an attribute file other than the object's own mesh must hold one mesh",
+                    json.meshes.len()
+                ),
             ));
         }
     };
@@ -165,14 +175,14 @@ fn read_gltf_attribute(path: &Path, mesh: Option<usize>, name: &str) -> Result<V
             Checked::Valid(gltf::json::mesh::Semantic::Positions) => json.accessors.get(i.value()).map(|a| a.count.0),
             _ => None,
         });
-        if let Some(n) = positions {
-            if n as usize != acc.values.len() {
-                return Err(IoError::element(
-                    path,
-                    element,
-                    format!("attribute {name} has {} values for {n} vertices; the file is corrupt", acc.values.len()),
-                ));
-            }
+        if let Some(n) = positions
+            && n as usize != acc.values.len()
+        {
+            return Err(IoError::element(
+                path,
+                element,
+                format!("attribute {name} has {} values for {n} vertices; the file is corrupt", acc.values.len()),
+            ));
         }
         values.extend_from_slice(&acc.values);
     }

@@ -399,7 +399,7 @@ fn finite_constant<T: KeyValue, E: de::Error>(value: T) -> Result<Keyframed<T>, 
     if (0..T::COMPONENTS).all(|i| value.component(i).is_finite()) {
         Ok(Keyframed::Constant(value))
     } else {
-        Err(E::custom(format!("{value:?} is not finite; give {} made of finite numbers", T::DESCRIPTION)))
+        Err(E::custom(format!("{value:?} is not finite; give {} with finite numbers", T::DESCRIPTION)))
     }
 }
 
