@@ -605,3 +605,45 @@ fn documented_example_parses() {
         SceneDescription::parse(&object, Path::new("scene.toml")).unwrap();
     }
 }
+
+#[test]
+fn gltf_attribute_is_averaged_over_welded_vertices() {
+    use common::{F32, Fixture, U16};
+    let shot = Shot::new();
+    // A square as two triangles that do not share vertices: corners 0/3 and 2/4 coincide.
+    let mut f = Fixture::new();
+    let pos = f.accessor(F32, "VEC3", &[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 0., 0., 1., 1., 0., 0., 1., 0.]);
+    let bulge = f.accessor(F32, "SCALAR", &[1., 2., 3., 5., 7., 11.]);
+    let idx = f.accessor(U16, "SCALAR", &[0., 1., 2., 3., 4., 5.]);
+    f.root = serde_json::json!({
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "name": "square", "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": pos, "_BULGE": bulge }, "indices": idx }] }],
+    });
+    f.write_glb(shot.dir.path(), "square");
+    let toml = |extra: &str| {
+        format!(
+            "frames = {{ start = 1, end = 2 }}\n[[objects]]\nname = \"square\"\nmesh = {{ file = \"square.glb\"{extra} }}\nbulge_map = {{ attribute = \"BULGE\" }}\n"
+        )
+    };
+    let scene = shot.load(&toml("")).unwrap();
+    let map = scene.evaluate(1.0).unwrap().objects[0].bulge_map.clone().unwrap();
+    // Welded vertices in first-occurrence order: 0 (with 3), 1, 2 (with 4), 5.
+    assert_eq!(&map[..], &[3.0, 2.0, 5.0, 11.0]);
+    let scene = shot.load(&toml(", weld = false")).unwrap();
+    let map = scene.evaluate(1.0).unwrap().objects[0].bulge_map.clone().unwrap();
+    assert_eq!(&map[..], &[1.0, 2.0, 3.0, 5.0, 7.0, 11.0]);
+    let err = shot.error(&toml("").replace("\"BULGE\"", "\"SQUASH\""));
+    assert!(err.contains("no vertex attribute \"SQUASH\"") && err.contains("\"_BULGE\""), "{err}");
+}
+
+#[test]
+fn descriptions_from_json_are_checked_too() {
+    let shot = basic_shot();
+    let scene = shot.load(HEADER).unwrap();
+    let mut description = scene.description().clone();
+    description.objects[0].stiffness = squish::animation::Keyframed::constant(0.0);
+    let err = Scene::from_parsed(description, &shot.path("scene.json")).unwrap_err().to_string();
+    assert!(err.contains("scene.json:1: [[objects]] #1 stiffness: must be greater than 0"), "{err}");
+}

@@ -45,6 +45,12 @@ impl<'a> SourceText<'a> {
         Ok(source)
     }
 
+    /// A source without text (a description built in code or read from JSON): errors name
+    /// the keys but no line.
+    pub(crate) fn detached(path: &'a Path) -> Self {
+        Self { path, text: "", root: None }
+    }
+
     /// 1-based line and column (in characters) of a byte offset.
     pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
         let offset = offset.min(self.text.len());
@@ -241,7 +247,8 @@ fn contains(v: &Spanned<DeValue>, offset: usize) -> bool {
     span.start <= offset && offset < span.end.max(span.start + 1)
 }
 
-fn floor_char_boundary(text: &str, mut i: usize) -> usize {
+fn floor_char_boundary(text: &str, i: usize) -> usize {
+    let mut i = i.min(text.len());
     while i > 0 && !text.is_char_boundary(i) {
         i -= 1;
     }

@@ -119,9 +119,12 @@ impl Scene {
         Self::from_description(description, path, Some(&src))
     }
 
-    /// Loads the assets of an already parsed description (e.g. one read back from JSON; its
-    /// paths should be absolute). `path` names the scene in messages.
-    pub fn from_parsed(description: SceneDescription, path: &Path) -> Result<Self, IoError> {
+    /// Checks and loads an already parsed description (e.g. one read back from JSON; relative
+    /// paths in it are taken from `path`'s folder). `path` names the scene in messages, which
+    /// name keys but no lines.
+    pub fn from_parsed(mut description: SceneDescription, path: &Path) -> Result<Self, IoError> {
+        validate::validate(&description, &SourceText::detached(path))?;
+        description.resolve_paths(&base_dir(path));
         Self::from_description(description, path, None)
     }
 
