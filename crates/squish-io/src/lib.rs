@@ -11,6 +11,9 @@
 //! - every error ([`IoError`]) names the file, the place in it (line, byte offset or glTF
 //!   element) and what to do about it.
 //!
+//! Scene files ([`scene`]) describe an animated shot — meshes, keyframed parameters, colliding
+//! pairs, frames, outputs — and evaluate it frame by frame ([`Scene::evaluate`]).
+//!
 //! Readers keep the file's vertices exactly, in order and in number, so that per-vertex data and
 //! frame-to-frame correspondence survive; glTF seams can be welded on request ([`WeldMode`]).
 
@@ -22,6 +25,7 @@ mod gltf_scene;
 mod gltf_write;
 mod obj;
 mod ply;
+pub mod scene;
 mod weld;
 
 use std::path::Path;
@@ -38,6 +42,7 @@ pub use ply::{
     PlyData, PlyFormat, PlyWriteOptions, ScalarType, VertexProperty, read_ply, read_ply_data, write_ply,
     write_ply_with, write_point_cloud_ply,
 };
+pub use scene::{FrameSpec, Scene, SceneDescription, parse_frame_selection};
 pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).

@@ -13,14 +13,18 @@
 //! - a node's world transform is `world(parent) · local(node)`;
 //! - samplers interpolate LINEAR (slerp along the shortest arc for rotations), STEP, or
 //!   CUBICSPLINE (Hermite with per-key in/out tangents, rotations normalized afterwards), and
-//!   clamp to the first / last key outside their time range.
+//!   clamp to the first / last key outside their time range;
+//! - [`Keyframed`] parameters are keyed on scene frames (linear, smooth or step) for the
+//!   deformer's animated settings.
 
 mod clip;
+mod keyframes;
 mod sampler;
 mod skeleton;
 mod transform;
 
 pub use clip::{AnimationClip, Channel, ChannelValues, evaluate};
+pub use keyframes::{KeyInterpolation, KeyTrack, KeyValue, KeyframeError, Keyframed};
 pub use sampler::{Interpolation, Keyframe, Sampler, slerp_shortest};
 pub use skeleton::{Skeleton, SkeletonNode};
 pub use transform::{NodeTransform, Trs};

@@ -1,0 +1,266 @@
+//! Scene files: an animated shot described in TOML — which meshes, how they move, which
+//! parameters (possibly keyframed), which pairs collide, which frames, where results go — and
+//! its evaluation, frame by frame, into plain values for the deformer.
+//!
+//! ```text
+//! Scene::load("shot.toml")          parse → check → resolve paths → load meshes once
+//!   .frames()                       the scene's whole frames, start..=end
+//!   .evaluate(frame) -> FrameSpec   meshes posed and placed, parameters as numbers
+//! ```
+//!
+//! Every frame is independent (the deformer is time-independent), so a [`Scene`] is immutable
+//! after loading and `Send + Sync`: evaluate frames on any thread, in any order, or split the
+//! range over machines with [`parse_frame_selection`]. The format is documented in
+//! `docs/scene-format.md`.
+//!
+//! Errors are [`IoError`]s. Mistakes in the scene file are located: `shot.toml:12:1: unknown
+//! key "stifness" in [[objects]] "ball" (did you mean "stiffness"?)`; problems with a mesh or
+//! data file name that file (and the frame, for sequences).
+
+mod diagnostics;
+mod evaluate;
+mod frames;
+mod source;
+mod types;
+mod validate;
+mod vertex_data;
+
+use std::ops::RangeInclusive;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+pub use evaluate::{
+    AnisotropyValues, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues, RegionFrame,
+};
+pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
+pub use types::{
+    Anisotropy, AxisAngle, ContactMethod, DEFAULT_V2, DEFAULT_V3, DEFAULT_V4, Direction, FrameRange, GltfSource,
+    MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreserveVolume, Profile, Region, Scale,
+    SceneDescription, Transform, VertexData, Weld,
+};
+
+use diagnostics::{Seg, SourceText};
+use source::{GltfCache, SourceAssets, VertexNumbering, load_source};
+use vertex_data::{OwnGltf, load_vertex_values};
+
+use crate::IoError;
+
+/// A loaded scene: its description (defaults filled, paths absolute) and the assets every frame
+/// reads (meshes, parsed glTF files, per-vertex data), loaded once.
+#[derive(Debug)]
+pub struct Scene {
+    path: PathBuf,
+    description: SceneDescription,
+    assets: Vec<ObjectAssets>,
+    /// Per pair: the indices of its two objects.
+    pair_objects: Vec<[usize; 2]>,
+}
+
+/// What an object's frames are made from.
+#[derive(Debug)]
+struct ObjectAssets {
+    source: SourceAssets,
+    numbering: VertexNumbering,
+    bulge_map: Option<Arc<[f64]>>,
+    mask: Option<Arc<[bool]>>,
+}
+
+impl SceneDescription {
+    /// Parses and checks a scene file's text without reading any other file. `path` is the
+    /// scene file: messages name it, and relative paths are resolved against its folder.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, IoError> {
+        let src = SourceText::parse(path, text)?;
+        let mut description: SceneDescription = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+        validate::validate(&description, &src)?;
+        description.resolve_paths(&base_dir(path));
+        Ok(description)
+    }
+
+    /// Makes every relative path absolute, relative to `base`.
+    fn resolve_paths(&mut self, base: &Path) {
+        let resolve = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        resolve(&mut self.output.dir);
+        for object in &mut self.objects {
+            resolve(object.mesh.file_mut());
+            if let Some(file) = object.bulge_map.as_mut().and_then(VertexData::file_mut) {
+                resolve(file);
+            }
+            if let Region::Mask(data) = &mut object.region
+                && let Some(file) = data.file_mut()
+            {
+                resolve(file);
+            }
+        }
+    }
+}
+
+/// The folder relative paths of a scene start from: the scene file's folder, made absolute.
+fn base_dir(scene: &Path) -> PathBuf {
+    let dir = scene.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf())
+}
+
+impl Scene {
+    /// Reads, checks and loads a scene file and everything it refers to.
+    pub fn load(path: &Path) -> Result<Self, IoError> {
+        let text = std::fs::read_to_string(path).map_err(|e| IoError::io(path, "read", e))?;
+        Self::from_toml(&text, path)
+    }
+
+    /// As [`Scene::load`], with the scene's text given (`path` locates relative paths and
+    /// names the scene in messages).
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, IoError> {
+        let description = SceneDescription::parse(text, path)?;
+        let src = SourceText::parse(path, text)?;
+        Self::from_description(description, path, Some(&src))
+    }
+
+    /// Checks and loads an already parsed description (e.g. one read back from JSON; relative
+    /// paths in it are taken from `path`'s folder). `path` names the scene in messages, which
+    /// name keys but no lines.
+    pub fn from_parsed(mut description: SceneDescription, path: &Path) -> Result<Self, IoError> {
+        validate::validate(&description, &SourceText::detached(path))?;
+        description.resolve_paths(&base_dir(path));
+        Self::from_description(description, path, None)
+    }
+
+    fn from_description(description: SceneDescription, path: &Path, src: Option<&SourceText>) -> Result<Self, IoError> {
+        let located = |i: usize, key: &'static str, message: String| match src {
+            Some(src) => src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key(key)], message),
+            None => IoError::format(path, format!("[[objects]] #{}: {key}: {message}", i + 1)),
+        };
+        let base = base_dir(path);
+        let missing = |file: &Path| {
+            format!(
+                "{} does not exist (relative paths start from the scene file's folder, {})",
+                file.display(),
+                base.display()
+            )
+        };
+        let frames = (description.frames.start, description.frames.end);
+        let mut cache = GltfCache::default();
+        let mut assets = Vec::with_capacity(description.objects.len());
+        for (i, object) in description.objects.iter().enumerate() {
+            if !matches!(object.mesh, MeshSource::Sequence { .. }) && !object.mesh.file().is_file() {
+                return Err(located(i, "mesh", missing(object.mesh.file())));
+            }
+            let (source, numbering) =
+                load_source(&object.name, &object.mesh, frames, description.frames.fps, &mut cache)?;
+            // The file an attribute without `file` is read from: the object's own mesh file.
+            let own_file = match &source {
+                SourceAssets::Sequence(seq) => seq.reference_path.clone(),
+                _ => object.mesh.file().clone(),
+            };
+            let own_gltf = match &source {
+                SourceAssets::Gltf(g) => {
+                    g.scene.nodes[g.node].mesh.map(|mesh| OwnGltf { file: object.mesh.file(), mesh })
+                }
+                _ => None,
+            };
+            let load_data = |data: &VertexData, key: &'static str, what: &str| -> Result<Vec<f64>, IoError> {
+                let (file, attribute) = match data {
+                    VertexData::Text { file } => (file.clone(), None),
+                    VertexData::Attribute { file, attribute } => {
+                        (file.clone().unwrap_or_else(|| own_file.clone()), Some(attribute.as_str()))
+                    }
+                };
+                if !file.is_file() {
+                    return Err(located(i, key, missing(&file)));
+                }
+                load_vertex_values(&object.name, what, &file, attribute, &numbering, own_gltf.as_ref())
+            };
+            let bulge_map = match &object.bulge_map {
+                Some(data) => Some(Arc::from(load_data(data, "bulge_map", "bulge_map")?)),
+                None => None,
+            };
+            let mask = match &object.region {
+                Region::Mask(data) => {
+                    let values = load_data(data, "region", "the region mask")?;
+                    let mask: Arc<[bool]> = values.iter().map(|&v| v >= 0.5).collect();
+                    if !mask.iter().any(|&m| m) {
+                        return Err(located(
+                            i,
+                            "region",
+                            "the mask selects no vertex (every value is below 0.5); paint the region with values ≥ 0.5"
+                                .to_string(),
+                        ));
+                    }
+                    Some(mask)
+                }
+                _ => None,
+            };
+            assets.push(ObjectAssets { source, numbering, bulge_map, mask });
+        }
+        let index = |name: &str| description.objects.iter().position(|o| o.name == name);
+        let mut pair_objects = Vec::with_capacity(description.pairs.len());
+        for (p, pair) in description.pairs.iter().enumerate() {
+            match (index(&pair.objects[0]), index(&pair.objects[1])) {
+                (Some(a), Some(b)) => pair_objects.push([a, b]),
+                _ => {
+                    return Err(IoError::format(
+                        path,
+                        format!("[[pairs]] #{}: names an object that does not exist", p + 1),
+                    ));
+                }
+            }
+        }
+        Ok(Self { path: path.to_path_buf(), description, assets, pair_objects })
+    }
+
+    /// The scene file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The description, with defaults filled in and paths absolute.
+    pub fn description(&self) -> &SceneDescription {
+        &self.description
+    }
+
+    /// The scene's frame range.
+    pub fn frame_range(&self) -> FrameRange {
+        self.description.frames
+    }
+
+    /// The scene's whole frames, `start..=end`.
+    pub fn frames(&self) -> RangeInclusive<i64> {
+        self.description.frames.start..=self.description.frames.end
+    }
+
+    /// The output settings (absolute `dir`).
+    pub fn output(&self) -> &OutputSpec {
+        &self.description.output
+    }
+
+    /// Number of vertices of object `i` (the same on every frame).
+    pub fn vertex_count(&self, i: usize) -> Option<usize> {
+        self.assets.get(i).map(|a| a.numbering.count)
+    }
+
+    /// Sequence files missing for `frames`, as (object name, frame, expected path): a cheap
+    /// check before starting a long job.
+    pub fn missing_files(&self, frames: RangeInclusive<i64>) -> Vec<(String, i64, PathBuf)> {
+        let mut missing = Vec::new();
+        for (spec, assets) in self.description.objects.iter().zip(&self.assets) {
+            if let SourceAssets::Sequence(seq) = &assets.source {
+                for f in frames.clone() {
+                    let p = seq.pattern.path(f);
+                    if !p.is_file() {
+                        missing.push((spec.name.clone(), f, p));
+                    }
+                }
+            }
+        }
+        missing
+    }
+
+    /// The resolved description as pretty JSON (every parameter, defaults included).
+    pub fn to_json(&self) -> Result<String, IoError> {
+        serde_json::to_string_pretty(&self.description)
+            .map_err(|e| IoError::format(&self.path, format!("cannot write the scene as JSON: {e}")))
+    }
+}
