@@ -204,10 +204,10 @@ fn intersection_region(
             }
         }
     }
-    if let Some(border) = side.border {
-        if let Some(v) = (0..nv).find(|&v| inside[v] && border.get(v).copied().unwrap_or(false)) {
-            return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
-        }
+    if let Some(border) = side.border
+        && let Some(v) = (0..nv).find(|&v| inside[v] && border.get(v).copied().unwrap_or(false))
+    {
+        return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
     }
     for (e, list) in hits.iter().enumerate() {
         let [lo, hi] = edges[e];

@@ -183,11 +183,11 @@ pub fn region_outline(
                 entries[len] = (Sample::Vertex(tri[k]), k, bary);
                 len += 1;
             }
-            if let Some(p) = region.point_on_edge(fe[k]) {
-                if len < 4 {
-                    entries[len] = (Sample::Point(p), k, point_bary(tri, k, &region.points()[p as usize]));
-                    len += 1;
-                }
+            if let Some(p) = region.point_on_edge(fe[k])
+                && len < 4
+            {
+                entries[len] = (Sample::Point(p), k, point_bary(tri, k, &region.points()[p as usize]));
+                len += 1;
             }
         }
         if len < 3 {

@@ -327,13 +327,9 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let [ma, mb] = mappings;
     let [sa, sb] = surfaces;
     let [za, zb] = zones;
-    let intersections = [ia, ib];
-    for l in 0..2 {
-        stats.counts.intersection_vertices[l] = intersections[l].num_inside();
-    }
+    stats.counts.intersection_vertices = [ia.num_inside(), ib.num_inside()];
     stats.fallbacks.zone_closest_point_matches = za.closest_point_matches + zb.closest_point_matches;
     let contact_area = za.area_on_surface;
-    let [ia, ib] = intersections;
     let [na, nb] = normal_stats;
     let sides = [
         SideContact {

@@ -39,10 +39,10 @@ impl Stiffness {
 /// stiffness that is not a finite positive number (named by `names`).
 pub fn relative_stiffness(a: Stiffness, b: Stiffness, names: [&str; 2]) -> Result<[f64; 2], ContactError> {
     for (s, name) in [a, b].iter().zip(names) {
-        if let Stiffness::Elastic(k) = *s {
-            if !(k.is_finite() && k > 0.0) {
-                return Err(ContactError::InvalidStiffness { object: name.to_string(), value: k });
-            }
+        if let Stiffness::Elastic(k) = *s
+            && !(k.is_finite() && k > 0.0)
+        {
+            return Err(ContactError::InvalidStiffness { object: name.to_string(), value: k });
         }
     }
     match (a, b) {
@@ -50,7 +50,8 @@ pub fn relative_stiffness(a: Stiffness, b: Stiffness, names: [&str; 2]) -> Resul
         (Stiffness::Rigid, _) => Ok([1.0, 0.0]),
         (_, Stiffness::Rigid) => Ok([0.0, 1.0]),
         (Stiffness::Elastic(ka), Stiffness::Elastic(kb)) => {
-            let ka_bar = ka / (ka + kb);
+            // 1 / (1 + k_b/k_a) rather than k_a / (k_a + k_b): no overflow for huge stiffnesses.
+            let ka_bar = 1.0 / (1.0 + kb / ka);
             Ok([ka_bar, 1.0 - ka_bar])
         }
     }

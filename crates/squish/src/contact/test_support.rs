@@ -31,6 +31,17 @@ impl Owned {
         self
     }
 
+    /// A copy with another stiffness.
+    pub fn clone_with(&self, stiffness: Stiffness) -> Self {
+        Self {
+            mesh: self.mesh.clone(),
+            topology: self.topology.clone(),
+            normals: self.normals.clone(),
+            bvh: self.bvh.clone(),
+            stiffness,
+        }
+    }
+
     pub fn side(&self) -> ContactSide<'_> {
         ContactSide::new(&self.mesh, &self.topology, &self.normals, &self.bvh).with_stiffness(self.stiffness)
     }
