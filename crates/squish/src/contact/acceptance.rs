@@ -165,7 +165,7 @@ fn mirrored_spheres_are_symmetric() {
 /// z ↦ −z and x ↔ y, a proper rotation, so no triangle needs flipping.
 #[test]
 fn crossed_capsules_are_symmetric() {
-    let capsule = shapes::capsule(0.5, 2.0, 24, 8, 12);
+    let capsule = shapes::capsule(0.5, 2.0, 40, 12, 24);
     // Along x, lifted so that the two capsules overlap by 0.2.
     let along_x = DMat3::from_cols(DVec3::new(0.0, 0.0, -1.0), DVec3::Y, DVec3::X);
     let mut mesh = capsule.clone();
@@ -353,6 +353,23 @@ fn rigid_motion_moves_the_result_rigidly() {
         assert!((rotation * z1.direction - z2.direction).length() < tol);
     }
     assert!(r1.sides[0].zone.region.num_inside() > 0);
+}
+
+/// A small sphere poking through a coarse plane between its vertices: ℐ on the plane is empty
+/// (the crossings are not representable there), so d̂ comes from the sphere alone (−n̄_a), and the
+/// pipeline still gives a zone on the sphere.
+#[test]
+fn a_tip_between_vertices_uses_the_other_side_for_the_direction() {
+    let grid = Owned::new(shapes::grid(1.0, 1.0, 10, 10), DVec3::ZERO);
+    let center = DVec3::new(0.013, -0.021, 0.01);
+    let sphere = Owned::new(shapes::icosphere(0.02, 3), center);
+    let result = run(&sphere, &grid, &PairParams::default());
+    assert_eq!(result.direction_source, DirectionSource::OnlyFirst);
+    assert!(result.sides[1].intersection.is_empty());
+    assert!((result.direction - DVec3::Z).length() < 0.02, "{}", result.direction);
+    assert!((result.direction + result.sides[0].normal_stats.mean).length() < 1e-15);
+    assert!(!result.sides[0].zone.is_empty());
+    assert!(result.sides[1].zone.is_empty());
 }
 
 #[test]

@@ -1,21 +1,23 @@
 //! Collision detection and intersection regions ℐ_a, ℐ_b (thesis §4.1).
 //!
-//! Every edge of each working region is intersected with the faces of the other one
-//! ([`TriangleBvh::edge_hits_batch`], both ways; exact, symbolically perturbed crossings, in
-//! parallel with results in edge order). Every crossing is kept as an [`IntersectionPoint`]: its
-//! location on the crossed edge (edge id and parameter t) and on the crossed face (face id and
-//! barycentric coordinates), i.e. "pairs of barycentric coordinates on both surfaces".
+//! Every edge of each working region is intersected with the faces of the other one, both ways
+//! ([`TriangleBvh::segment_hits_batch`](crate::spatial::TriangleBvh::segment_hits_batch), after
+//! culling the edges whose box misses the other mesh's box; exact, symbolically perturbed
+//! crossings, in parallel, results in edge order). Every crossing is kept as an
+//! [`IntersectionPoint`]: its location on the crossed edge (edge id and parameter t) and on the
+//! crossed face (face id and barycentric coordinates), i.e. "pairs of barycentric coordinates on
+//! both surfaces".
 //!
 //! **Tags.** For each crossed edge, each end is tagged from its *closest* crossing along the edge
 //! (the first hit for the edge's start, the last hit for its end): *interior* if the end lies
-//! behind that face of the other mesh, *exterior* otherwise. [`Hit::entering`](crate::spatial::Hit)
+//! behind that face of the other mesh, *exterior* otherwise. [`Hit::entering`]
 //! says that the segment goes from the face's front to its back, so the start is exterior when
 //! the first hit is entering and the end is interior when the last hit is entering.
 //!
 //! **Conflicts.** The thesis lets "the last edge considered have the final say" when two edges of a
 //! vertex disagree (§4.1, discussion), which depends on the edge order. We decide instead, and
 //! deterministically: if the other mesh is closed, by its winding number at the vertex (exact
-//! ray parity, [`TriangleBvh::contains`]); otherwise by the majority of the vertex's tagged edges,
+//! ray parity, [`TriangleBvh::contains`](crate::spatial::TriangleBvh::contains)); otherwise by the majority of the vertex's tagged edges,
 //! ties going to *exterior* (the conservative choice: a smaller region).
 //!
 //! **Flood fill.** The interior tag spreads through edges *without* crossings, never into a vertex
@@ -40,9 +42,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{ContactError, ContactSide, EdgeRegion};
-#[allow(unused_imports)] // for the intra-doc links
-use crate::spatial::TriangleBvh;
-use crate::spatial::BatchHits;
+use crate::mesh::Aabb3;
+use crate::spatial::{BatchHits, Hit};
 
 /// One crossing of an edge of one working region with a face of the other.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -102,22 +103,16 @@ enum Tag {
 /// Returns an empty [`Intersection`] (no point, empty regions) when they do not intersect.
 /// Errors: [`ContactError::IntersectionReachesBorder`] when a region reaches a flagged border.
 pub fn intersect(a: &ContactSide, b: &ContactSide) -> Result<Intersection, ContactError> {
-    let sides = [a, b];
     // Both directions are independent: run them in parallel (each batch is itself parallel).
-    let (hits_a, hits_b) = rayon::join(
-        || b.bvh.edge_hits_batch(&a.mesh.positions, a.topology.edges()),
-        || a.bvh.edge_hits_batch(&b.mesh.positions, b.topology.edges()),
-    );
+    let (hits_a, hits_b) = rayon::join(|| EdgeHits::new(a, b), || EdgeHits::new(b, a));
     let hits = [hits_a, hits_b];
     let mut result = Intersection::default();
-    for (l, batch) in hits.iter().enumerate() {
-        let edges = sides[l].topology.edges();
-        for (e, list) in batch.iter().enumerate() {
+    for (l, edge_hits) in hits.iter().enumerate() {
+        for (&e, list) in edge_hits.tested.iter().zip(edge_hits.batch.iter()) {
             for h in list {
-                debug_assert!(e < edges.len());
                 result.points.push(IntersectionPoint {
                     edge_side: l as u8,
-                    edge: e as u32,
+                    edge: e,
                     t: h.t,
                     face: h.face,
                     bary: h.bary,
@@ -139,11 +134,55 @@ pub fn intersect(a: &ContactSide, b: &ContactSide) -> Result<Intersection, Conta
     Ok(result)
 }
 
-/// ℐ on `side`, from the crossings of its edges with `other`'s faces (`hits`, one list per edge).
+/// Marks an edge that was not tested (its box misses the other mesh's box).
+const UNTESTED: u32 = u32::MAX;
+
+/// The crossings of the edges of one side with the faces of the other.
+struct EdgeHits {
+    /// Per edge: its index in `tested`, or [`UNTESTED`].
+    slot: Vec<u32>,
+    /// The edges whose box overlaps the other mesh's box, increasing.
+    tested: Vec<u32>,
+    /// Their crossings, sorted along each edge.
+    batch: BatchHits,
+}
+
+impl EdgeHits {
+    /// Crossings of `side`'s edges with `other`'s faces. Edges whose box misses the other mesh's
+    /// box cannot cross it and are not queried (a cheap cull: most of a working region is away
+    /// from the contact).
+    fn new(side: &ContactSide, other: &ContactSide) -> Self {
+        let bounds = other.bvh.bounds();
+        let positions = &side.mesh.positions;
+        let edges = side.topology.edges();
+        let mut slot = vec![UNTESTED; edges.len()];
+        let mut tested = Vec::new();
+        let mut segments = Vec::new();
+        for (e, &[i, j]) in edges.iter().enumerate() {
+            let (p, q) = (positions[i as usize], positions[j as usize]);
+            if Aabb3::from_points([p, q]).intersects(&bounds) {
+                slot[e] = tested.len() as u32;
+                tested.push(e as u32);
+                segments.push([p, q]);
+            }
+        }
+        Self { slot, tested, batch: other.bvh.segment_hits_batch(&segments) }
+    }
+
+    /// The crossings of edge `e`, sorted along it.
+    fn get(&self, e: usize) -> &[Hit] {
+        match self.slot.get(e) {
+            Some(&s) if s != UNTESTED => self.batch.get(s as usize),
+            _ => &[],
+        }
+    }
+}
+
+/// ℐ on `side`, from the crossings of its edges with `other`'s faces.
 fn intersection_region(
     side: &ContactSide,
     other: &ContactSide,
-    hits: &BatchHits,
+    hits: &EdgeHits,
     stats: &mut IntersectionStats,
 ) -> Result<EdgeRegion, ContactError> {
     let topology = side.topology;
@@ -151,10 +190,10 @@ fn intersection_region(
     let nv = topology.num_vertices();
     let mut votes = vec![[0u32; 2]; nv]; // [interior, exterior]
     let mut any = false;
-    for (e, list) in hits.iter().enumerate() {
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
         let (Some(first), Some(last)) = (list.first(), list.last()) else { continue };
         any = true;
-        let [lo, hi] = edges[e];
+        let [lo, hi] = edges[e as usize];
         // The start lies in front of its closest face (exterior) when the edge enters through it.
         votes[lo as usize][usize::from(first.entering)] += 1;
         // The end lies behind its closest face (interior) when the edge entered through it.
@@ -209,8 +248,8 @@ fn intersection_region(
     {
         return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
     }
-    for (e, list) in hits.iter().enumerate() {
-        let [lo, hi] = edges[e];
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
+        let [lo, hi] = edges[e as usize];
         if !list.is_empty() && inside[lo as usize] == inside[hi as usize] {
             stats.unrepresentable_edges += 1;
         }
@@ -240,6 +279,7 @@ fn intersection_region(
 mod tests {
     use super::*;
     use crate::contact::test_support::{sphere_in_grid, Owned};
+    use crate::mesh::TriMesh;
 
     /// A unit sphere dipped into a grid: ℐ on the sphere is exactly the set of vertices below the
     /// plane, ℐ on the grid exactly the grid vertices inside the (polyhedral) sphere, and every
@@ -303,5 +343,55 @@ mod tests {
         let region = &inter.regions[1];
         assert!(region.num_inside() < grid.mesh.num_vertices());
         assert!((0..border.len()).any(|v| border[v] && region.contains(v as u32)));
+    }
+
+    /// A vertex whose edges disagree: v = origin, the centre of a fan in the plane z = 0, lies
+    /// inside cube 2 (its −x and −y edges leave it: interior votes) while its +x and +y edges
+    /// first enter cubes 3 and 1 (exterior votes). Tie. With the three cubes (a closed, if
+    /// self-intersecting, mesh) the winding number decides: interior. With an extra open triangle
+    /// far away the other mesh is open: the majority rule applies and the tie goes to exterior.
+    #[test]
+    fn conflicting_tags_are_decided_by_winding_or_majority() {
+        let fan = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, -DVec3::X, -DVec3::Y],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]],
+        };
+        let mut cubes = TriMesh::default();
+        for center in [DVec3::new(0.0, 0.7, 0.03), DVec3::new(0.3, 0.02, 0.03), DVec3::new(0.6, 0.02, 0.03)] {
+            let mut cube = crate::mesh::shapes::cube(1.0, 1);
+            cube.map_positions(|p| p + center);
+            cubes.append(&cube);
+        }
+        let a = Owned::new(fan, DVec3::ZERO);
+        let closed = Owned::new(cubes.clone(), DVec3::ZERO);
+        assert!(closed.topology.is_closed());
+        let inter = intersect(&a.side(), &closed.side()).unwrap();
+        assert!(inter.regions[0].contains(0));
+        assert!(inter.stats.conflicts_by_winding >= 1 && inter.stats.conflicts_by_majority == 0, "{:?}", inter.stats);
+        let mut open = cubes;
+        let far = open.positions.len() as u32;
+        open.positions.extend([DVec3::new(10.0, 0.0, 0.0), DVec3::new(11.0, 0.0, 0.0), DVec3::new(10.0, 1.0, 0.0)]);
+        open.triangles.push([far, far + 1, far + 2]);
+        let open = Owned::new(open, DVec3::ZERO);
+        let inter = intersect(&a.side(), &open.side()).unwrap();
+        assert!(!inter.regions[0].contains(0));
+        assert!(inter.stats.conflicts_by_majority >= 1 && inter.stats.conflicts_by_winding == 0, "{:?}", inter.stats);
+    }
+
+    /// A small sphere centred on a grid edge: that edge goes in and out of the sphere (both ends
+    /// exterior, not representable: counted), no grid vertex is inside, so ℐ on the grid is empty
+    /// while ℐ on the sphere is its lower half.
+    #[test]
+    fn a_tip_between_vertices_leaves_one_side_empty() {
+        let grid = Owned::new(crate::mesh::shapes::grid(1.0, 1.0, 10, 10), DVec3::ZERO);
+        let [i, j] = grid.topology.edge(grid.topology.vertex_edges(60)[0]);
+        let mid = grid.mesh.positions[i as usize].lerp(grid.mesh.positions[j as usize], 0.5);
+        let sphere = Owned::new(crate::mesh::shapes::icosphere(0.02, 3), mid + DVec3::new(0.0, 0.0, 0.001));
+        let inter = intersect(&sphere.side(), &grid.side()).unwrap();
+        assert!(inter.regions[1].is_empty());
+        assert!(inter.stats.unrepresentable_edges >= 1, "{:?}", inter.stats);
+        for v in 0..sphere.mesh.num_vertices() {
+            assert_eq!(inter.regions[0].contains(v as u32), sphere.mesh.positions[v].z < 0.0);
+        }
     }
 }

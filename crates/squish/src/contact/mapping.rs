@@ -327,11 +327,12 @@ pub fn normal_at(mesh: &TriMesh, normals: &[DVec3], face: u32, bary: [f64; 3]) -
 pub fn cast_matches(points: &[DVec3], other: &ContactSide, toward: DVec3) -> (Vec<Match>, usize) {
     let bounds = other.bvh.bounds();
     let (center, half) = (bounds.center(), 0.5 * bounds.diagonal());
-    // Start every ray behind the other mesh's box so that the ray covers the whole line there.
+    // Start every ray behind the other mesh's box (|p − c| + half-diagonal reaches past it, the
+    // second half-diagonal is margin) so that the ray covers the whole line there.
     let rays: Vec<Ray> = points
         .iter()
         .map(|&p| {
-            let back = (p - center).length() + half + 1.0;
+            let back = (p - center).length() + 2.0 * half;
             Ray::new(p - toward * back, toward)
         })
         .collect();
