@@ -67,8 +67,24 @@ fn sphere_dipped_into_a_plane() {
     assert_eq!(result.direction_source, DirectionSource::Automatic);
     assert_eq!(result.stats.fallbacks.numerical(), 0, "{:?}", result.stats.fallbacks);
 
-    // Elastic–elastic: both zones exist and both lie on the same 𝒮 (targets match in z).
-    assert!(!result.sides[0].zone.is_empty() && !result.sides[1].zone.is_empty());
+    // Elastic–elastic: both zones exist. Signs (THESIS-NOTES item 8): penetration is positive,
+    // every zone point penetrates at least ε_c > 0, the sphere's n′ points down (outward of the
+    // sphere, against d̂) and the plane's up; the sphere moves up, the plane down, to meet on 𝒮.
+    let [za, zb] = result.zones();
+    assert!(!za.is_empty() && !zb.is_empty());
+    assert!(result.criterion.mean > 0.0 && result.threshold() > 0.0);
+    for (l, zone) in [za, zb].into_iter().enumerate() {
+        let (side, surface) = (&result.sides[l], &result.sides[l].surface);
+        for (&v, s) in side.mapping.vertices.iter().zip(&surface.vertex_samples) {
+            if zone.region.contains(v) {
+                assert!(s.depth >= result.threshold());
+                let up = zone.normals[v as usize].z;
+                assert!(if l == 0 { up < 0.0 } else { up > 0.0 });
+                let lift = zone.targets[v as usize].z - s.position.z;
+                assert!(if l == 0 { lift > 0.0 } else { lift < 0.0 });
+            }
+        }
+    }
 
     // Rigid sphere: 𝒮 is the sphere. Every target of the plane's zone lies on the sphere mesh,
     // and the zone lies within the sphere's shadow (inside the intersection disk).
@@ -299,7 +315,8 @@ fn results_are_continuous_when_an_object_moves() {
             let changed = za != &zones[0] || zb != &zones[1];
             crossings += usize::from(changed);
         }
-        previous = Some((result.contact_area, result.threshold(), result.direction, zones[0].clone(), zones[1].clone()));
+        previous =
+            Some((result.contact_area, result.threshold(), result.direction, zones[0].clone(), zones[1].clone()));
         a.translate(motion);
     }
     // Bounds from the geometry: the contact radius ρ ≈ 0.5, perimeter ≈ 3; the zone boundary
@@ -425,7 +442,8 @@ fn errors_name_their_cause() {
     // A cut working region that the intersection reaches.
     let small = Owned::new(shapes::grid(1.0, 1.0, 10, 10), DVec3::ZERO);
     let border = small.topology.boundary_vertices();
-    let err = contact_pair(&sphere.side(), &small.side().with_border(Some(&border)), &PairParams::default()).unwrap_err();
+    let err =
+        contact_pair(&sphere.side(), &small.side().with_border(Some(&border)), &PairParams::default()).unwrap_err();
     assert!(matches!(err, ContactError::IntersectionReachesBorder { ref object, .. } if object == "b"), "{err}");
 }
 
@@ -515,4 +533,61 @@ fn timings_for_a_ten_thousand_vertex_pair() {
         assert!(!r.is_empty());
         assert!(t.total.as_secs_f64() < 2.0);
     }
+}
+
+/// Random placements of various shapes, plus degenerate ones (coincident surfaces, a sphere
+/// touching a cube's edges and corners): never a panic, and every output finite.
+#[test]
+fn random_and_degenerate_configurations_give_finite_results() {
+    let mut seed = 0x5eed_u64;
+    let mut rand = move || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let shapes_a = [shapes::icosphere(0.6, 3), shapes::cube(1.0, 4), shapes::capsule(0.3, 1.0, 16, 6, 8)];
+    let shapes_b = [shapes::grid(3.0, 3.0, 30, 30), shapes::icosphere(1.0, 3), shapes::cube(1.2, 6)];
+    let mut non_empty = 0;
+    let mut cases: Vec<(Owned, Owned)> = Vec::new();
+    for k in 0..36 {
+        let axis = DVec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5);
+        let rotation = DMat3::from_axis_angle(axis.try_normalize().unwrap_or(DVec3::Z), 6.0 * rand());
+        let offset = DVec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 1.2;
+        let a = Owned::new(shapes_a[k % 3].clone(), DVec3::ZERO).transformed(rotation, offset);
+        let b = Owned::new(shapes_b[(k / 3) % 3].clone(), DVec3::ZERO);
+        cases.push((a, b));
+    }
+    // Coincident surfaces, and a sphere through the corners and edges of a cube exactly.
+    cases
+        .push((Owned::new(shapes::icosphere(1.0, 3), DVec3::ZERO), Owned::new(shapes::icosphere(1.0, 3), DVec3::ZERO)));
+    cases.push((
+        Owned::new(shapes::cube(1.0, 2), DVec3::ZERO),
+        Owned::new(shapes::cube(1.0, 2), DVec3::new(0.5, 0.5, 0.5)),
+    ));
+    cases.push((
+        Owned::new(shapes::icosphere(3f64.sqrt() / 2.0, 2), DVec3::ZERO),
+        Owned::new(shapes::cube(1.0, 1), DVec3::ZERO),
+    ));
+    for (k, (a, b)) in cases.iter().enumerate() {
+        let result = match contact_pair(&a.side(), &b.side(), &PairParams::default()) {
+            Ok(r) => r,
+            Err(ContactError::DirectionUndefined) => continue,
+            Err(e) => panic!("case {k}: {e}"),
+        };
+        non_empty += usize::from(!result.is_empty());
+        if std::env::var("SQUISH_DEBUG").is_ok() {
+            println!(
+                "case {k}: {:?} {:?} {:?}",
+                result.direction_source, result.stats.counts.zone_vertices, result.stats.fallbacks
+            );
+        }
+        assert!(result.direction.is_finite() && result.threshold().is_finite(), "case {k}");
+        assert!(result.contact_area.is_finite() && result.contact_area >= 0.0, "case {k}");
+        for side in &result.sides {
+            let z = &side.zone;
+            assert!(z.targets.iter().chain(&z.normals).chain(&z.boundary_targets).all(|p| p.is_finite()), "case {k}");
+            assert!(z.boundary_normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-9), "case {k}");
+        }
+    }
+    println!("{non_empty} of {} configurations have a contact zone", cases.len());
+    assert!(non_empty >= 10);
 }

@@ -89,7 +89,10 @@ const FLAT: f64 = 1e-24;
 
 /// d̂ from the two regions' statistics (Eq. 4.1 and the fallbacks of the module docs), or `None`
 /// if both regions are empty.
-pub fn direction_from_stats(a: &NormalStats, b: &NormalStats) -> Option<Result<(DVec3, DirectionSource), ContactError>> {
+pub fn direction_from_stats(
+    a: &NormalStats,
+    b: &NormalStats,
+) -> Option<Result<(DVec3, DirectionSource), ContactError>> {
     let (has_a, has_b) = (a.area > 0.0 && a.mean != DVec3::ZERO, b.area > 0.0 && b.mean != DVec3::ZERO);
     let result = match (has_a, has_b) {
         (false, false) => return None,

@@ -278,7 +278,7 @@ fn intersection_region(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::test_support::{sphere_in_grid, Owned};
+    use crate::contact::test_support::{Owned, sphere_in_grid};
     use crate::mesh::TriMesh;
 
     /// A unit sphere dipped into a grid: ℐ on the sphere is exactly the set of vertices below the

@@ -378,7 +378,13 @@ fn chord_match(chord: &Chord, t: f64, other: &ContactSide) -> Match {
     let bary = [0, 1, 2].map(|k| b0[k] + (b1[k] - b0[k]) * t);
     let tri = other.mesh.triangles[chord.face as usize];
     let point: DVec3 = (0..3).map(|k| other.mesh.positions[tri[k] as usize] * bary[k]).sum();
-    Match { face: chord.face, bary, point, normal: normal_at(other.mesh, other.normals, chord.face, bary), kind: MatchKind::Chord }
+    Match {
+        face: chord.face,
+        bary,
+        point,
+        normal: normal_at(other.mesh, other.normals, chord.face, bary),
+        kind: MatchKind::Chord,
+    }
 }
 
 /// Front-facing region ℬ_l = ℐ_l ∩ {g ≤ 0} with its front-facing function g.
@@ -398,11 +404,9 @@ pub fn map_regions(
         return Err(ContactError::InvalidDirection { direction: direction.to_array() });
     };
     let toward = [direction, -direction];
-    let (fa, fb) = (
-        front_region(intersections[0], sides[0], toward[0]),
-        front_region(intersections[1], sides[1], toward[1]),
-    );
-    let fronts = [fa, fb];
+    let (fa, fb) =
+        (front_region(intersections[0], sides[0], toward[0]), front_region(intersections[1], sides[1], toward[1]));
+    let mut fronts = [fa, fb];
     // Seen from the tip of d̂ (the plane's orientation), a's front-facing pieces show their back.
     let outlines = [0, 1].map(|l| region_outline(&fronts[l].0, sides[l].mesh, sides[l].topology, &plane, l == 0));
     let mut stats = MappingStats::default();
@@ -419,7 +423,8 @@ pub fn map_regions(
             vertex_slot[v as usize] = k as u32;
         }
         if let Some(border) = side.border {
-            stats.border_vertices += vertices.iter().filter(|&&v| border.get(v as usize).copied().unwrap_or(false)).count();
+            stats.border_vertices +=
+                vertices.iter().filter(|&&v| border.get(v as usize).copied().unwrap_or(false)).count();
         }
         // Boundary points: from a projected chord when 𝒫's point is the one kept by the union.
         let chord_sources: Vec<Option<(u32, f64)>> = region
@@ -450,7 +455,7 @@ pub fn map_regions(
             })
             .collect();
         result[l] = SideMapping {
-            front: fronts[l].0.clone(),
+            front: std::mem::take(&mut fronts[l].0),
             projected: projected.region,
             region,
             vertices,
@@ -503,7 +508,8 @@ mod tests {
         let lower = Owned::new(shapes::grid(2.0, 2.0, 47, 43), DVec3::ZERO);
         let r = 0.55;
         let center = DVec3::new(0.07, -0.04, 0.0);
-        let dist: Vec<f64> = upper.mesh.positions.iter().map(|p| (p.truncate() - center.truncate()).length() - r).collect();
+        let dist: Vec<f64> =
+            upper.mesh.positions.iter().map(|p| (p.truncate() - center.truncate()).length() - r).collect();
         let disk = EdgeRegion::sublevel_set(&upper.topology, &dist);
         let plane = ProjectionPlane::new(DVec3::Z).unwrap();
         // The upper grid's normals point +z (towards the viewer): no reversal.

@@ -58,13 +58,13 @@ mod test_support;
 
 pub use direction::{DirectionSource, NormalStats};
 pub use error::ContactError;
-pub use export::{debug_export, BoundaryKind, DebugPoint, DebugSide};
+pub use export::{BoundaryKind, DebugPoint, DebugSide, debug_export};
 pub use intersect::{IntersectionPoint, IntersectionStats};
-pub use mapping::{Match, MatchKind, MappingStats, SideMapping};
+pub use mapping::{MappingStats, Match, MatchKind, SideMapping};
 pub use pair::{
-    contact_pair, ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings,
+    ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings, contact_pair,
 };
-pub use params::{relative_stiffness, PairParams, Stiffness};
+pub use params::{PairParams, Stiffness, relative_stiffness};
 pub use region::{EdgeRegion, Sample};
 pub use surface::{SideSurface, SurfaceSample};
 pub use zone::CriterionStats;

@@ -18,12 +18,12 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
-use super::direction::{direction_from_points, direction_from_stats, normal_stats, DirectionSource, NormalStats};
-use super::intersect::{intersect, IntersectionPoint, IntersectionStats};
-use super::mapping::{map_regions, MappingStats, SideMapping};
-use super::params::{relative_stiffness, PairParams, Stiffness};
-use super::surface::{side_surface, SideSurface};
-use super::zone::{criterion, extract_zone, CriterionStats, ZoneSetup};
+use super::direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
+use super::intersect::{IntersectionPoint, IntersectionStats, intersect};
+use super::mapping::{MappingStats, SideMapping, map_regions};
+use super::params::{PairParams, Stiffness, relative_stiffness};
+use super::surface::{SideSurface, side_surface};
+use super::zone::{CriterionStats, ZoneSetup, criterion, extract_zone};
 use super::{ContactError, ContactZone, EdgeRegion};
 use crate::mesh::{Topology, TriMesh};
 use crate::spatial::TriangleBvh;
@@ -74,11 +74,7 @@ impl<'a> ContactSide<'a> {
 
     /// The name for messages.
     pub fn display_name(&self) -> String {
-        if self.name.is_empty() {
-            "unnamed".to_string()
-        } else {
-            self.name.to_string()
-        }
+        if self.name.is_empty() { "unnamed".to_string() } else { self.name.to_string() }
     }
 
     /// Checks that all parts describe the same mesh.
@@ -282,7 +278,8 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let [ia, ib] = inter.regions;
 
     let t = Instant::now();
-    let normal_stats = [normal_stats(&ia, a.mesh, a.topology, a.normals), normal_stats(&ib, b.mesh, b.topology, b.normals)];
+    let normal_stats =
+        [normal_stats(&ia, a.mesh, a.topology, a.normals), normal_stats(&ib, b.mesh, b.topology, b.normals)];
     let (direction, direction_source) = match user_direction {
         Some(d) => (d, DirectionSource::User),
         None => match direction_from_stats(&normal_stats[0], &normal_stats[1]) {

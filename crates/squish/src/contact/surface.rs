@@ -136,7 +136,14 @@ pub fn side_surface(side: &ContactSide, mapping: &SideMapping, toward: DVec3, k_
         .enumerate()
         .map(|(k, m)| {
             let s = Sample::Point(k as u32);
-            surface_sample(region.point_position(side.mesh, k as u32), own_normal(side, region, s), m, toward, k_own, k_other)
+            surface_sample(
+                region.point_position(side.mesh, k as u32),
+                own_normal(side, region, s),
+                m,
+                toward,
+                k_own,
+                k_other,
+            )
         })
         .collect();
     SideSurface { vertex_samples, point_samples }

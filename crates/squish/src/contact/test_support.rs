@@ -4,7 +4,7 @@
 use glam::{DMat3, DVec3};
 
 use super::{ContactSide, Stiffness};
-use crate::mesh::{shapes, vertex_normals, Topology, TriMesh};
+use crate::mesh::{Topology, TriMesh, shapes, vertex_normals};
 use crate::spatial::TriangleBvh;
 
 /// A working region with everything a [`ContactSide`] borrows.

@@ -29,8 +29,8 @@
 
 use glam::DVec3;
 
-use super::mapping::{cast_matches, SideMapping, NO_SLOT};
-use super::surface::{surface_sample, SideSurface, SurfaceSample};
+use super::mapping::{NO_SLOT, SideMapping, cast_matches};
+use super::surface::{SideSurface, SurfaceSample, surface_sample};
 use super::{ContactSide, ContactZone, EdgeRegion, Sample};
 
 /// Statistics of c = −δᵀn′ over 𝒮 and the resulting threshold.
@@ -219,8 +219,11 @@ pub fn extract_zone(
         let (m0, dm) = (si.surface_normal, se.surface_normal - si.surface_normal);
         let depth = first_exit(-dd.dot(dm), -(d0.dot(dm) + dd.dot(m0)), si.depth - setup.threshold);
         let own = first_exit(0.0, -toward.dot(se.normal - si.normal), -toward.dot(si.normal) - setup.cos_guard);
-        let matched =
-            first_exit(0.0, toward.dot(se.match_normal - si.match_normal), toward.dot(si.match_normal) - setup.cos_guard);
+        let matched = first_exit(
+            0.0,
+            toward.dot(se.match_normal - si.match_normal),
+            toward.dot(si.match_normal) - setup.cos_guard,
+        );
         let s = [depth, own, matched].into_iter().flatten().fold(1.0f64, f64::min);
         let (alpha, reuse) = if s >= 1.0 {
             (alpha_end, Some(se))
