@@ -127,6 +127,37 @@ fn sphere_dipped_into_a_plane() {
     );
 }
 
+/// An elastic sphere pressed into a rigid tilted plane: d̂ is the plane's normal, 𝒮 is the plane,
+/// and n′ is the plane's normal on the plane's side and its opposite on the sphere's side.
+#[test]
+fn a_rigid_tilted_plane_is_the_contact_surface() {
+    let tilt = DMat3::from_axis_angle(DVec3::new(1.0, 0.3, 0.0).normalize(), 0.4);
+    let normal = tilt * DVec3::Z;
+    let mut plane = shapes::grid(3.0, 3.0, 50, 50);
+    plane.map_positions(|p| tilt * p);
+    let plane = Owned::new(plane, DVec3::ZERO).with_stiffness(Stiffness::Rigid);
+    let sphere = Owned::new(shapes::icosphere(1.0, 4), normal * 0.8 + DVec3::new(0.01, 0.02, 0.0));
+    let result = run(&sphere, &plane, &PairParams::default());
+    assert!((result.direction - normal).length() < 1e-9);
+    let [za, zb] = result.zones();
+    assert!(za.region.num_inside() > 20 && zb.region.num_inside() > 20);
+    for v in 0..za.targets.len() {
+        if za.region.contains(v as u32) {
+            assert!((za.normals[v] + normal).length() < 1e-9, "{}", za.normals[v]);
+            assert!(za.targets[v].dot(normal).abs() < 1e-9);
+        }
+    }
+    for (t, n) in za.boundary_targets.iter().zip(&za.boundary_normals) {
+        assert!((*n + normal).length() < 1e-9 && t.dot(normal).abs() < 1e-9);
+    }
+    for v in 0..zb.targets.len() {
+        if zb.region.contains(v as u32) {
+            assert!((zb.normals[v] - normal).length() < 1e-9);
+            assert_eq!(zb.targets[v], plane.mesh.positions[v]);
+        }
+    }
+}
+
 /// Checks that the result on b is the image of the result on a under `map` (vertex i ↔ i).
 fn assert_symmetric(result: &PairContact, map: DMat3, what: &str) {
     let [sa, sb] = &result.sides;

@@ -394,7 +394,9 @@ pub fn front_region(intersection: &EdgeRegion, side: &ContactSide, toward: DVec3
     (intersection.intersection(&front, side.topology), g)
 }
 
-/// Mapping regions and matches of both sides (§4.2.2), from ℐ_a, ℐ_b and d̂.
+/// Mapping regions and matches of both sides (§4.2.2), from ℐ_a, ℐ_b and d̂. The two sides are
+/// independent once both ℬ are known: they run concurrently (each one's batches are parallel too;
+/// the result does not depend on the scheduling).
 pub fn map_regions(
     sides: [&ContactSide; 2],
     intersections: [&EdgeRegion; 2],
@@ -404,67 +406,81 @@ pub fn map_regions(
         return Err(ContactError::InvalidDirection { direction: direction.to_array() });
     };
     let toward = [direction, -direction];
-    let (fa, fb) =
-        (front_region(intersections[0], sides[0], toward[0]), front_region(intersections[1], sides[1], toward[1]));
-    let mut fronts = [fa, fb];
     // Seen from the tip of d̂ (the plane's orientation), a's front-facing pieces show their back.
-    let outlines = [0, 1].map(|l| region_outline(&fronts[l].0, sides[l].mesh, sides[l].topology, &plane, l == 0));
+    let front_and_outline = |l: usize| {
+        let (front, g) = front_region(intersections[l], sides[l], toward[l]);
+        let outline = region_outline(&front, sides[l].mesh, sides[l].topology, &plane, l == 0);
+        (front, g, outline)
+    };
+    let ((front_a, g_a, outline_a), (front_b, g_b, outline_b)) =
+        rayon::join(|| front_and_outline(0), || front_and_outline(1));
+    let (a, b) = rayon::join(
+        || map_side(sides[0], sides[1], front_a, &g_a, &outline_b, &plane, toward[0]),
+        || map_side(sides[1], sides[0], front_b, &g_b, &outline_a, &plane, toward[1]),
+    );
+    let ((a, stats_a), (b, stats_b)) = (a?, b?);
+    let stats = MappingStats {
+        midpoint_alphas: stats_a.midpoint_alphas + stats_b.midpoint_alphas,
+        closest_point_matches: stats_a.closest_point_matches + stats_b.closest_point_matches,
+        border_vertices: stats_a.border_vertices + stats_b.border_vertices,
+    };
+    Ok(([a, b], stats))
+}
+
+/// ℳ on `side` and its matches on `other`: `front` is ℬ on this side with its front-facing
+/// function `g`, `other_outline` the projected boundary of the other side's ℬ.
+fn map_side(
+    side: &ContactSide,
+    other: &ContactSide,
+    front: EdgeRegion,
+    g: &[f64],
+    other_outline: &RegionOutline,
+    plane: &ProjectionPlane,
+    toward: DVec3,
+) -> Result<(SideMapping, MappingStats), ContactError> {
     let mut stats = MappingStats::default();
-    let mut result: [SideMapping; 2] = Default::default();
-    for l in 0..2 {
-        let (side, other) = (sides[l], sides[1 - l]);
-        let projected = projected_region(&outlines[1 - l], side.mesh, side.topology, &fronts[l].1, &plane)?;
-        stats.midpoint_alphas += projected.midpoint_alphas;
-        let front = &fronts[l].0;
-        let region = projected.region.union(front, side.topology);
-        let vertices: Vec<u32> = (0..side.mesh.num_vertices() as u32).filter(|&v| region.contains(v)).collect();
-        let mut vertex_slot = vec![NO_SLOT; side.mesh.num_vertices()];
-        for (k, &v) in vertices.iter().enumerate() {
-            vertex_slot[v as usize] = k as u32;
-        }
-        if let Some(border) = side.border {
-            stats.border_vertices +=
-                vertices.iter().filter(|&&v| border.get(v as usize).copied().unwrap_or(false)).count();
-        }
-        // Boundary points: from a projected chord when 𝒫's point is the one kept by the union.
-        let chord_sources: Vec<Option<(u32, f64)>> = region
-            .points()
-            .iter()
-            .zip(region.point_edges())
-            .map(|(p, &e)| {
-                let q = projected.region.point_on_edge(e)?;
-                let qp = projected.region.points()[q as usize];
-                (qp.inside == p.inside && qp.alpha == p.alpha).then_some(projected.sources[q as usize]).flatten()
-            })
-            .collect();
-        let mut cast_positions: Vec<DVec3> = vertices.iter().map(|&v| side.mesh.positions[v as usize]).collect();
-        let n_vertices = cast_positions.len();
-        for (k, source) in chord_sources.iter().enumerate() {
-            if source.is_none() {
-                cast_positions.push(region.point_position(side.mesh, k as u32));
-            }
-        }
-        let (mut cast, fallbacks) = cast_matches(&cast_positions, other, toward[l]);
-        stats.closest_point_matches += fallbacks;
-        let mut cast_points = cast.split_off(n_vertices).into_iter();
-        let point_matches: Vec<Match> = chord_sources
-            .iter()
-            .map(|source| match source {
-                Some((segment, t)) => chord_match(&outlines[1 - l].chords[*segment as usize], *t, other),
-                None => cast_points.next().unwrap_or_default(),
-            })
-            .collect();
-        result[l] = SideMapping {
-            front: std::mem::take(&mut fronts[l].0),
-            projected: projected.region,
-            region,
-            vertices,
-            vertex_slot,
-            vertex_matches: cast,
-            point_matches,
-        };
+    let projected = projected_region(other_outline, side.mesh, side.topology, g, plane)?;
+    stats.midpoint_alphas = projected.midpoint_alphas;
+    let region = projected.region.union(&front, side.topology);
+    let vertices: Vec<u32> = (0..side.mesh.num_vertices() as u32).filter(|&v| region.contains(v)).collect();
+    let mut vertex_slot = vec![NO_SLOT; side.mesh.num_vertices()];
+    for (k, &v) in vertices.iter().enumerate() {
+        vertex_slot[v as usize] = k as u32;
     }
-    Ok((result, stats))
+    if let Some(border) = side.border {
+        stats.border_vertices = vertices.iter().filter(|&&v| border.get(v as usize).copied().unwrap_or(false)).count();
+    }
+    // Boundary points: from a projected chord when 𝒫's point is the one kept by the union.
+    let chord_sources: Vec<Option<(u32, f64)>> = region
+        .points()
+        .iter()
+        .zip(region.point_edges())
+        .map(|(p, &e)| {
+            let q = projected.region.point_on_edge(e)?;
+            let qp = projected.region.points()[q as usize];
+            (qp.inside == p.inside && qp.alpha == p.alpha).then_some(projected.sources[q as usize]).flatten()
+        })
+        .collect();
+    let mut cast_positions: Vec<DVec3> = vertices.iter().map(|&v| side.mesh.positions[v as usize]).collect();
+    let n_vertices = cast_positions.len();
+    for (k, source) in chord_sources.iter().enumerate() {
+        if source.is_none() {
+            cast_positions.push(region.point_position(side.mesh, k as u32));
+        }
+    }
+    let (mut vertex_matches, fallbacks) = cast_matches(&cast_positions, other, toward);
+    stats.closest_point_matches = fallbacks;
+    let mut cast_points = vertex_matches.split_off(n_vertices).into_iter();
+    let point_matches: Vec<Match> = chord_sources
+        .iter()
+        .map(|source| match source {
+            Some((segment, t)) => chord_match(&other_outline.chords[*segment as usize], *t, other),
+            None => cast_points.next().unwrap_or_default(),
+        })
+        .collect();
+    let mapping =
+        SideMapping { front, projected: projected.region, region, vertices, vertex_slot, vertex_matches, point_matches };
+    Ok((mapping, stats))
 }
 
 #[cfg(test)]
