@@ -478,8 +478,15 @@ fn map_side(
             None => cast_points.next().unwrap_or_default(),
         })
         .collect();
-    let mapping =
-        SideMapping { front, projected: projected.region, region, vertices, vertex_slot, vertex_matches, point_matches };
+    let mapping = SideMapping {
+        front,
+        projected: projected.region,
+        region,
+        vertices,
+        vertex_slot,
+        vertex_matches,
+        point_matches,
+    };
     Ok((mapping, stats))
 }
 
