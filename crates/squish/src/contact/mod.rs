@@ -1,4 +1,4 @@
-//! Contact definition between two working regions in intersection (thesis chapter 4).
+//! Contact definition between two working regions in intersection (thesis chapter 4, method B).
 //!
 //! Regions that must evolve continuously over an animation are [`EdgeRegion`]s: inside vertices
 //! plus exact boundary points on edges (§4.1, §4.2.2, §4.4).
@@ -7,10 +7,67 @@
 //! (chapter 5) consumes: the zone 𝒞 on that mesh, where each of its vertices and boundary points
 //! goes on the potential contact surface 𝒮 with the normal of 𝒮 there, and the direction along
 //! which that side is displaced.
+//!
+//! One module per stage, in pipeline order (each cites its section and states its decisions):
+//! - [`intersect`]: edge/face intersection points, tags, flood fill → ℐ_a, ℐ_b (§4.1);
+//! - [`direction`]: mapping direction d̂ from normal integrals over ℐ (§4.2.2, Eq. 4.1, App. A);
+//! - [`mapping`]: front-facing regions ℬ, projected regions 𝒫, mapping regions ℳ and the
+//!   farthest-hit matches along ±d̂ (§4.2.2);
+//! - [`surface`]: the potential contact surface 𝒮, p′ and n′ (§4.3);
+//! - [`zone`]: the threshold ε_c and the contact zones 𝒞 with exact boundary points (§4.4.2);
+//! - [`pair`]: [`contact_pair`], which runs them all for a pair and returns a [`PairContact`];
+//! - [`export`]: per-vertex labels and boundary points for debugging.
+//!
+//! ```
+//! use squish::contact::{contact_pair, ContactSide, PairParams, Stiffness};
+//! use squish::mesh::{shapes, vertex_normals, Topology};
+//! use squish::spatial::TriangleBvh;
+//! use squish::DVec3;
+//!
+//! // A rigid unit sphere pressed 0.2 deep into an elastic plane.
+//! let mut sphere = shapes::icosphere(1.0, 3);
+//! sphere.map_positions(|p| p + DVec3::new(0.0, 0.0, 0.8));
+//! let plane = shapes::grid(3.0, 3.0, 40, 40);
+//! let (ts, tp) = (Topology::new(&sphere), Topology::new(&plane));
+//! let (ns, np) = (vertex_normals(&sphere), vertex_normals(&plane));
+//! let (bs, bp) = (TriangleBvh::new(&sphere).unwrap(), TriangleBvh::new(&plane).unwrap());
+//! let a = ContactSide::new(&sphere, &ts, &ns, &bs).with_stiffness(Stiffness::Rigid);
+//! let b = ContactSide::new(&plane, &tp, &np, &bp);
+//! let contact = contact_pair(&a, &b, &PairParams::default()).unwrap();
+//! assert!((contact.direction - DVec3::Z).length() < 1e-9); // the plane's normal
+//! assert!(!contact.sides[1].zone.is_empty());
+//! ```
 
 mod region;
 
+pub mod direction;
+pub mod export;
+pub mod intersect;
+pub mod mapping;
+pub mod pair;
+pub mod surface;
+pub mod zone;
+
+mod error;
+mod params;
+
+#[cfg(test)]
+mod acceptance;
+#[cfg(test)]
+mod test_support;
+
+pub use direction::{DirectionSource, NormalStats};
+pub use error::ContactError;
+pub use export::{BoundaryKind, DebugPoint, DebugSide, debug_export};
+pub use intersect::{IntersectionPoint, IntersectionStats};
+pub use mapping::{MappingStats, Match, MatchKind, SideMapping};
+pub use pair::{
+    ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings, contact_pair,
+};
+pub use params::{PairParams, Stiffness, relative_stiffness};
 pub use region::{EdgeRegion, Sample};
+pub use surface::{SideSurface, SurfaceSample};
+pub use zone::CriterionStats;
 
 use glam::DVec3;
 

@@ -1,0 +1,36 @@
+//! Errors of the contact definition. Each variant carries the data needed to find the fault and
+//! says what to do about it. "No intersection" is not an error: it gives an empty result.
+
+use crate::spatial::SpatialError;
+
+/// What went wrong while defining the contact between two working regions.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ContactError {
+    #[error(
+        "the intersection region of object '{object}' reaches vertex {vertex}, which lies on the border where its \
+         working region was cut out of the full mesh: the intersection is not closed inside the working region \
+         (thesis §4.1, discussion); use a larger working region (e.g. a wider distance band) so that it contains the \
+         whole intersection"
+    )]
+    IntersectionReachesBorder { object: String, vertex: u32 },
+    #[error("both objects are rigid: nothing can deform; give at least one of them a finite stiffness")]
+    BothRigid,
+    #[error("object '{object}' has stiffness {value}; use a finite positive number, or Stiffness::Rigid")]
+    InvalidStiffness { object: String, value: f64 },
+    #[error("the mapping direction {direction:?} is zero or not finite; give a non-zero direction or None (automatic)")]
+    InvalidDirection { direction: [f64; 3] },
+    #[error("parameter {name} = {value} is invalid: {hint}")]
+    InvalidParameter { name: &'static str, value: f64, hint: &'static str },
+    #[error(
+        "object '{object}': {what} has {got} entries but the working region needs {expected}; build it from the same \
+         working-region mesh"
+    )]
+    InputMismatch { object: String, what: &'static str, expected: usize, got: usize },
+    #[error(
+        "the automatic mapping direction is undefined: the normals over the intersection regions cancel out \
+         (Eq. 4.1); give a direction in PairParams::direction"
+    )]
+    DirectionUndefined,
+    #[error(transparent)]
+    Spatial(#[from] SpatialError),
+}

@@ -1,0 +1,397 @@
+//! Collision detection and intersection regions ℐ_a, ℐ_b (thesis §4.1).
+//!
+//! Every edge of each working region is intersected with the faces of the other one, both ways
+//! ([`TriangleBvh::segment_hits_batch`](crate::spatial::TriangleBvh::segment_hits_batch), after
+//! culling the edges whose box misses the other mesh's box; exact, symbolically perturbed
+//! crossings, in parallel, results in edge order). Every crossing is kept as an
+//! [`IntersectionPoint`]: its location on the crossed edge (edge id and parameter t) and on the
+//! crossed face (face id and barycentric coordinates), i.e. "pairs of barycentric coordinates on
+//! both surfaces".
+//!
+//! **Tags.** For each crossed edge, each end is tagged from its *closest* crossing along the edge
+//! (the first hit for the edge's start, the last hit for its end): *interior* if the end lies
+//! behind that face of the other mesh, *exterior* otherwise. [`Hit::entering`]
+//! says that the segment goes from the face's front to its back, so the start is exterior when
+//! the first hit is entering and the end is interior when the last hit is entering.
+//!
+//! **Conflicts.** The thesis lets "the last edge considered have the final say" when two edges of a
+//! vertex disagree (§4.1, discussion), which depends on the edge order. We decide instead, and
+//! deterministically: if the other mesh is closed, by its winding number at the vertex (exact
+//! ray parity, [`TriangleBvh::contains`](crate::spatial::TriangleBvh::contains)); otherwise by the majority of the vertex's tagged edges,
+//! ties going to *exterior* (the conservative choice: a smaller region).
+//!
+//! **Flood fill.** The interior tag spreads through edges *without* crossings, never into a vertex
+//! tagged exterior. ℐ_l is then the [`EdgeRegion`] of the interior vertices with, on each edge
+//! from an interior vertex i to an exterior vertex j, α = the crossing nearest to i. An edge
+//! joining an interior and an exterior vertex without any crossing can only come from a conflict
+//! decided against the edge's own evidence; it is cut at its midpoint and counted.
+//!
+//! **Not representable.** Crossings on an edge whose two ends end up exterior (a thin tip of the
+//! other object poking through between the two vertices) or interior cannot be expressed with one
+//! point per edge: they are counted and dropped. If a whole side has no interior vertex, ℐ_l is
+//! empty there and the mapping direction falls back on the other side's integrals
+//! ([`super::direction`]).
+//!
+//! **Working-region borders.** A working region cut out of a bigger mesh has "border" vertices
+//! (flagged by the caller). If ℐ_l reaches one of them, the intersection is not closed inside the
+//! region and the result would depend on where the region was cut: this is
+//! [`ContactError::IntersectionReachesBorder`], naming the object and the vertex. Genuine
+//! boundaries of open meshes (not flagged) are fine.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{ContactError, ContactSide, EdgeRegion};
+use crate::mesh::Aabb3;
+use crate::spatial::{BatchHits, Hit};
+
+/// One crossing of an edge of one working region with a face of the other.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct IntersectionPoint {
+    /// The side whose edge is crossed: 0 for the first object of the pair (a), 1 for b. The face
+    /// belongs to the other side.
+    pub edge_side: u8,
+    /// The crossed edge (index into the edge side's [`Topology::edges`](crate::mesh::Topology)).
+    pub edge: u32,
+    /// Position along the edge, from its first vertex (`edges[edge][0]`, t = 0) to its second.
+    pub t: f64,
+    /// The crossed face of the other side.
+    pub face: u32,
+    /// Barycentric coordinates on that face, in its corner order.
+    pub bary: [f64; 3],
+    /// The point (computed on the face).
+    pub position: DVec3,
+    /// The edge goes from the face's front to its back.
+    pub entering: bool,
+}
+
+/// Counters of the cases the intersection stage had to decide or could not represent.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct IntersectionStats {
+    /// Vertices whose edges disagreed, decided by the other mesh's winding number.
+    pub conflicts_by_winding: usize,
+    /// Vertices whose edges disagreed, decided by a majority of their edges (open other mesh).
+    pub conflicts_by_majority: usize,
+    /// Edges joining an interior and an exterior vertex without a crossing (cut at the midpoint).
+    pub edges_without_crossing: usize,
+    /// Crossed edges whose two ends are on the same side (crossings not representable).
+    pub unrepresentable_edges: usize,
+}
+
+/// Result of the intersection stage.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Intersection {
+    /// All crossings: the edges of a against the faces of b, then the edges of b against the
+    /// faces of a, in edge order and along each edge.
+    pub points: Vec<IntersectionPoint>,
+    /// ℐ_a and ℐ_b.
+    pub regions: [EdgeRegion; 2],
+    /// Decided and dropped cases.
+    pub stats: IntersectionStats,
+}
+
+/// Vertex tag from the crossed edges.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Tag {
+    None,
+    Interior,
+    Exterior,
+}
+
+/// Computes the intersection points and regions ℐ_a, ℐ_b of two working regions (§4.1).
+///
+/// Returns an empty [`Intersection`] (no point, empty regions) when they do not intersect.
+/// Errors: [`ContactError::IntersectionReachesBorder`] when a region reaches a flagged border.
+pub fn intersect(a: &ContactSide, b: &ContactSide) -> Result<Intersection, ContactError> {
+    // Both directions are independent: run them in parallel (each batch is itself parallel).
+    let (hits_a, hits_b) = rayon::join(|| EdgeHits::new(a, b), || EdgeHits::new(b, a));
+    let hits = [hits_a, hits_b];
+    let mut result = Intersection::default();
+    for (l, edge_hits) in hits.iter().enumerate() {
+        for (&e, list) in edge_hits.tested.iter().zip(edge_hits.batch.iter()) {
+            for h in list {
+                result.points.push(IntersectionPoint {
+                    edge_side: l as u8,
+                    edge: e,
+                    t: h.t,
+                    face: h.face,
+                    bary: h.bary,
+                    position: h.point,
+                    entering: h.entering,
+                });
+            }
+        }
+    }
+    if result.points.is_empty() {
+        result.regions = [EdgeRegion::empty(a.topology), EdgeRegion::empty(b.topology)];
+        return Ok(result);
+    }
+    let mut stats = IntersectionStats::default();
+    let region_a = intersection_region(a, b, &hits[0], &mut stats)?;
+    let region_b = intersection_region(b, a, &hits[1], &mut stats)?;
+    result.regions = [region_a, region_b];
+    result.stats = stats;
+    Ok(result)
+}
+
+/// Marks an edge that was not tested (its box misses the other mesh's box).
+const UNTESTED: u32 = u32::MAX;
+
+/// The crossings of the edges of one side with the faces of the other.
+struct EdgeHits {
+    /// Per edge: its index in `tested`, or [`UNTESTED`].
+    slot: Vec<u32>,
+    /// The edges whose box overlaps the other mesh's box, increasing.
+    tested: Vec<u32>,
+    /// Their crossings, sorted along each edge.
+    batch: BatchHits,
+}
+
+impl EdgeHits {
+    /// Crossings of `side`'s edges with `other`'s faces. Edges whose box misses the other mesh's
+    /// box cannot cross it and are not queried (a cheap cull: most of a working region is away
+    /// from the contact).
+    fn new(side: &ContactSide, other: &ContactSide) -> Self {
+        let bounds = other.bvh.bounds();
+        let positions = &side.mesh.positions;
+        let edges = side.topology.edges();
+        let mut slot = vec![UNTESTED; edges.len()];
+        let mut tested = Vec::new();
+        let mut segments = Vec::new();
+        for (e, &[i, j]) in edges.iter().enumerate() {
+            let (p, q) = (positions[i as usize], positions[j as usize]);
+            if Aabb3::from_points([p, q]).intersects(&bounds) {
+                slot[e] = tested.len() as u32;
+                tested.push(e as u32);
+                segments.push([p, q]);
+            }
+        }
+        Self { slot, tested, batch: other.bvh.segment_hits_batch(&segments) }
+    }
+
+    /// The crossings of edge `e`, sorted along it.
+    fn get(&self, e: usize) -> &[Hit] {
+        match self.slot.get(e) {
+            Some(&s) if s != UNTESTED => self.batch.get(s as usize),
+            _ => &[],
+        }
+    }
+}
+
+/// ℐ on `side`, from the crossings of its edges with `other`'s faces.
+fn intersection_region(
+    side: &ContactSide,
+    other: &ContactSide,
+    hits: &EdgeHits,
+    stats: &mut IntersectionStats,
+) -> Result<EdgeRegion, ContactError> {
+    let topology = side.topology;
+    let edges = topology.edges();
+    let nv = topology.num_vertices();
+    let mut votes = vec![[0u32; 2]; nv]; // [interior, exterior]
+    let mut any = false;
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
+        let (Some(first), Some(last)) = (list.first(), list.last()) else { continue };
+        any = true;
+        let [lo, hi] = edges[e as usize];
+        // The start lies in front of its closest face (exterior) when the edge enters through it.
+        votes[lo as usize][usize::from(first.entering)] += 1;
+        // The end lies behind its closest face (interior) when the edge entered through it.
+        votes[hi as usize][usize::from(!last.entering)] += 1;
+    }
+    if !any {
+        return Ok(EdgeRegion::empty(topology));
+    }
+    let mut tags: Vec<Tag> = votes
+        .iter()
+        .map(|&[i, x]| match (i > 0, x > 0) {
+            (true, false) => Tag::Interior,
+            (false, true) => Tag::Exterior,
+            _ => Tag::None,
+        })
+        .collect();
+    let conflicts: Vec<u32> = (0..nv as u32).filter(|&v| votes[v as usize].iter().all(|&n| n > 0)).collect();
+    if !conflicts.is_empty() {
+        if other.topology.is_closed() {
+            let inside: Vec<bool> =
+                conflicts.par_iter().map(|&v| other.bvh.contains(side.mesh.positions[v as usize])).collect();
+            for (&v, inside) in conflicts.iter().zip(inside) {
+                tags[v as usize] = if inside { Tag::Interior } else { Tag::Exterior };
+            }
+            stats.conflicts_by_winding += conflicts.len();
+        } else {
+            for &v in &conflicts {
+                let [i, x] = votes[v as usize];
+                tags[v as usize] = if i > x { Tag::Interior } else { Tag::Exterior };
+            }
+            stats.conflicts_by_majority += conflicts.len();
+        }
+    }
+
+    // Flood fill through uncrossed edges, never into an exterior vertex.
+    let mut inside: Vec<bool> = tags.iter().map(|&t| t == Tag::Interior).collect();
+    let mut stack: Vec<u32> = (0..nv as u32).filter(|&v| inside[v as usize]).collect();
+    while let Some(v) = stack.pop() {
+        for &e in topology.vertex_edges(v) {
+            if !hits.get(e as usize).is_empty() {
+                continue;
+            }
+            let w = topology.other_vertex(e, v);
+            if !inside[w as usize] && tags[w as usize] != Tag::Exterior {
+                inside[w as usize] = true;
+                stack.push(w);
+            }
+        }
+    }
+    if let Some(border) = side.border
+        && let Some(v) = (0..nv).find(|&v| inside[v] && border.get(v).copied().unwrap_or(false))
+    {
+        return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
+    }
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
+        let [lo, hi] = edges[e as usize];
+        if !list.is_empty() && inside[lo as usize] == inside[hi as usize] {
+            stats.unrepresentable_edges += 1;
+        }
+    }
+    let mut without_crossing = 0;
+    let region = EdgeRegion::from_inside(topology, inside, |e, i, _| {
+        let list = hits.get(e as usize);
+        match (list.first(), list.last()) {
+            (Some(first), Some(last)) => {
+                if i == edges[e as usize][0] {
+                    first.t
+                } else {
+                    1.0 - last.t
+                }
+            }
+            _ => {
+                without_crossing += 1;
+                0.5
+            }
+        }
+    });
+    stats.edges_without_crossing += without_crossing;
+    Ok(region)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::test_support::{Owned, sphere_in_grid};
+    use crate::mesh::TriMesh;
+
+    /// A unit sphere dipped into a grid: ℐ on the sphere is exactly the set of vertices below the
+    /// plane, ℐ on the grid exactly the grid vertices inside the (polyhedral) sphere, and every
+    /// boundary point lies on the intersection curve.
+    #[test]
+    fn tags_and_flood_fill_on_a_sphere_dipped_into_a_plane() {
+        let (sphere, grid) = sphere_in_grid(0.2, 4, 60);
+        let inter = intersect(&sphere.side(), &grid.side()).unwrap();
+        let [is, ig] = &inter.regions;
+        assert!(!inter.points.is_empty());
+        for v in 0..sphere.mesh.num_vertices() {
+            assert_eq!(is.contains(v as u32), sphere.mesh.positions[v].z < 0.0, "sphere vertex {v}");
+        }
+        let mut n_inside = 0;
+        for v in 0..grid.mesh.num_vertices() {
+            let inside = sphere.bvh.contains(grid.mesh.positions[v]);
+            assert_eq!(ig.contains(v as u32), inside, "grid vertex {v}");
+            n_inside += usize::from(inside);
+        }
+        assert!(n_inside > 100, "{n_inside}");
+        assert_eq!(inter.stats, IntersectionStats::default());
+        // Boundary points of ℐ_sphere lie on the plane, those of ℐ_grid on the sphere mesh.
+        for p in 0..is.points().len() as u32 {
+            assert!(is.point_position(&sphere.mesh, p).z.abs() < 1e-12);
+        }
+        for p in 0..ig.points().len() as u32 {
+            let q = ig.point_position(&grid.mesh, p);
+            assert!(sphere.bvh.closest_point(q).unwrap().distance < 1e-12);
+        }
+    }
+
+    #[test]
+    fn disjoint_meshes_give_empty_regions() {
+        let (sphere, mut grid) = sphere_in_grid(0.2, 3, 10);
+        grid.translate(DVec3::new(0.0, 0.0, -1.0));
+        let inter = intersect(&sphere.side(), &grid.side()).unwrap();
+        assert!(inter.points.is_empty());
+        assert!(inter.regions.iter().all(EdgeRegion::is_empty));
+    }
+
+    #[test]
+    fn reaching_a_cut_border_is_an_error_naming_the_object_and_vertex() {
+        // The grid is a 1 × 1 piece "cut out of a bigger plane": its boundary vertices are border
+        // vertices. A sphere wider than the piece makes the intersection reach them.
+        // The sphere's section by the plane has radius 0.6: it leaves the 1 × 1 piece near the
+        // middle of its sides and passes inside its corners.
+        let sphere = Owned::new(crate::mesh::shapes::icosphere(1.0, 3), DVec3::new(0.0, 0.0, 0.8));
+        let grid = Owned::new(crate::mesh::shapes::grid(1.0, 1.0, 10, 10), DVec3::ZERO);
+        let border = grid.topology.boundary_vertices();
+        let err = intersect(&sphere.side(), &grid.side().with_name("floor").with_border(Some(&border))).unwrap_err();
+        match &err {
+            ContactError::IntersectionReachesBorder { object, vertex } => {
+                assert_eq!(object, "floor");
+                assert!(border[*vertex as usize]);
+            }
+            other => panic!("unexpected {other}"),
+        }
+        assert!(err.to_string().contains("larger working region"), "{err}");
+        // The same open grid without border flags (a genuine open mesh) is fine.
+        let inter = intersect(&sphere.side(), &grid.side()).unwrap();
+        let region = &inter.regions[1];
+        assert!(region.num_inside() < grid.mesh.num_vertices());
+        assert!((0..border.len()).any(|v| border[v] && region.contains(v as u32)));
+    }
+
+    /// A vertex whose edges disagree: v = origin, the centre of a fan in the plane z = 0, lies
+    /// inside cube 2 (its −x and −y edges leave it: interior votes) while its +x and +y edges
+    /// first enter cubes 3 and 1 (exterior votes). Tie. With the three cubes (a closed, if
+    /// self-intersecting, mesh) the winding number decides: interior. With an extra open triangle
+    /// far away the other mesh is open: the majority rule applies and the tie goes to exterior.
+    #[test]
+    fn conflicting_tags_are_decided_by_winding_or_majority() {
+        let fan = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, -DVec3::X, -DVec3::Y],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]],
+        };
+        let mut cubes = TriMesh::default();
+        for center in [DVec3::new(0.0, 0.7, 0.03), DVec3::new(0.3, 0.02, 0.03), DVec3::new(0.6, 0.02, 0.03)] {
+            let mut cube = crate::mesh::shapes::cube(1.0, 1);
+            cube.map_positions(|p| p + center);
+            cubes.append(&cube);
+        }
+        let a = Owned::new(fan, DVec3::ZERO);
+        let closed = Owned::new(cubes.clone(), DVec3::ZERO);
+        assert!(closed.topology.is_closed());
+        let inter = intersect(&a.side(), &closed.side()).unwrap();
+        assert!(inter.regions[0].contains(0));
+        assert!(inter.stats.conflicts_by_winding >= 1 && inter.stats.conflicts_by_majority == 0, "{:?}", inter.stats);
+        let mut open = cubes;
+        let far = open.positions.len() as u32;
+        open.positions.extend([DVec3::new(10.0, 0.0, 0.0), DVec3::new(11.0, 0.0, 0.0), DVec3::new(10.0, 1.0, 0.0)]);
+        open.triangles.push([far, far + 1, far + 2]);
+        let open = Owned::new(open, DVec3::ZERO);
+        let inter = intersect(&a.side(), &open.side()).unwrap();
+        assert!(!inter.regions[0].contains(0));
+        assert!(inter.stats.conflicts_by_majority >= 1 && inter.stats.conflicts_by_winding == 0, "{:?}", inter.stats);
+    }
+
+    /// A small sphere centred on a grid edge: that edge goes in and out of the sphere (both ends
+    /// exterior, not representable: counted), no grid vertex is inside, so ℐ on the grid is empty
+    /// while ℐ on the sphere is its lower half.
+    #[test]
+    fn a_tip_between_vertices_leaves_one_side_empty() {
+        let grid = Owned::new(crate::mesh::shapes::grid(1.0, 1.0, 10, 10), DVec3::ZERO);
+        let [i, j] = grid.topology.edge(grid.topology.vertex_edges(60)[0]);
+        let mid = grid.mesh.positions[i as usize].lerp(grid.mesh.positions[j as usize], 0.5);
+        let sphere = Owned::new(crate::mesh::shapes::icosphere(0.02, 3), mid + DVec3::new(0.0, 0.0, 0.001));
+        let inter = intersect(&sphere.side(), &grid.side()).unwrap();
+        assert!(inter.regions[1].is_empty());
+        assert!(inter.stats.unrepresentable_edges >= 1, "{:?}", inter.stats);
+        for v in 0..sphere.mesh.num_vertices() {
+            assert_eq!(inter.regions[0].contains(v as u32), sphere.mesh.positions[v].z < 0.0);
+        }
+    }
+}

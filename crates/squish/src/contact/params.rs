@@ -1,0 +1,172 @@
+//! Parameters of the contact definition (thesis chapter 4, method B): the pseudo-stiffness of each
+//! object (§4.3) and the per-pair knobs — the contact spread τ (Eq. 4.3), an optional user mapping
+//! direction (§4.2.2, "she or he can specify it manually and even key-frame it") and the angle of
+//! the safeguard of §4.4.2.
+//!
+//! Defaults are the thesis' values: τ = 0, automatic direction (Eq. 4.1), safeguard 80°, and a
+//! stiffness of 1 (only the ratio k_a / (k_a + k_b) matters).
+
+use glam::DVec3;
+
+use super::ContactError;
+
+/// Pseudo-stiffness k of an object (§4.3). Only the relative stiffness k̄_a = k_a / (k_a + k_b)
+/// matters; a rigid object has k = ∞: k̄ = 1 for it and 0 for the other, so that the potential
+/// contact surface 𝒮 is the rigid object's surface.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Stiffness {
+    /// A finite, positive pseudo-stiffness.
+    Elastic(f64),
+    /// An object that keeps its shape.
+    Rigid,
+}
+
+impl Default for Stiffness {
+    /// `Elastic(1.0)`: two default objects share the deformation equally.
+    fn default() -> Self {
+        Self::Elastic(1.0)
+    }
+}
+
+impl Stiffness {
+    /// True for [`Stiffness::Rigid`].
+    pub fn is_rigid(&self) -> bool {
+        matches!(self, Self::Rigid)
+    }
+}
+
+/// Relative stiffnesses `[k̄_a, k̄_b]` (they sum to 1). Errors: both objects rigid, or a
+/// stiffness that is not a finite positive number (named by `names`).
+pub fn relative_stiffness(a: Stiffness, b: Stiffness, names: [&str; 2]) -> Result<[f64; 2], ContactError> {
+    for (s, name) in [a, b].iter().zip(names) {
+        if let Stiffness::Elastic(k) = *s
+            && !(k.is_finite() && k > 0.0)
+        {
+            return Err(ContactError::InvalidStiffness { object: name.to_string(), value: k });
+        }
+    }
+    match (a, b) {
+        (Stiffness::Rigid, Stiffness::Rigid) => Err(ContactError::BothRigid),
+        (Stiffness::Rigid, _) => Ok([1.0, 0.0]),
+        (_, Stiffness::Rigid) => Ok([0.0, 1.0]),
+        (Stiffness::Elastic(ka), Stiffness::Elastic(kb)) => {
+            // 1 / (1 + k_b/k_a) rather than k_a / (k_a + k_b): no overflow for huge stiffnesses.
+            let ka_bar = 1.0 / (1.0 + kb / ka);
+            Ok([ka_bar, 1.0 - ka_bar])
+        }
+    }
+}
+
+/// Per-pair parameters of the contact definition.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct PairParams {
+    /// τ of Eq. 4.3: the contact threshold is ε_c = m_𝒮 + τ·σ_𝒮. Larger τ → smaller contact
+    /// zones (Fig. 4.11); negative values enlarge them. Scale-free. Default: 0.
+    pub contact_tau: f64,
+    /// Mapping direction d̂ given by the user (normalized here; it overrides Eq. 4.1 and is
+    /// expected to point along the second object's normals, like the automatic one).
+    /// `None` (default) = automatic (Eq. 4.1).
+    pub direction: Option<DVec3>,
+    /// Safeguard angle in degrees (§4.4.2): a point stays out of the contact zone if its own
+    /// normal or the normal of its match makes more than this angle with the mapping direction.
+    /// Default: 80.
+    pub safeguard_angle_degrees: f64,
+}
+
+impl Default for PairParams {
+    fn default() -> Self {
+        Self { contact_tau: 0.0, direction: None, safeguard_angle_degrees: 80.0 }
+    }
+}
+
+impl PairParams {
+    /// Sets τ.
+    pub fn with_contact_tau(mut self, tau: f64) -> Self {
+        self.contact_tau = tau;
+        self
+    }
+
+    /// Sets a user mapping direction (or `None` for the automatic one).
+    pub fn with_direction(mut self, direction: Option<DVec3>) -> Self {
+        self.direction = direction;
+        self
+    }
+
+    /// Sets the safeguard angle, in degrees.
+    pub fn with_safeguard_angle(mut self, degrees: f64) -> Self {
+        self.safeguard_angle_degrees = degrees;
+        self
+    }
+
+    /// Checks the values: finite τ, safeguard angle in [0°, 180°], user direction finite and
+    /// non-zero. Returns the normalized user direction, if any.
+    pub fn validate(&self) -> Result<Option<DVec3>, ContactError> {
+        if !self.contact_tau.is_finite() {
+            return Err(ContactError::InvalidParameter {
+                name: "contact_tau",
+                value: self.contact_tau,
+                hint: "use a finite number (0 = the mean penetration, larger = smaller zones)",
+            });
+        }
+        let angle = self.safeguard_angle_degrees;
+        if !(angle.is_finite() && (0.0..=180.0).contains(&angle)) {
+            return Err(ContactError::InvalidParameter {
+                name: "safeguard_angle_degrees",
+                value: angle,
+                hint: "use an angle between 0 and 180 degrees (the thesis uses 80)",
+            });
+        }
+        match self.direction {
+            None => Ok(None),
+            Some(d) => match d.try_normalize() {
+                Some(unit) => Ok(Some(unit)),
+                None => Err(ContactError::InvalidDirection { direction: d.to_array() }),
+            },
+        }
+    }
+
+    /// cos of the safeguard angle.
+    pub fn safeguard_cosine(&self) -> f64 {
+        self.safeguard_angle_degrees.to_radians().cos()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_stiffness_rules() {
+        let names = ["a", "b"];
+        assert_eq!(relative_stiffness(Stiffness::Elastic(1.0), Stiffness::Elastic(3.0), names).unwrap(), [0.25, 0.75]);
+        assert_eq!(relative_stiffness(Stiffness::Rigid, Stiffness::Elastic(3.0), names).unwrap(), [1.0, 0.0]);
+        assert_eq!(relative_stiffness(Stiffness::Elastic(2.0), Stiffness::Rigid, names).unwrap(), [0.0, 1.0]);
+        assert!(matches!(relative_stiffness(Stiffness::Rigid, Stiffness::Rigid, names), Err(ContactError::BothRigid)));
+        let err = relative_stiffness(Stiffness::Elastic(1.0), Stiffness::Elastic(-2.0), names).unwrap_err();
+        assert!(err.to_string().contains("b") && err.to_string().contains("-2"), "{err}");
+        assert!(relative_stiffness(Stiffness::Elastic(f64::NAN), Stiffness::Rigid, names).is_err());
+    }
+
+    #[test]
+    fn params_defaults_builders_and_validation() {
+        let p = PairParams::default();
+        assert_eq!((p.contact_tau, p.direction, p.safeguard_angle_degrees), (0.0, None, 80.0));
+        assert!((p.safeguard_cosine() - 80f64.to_radians().cos()).abs() < 1e-15);
+        let p = p.with_contact_tau(0.5).with_direction(Some(DVec3::new(0.0, 0.0, 2.0))).with_safeguard_angle(70.0);
+        assert_eq!(p.validate().unwrap(), Some(DVec3::Z));
+        assert!(matches!(
+            PairParams::default().with_direction(Some(DVec3::ZERO)).validate(),
+            Err(ContactError::InvalidDirection { .. })
+        ));
+        assert!(PairParams::default().with_contact_tau(f64::INFINITY).validate().is_err());
+        assert!(PairParams::default().with_safeguard_angle(200.0).validate().is_err());
+        // Serde round trip, and missing fields take their defaults.
+        let json = serde_json::to_string(&p).unwrap();
+        assert_eq!(serde_json::from_str::<PairParams>(&json).unwrap(), p);
+        let partial: PairParams = serde_json::from_str(r#"{"contact_tau": 1.0}"#).unwrap();
+        assert_eq!(partial, PairParams::default().with_contact_tau(1.0));
+        let s: Stiffness = serde_json::from_str(r#""Rigid""#).unwrap();
+        assert!(s.is_rigid());
+    }
+}
