@@ -15,11 +15,15 @@
 //!   dimensionless weighted mean of the emitters' fields, O(1) near the contact, continuous in the
 //!   zones (a normalization by the maximum over 𝒟 would jump when the maximizing vertex enters 𝒞).
 //! - **Singularity.** An emitter closer than 10⁻¹² extents to the vertex contributes nothing.
+//! - **Cost.** |𝒟|·|𝒞| evaluations (about 2.5 million on a 10k-vertex sphere), exact (no
+//!   truncation, which would break continuity), spread over the vertices of 𝒟 with rayon; each
+//!   vertex sums its emitters in a fixed order, so the result is deterministic.
 //! - **Fallbacks** (counted in the stats): when no contact vertex is displaced (Σ A_j|p′_j − p_j| =
 //!   0) or η vanishes on all of 𝒟 (every vertex behind every emitter, ψ ≤ 0), the anisotropic
 //!   factor is 1 (a uniform bulge) instead of a bulge that cannot be placed.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::contact_set::ContactSet;
 use crate::contact::ContactZone;
@@ -88,12 +92,9 @@ pub fn anisotropic_bulge_map(
     let scale = extent / total;
     let min_distance = 1e-12 * extent;
     let (omega, psi) = (params.exponent, params.offset);
+    // Each vertex sums its emitters in a fixed order, so the parallel loop is deterministic.
     let mut eta = vec![1.0; n];
-    let mut largest = 0.0f64;
-    for (i, value) in eta.iter_mut().enumerate() {
-        if !deformable[i] {
-            continue;
-        }
+    eta.par_iter_mut().enumerate().filter(|(i, _)| deformable[*i]).for_each(|(i, value)| {
         let x = mesh.positions[i];
         let mut sum = 0.0;
         for e in &emitters {
@@ -107,8 +108,8 @@ pub fn anisotropic_bulge_map(
             sum += e.weight * lobe / r;
         }
         *value = sum * scale;
-        largest = largest.max(*value);
-    }
+    });
+    let largest = eta.iter().zip(deformable).filter(|(_, d)| **d).fold(0.0f64, |m, (e, _)| m.max(*e));
     if !(largest.is_finite() && largest > VANISHED_BULGE_MAP) {
         return uniform();
     }

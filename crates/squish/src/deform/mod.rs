@@ -13,7 +13,10 @@
 //!    B-spline profile, the bulge map η and the bulge height h_v that preserves the volume.
 //!
 //! Contact-zone vertices go to their targets p′_i on 𝒮; every other vertex outside 𝒟 is copied
-//! bit for bit. [`RegionSolver`] caches the region's pattern, symbolic analysis and numeric
+//! bit for bit. The working region may be part of a larger closed object (a [`crate::SubMesh`]):
+//! faces outside it do not move, so the region's volume change is the object's — provided 𝒟 stays
+//! inside the region (vertices of its outer boundary are shared with outside faces; the stats
+//! count those that moved). [`RegionSolver`] caches the region's pattern, symbolic analysis and numeric
 //! factorizations across frames (three refactorizations per frame: heat, Poisson — reused by the
 //! multi-zone direction diffusion — and the guide diffusion).
 //!
@@ -90,7 +93,8 @@ pub struct DeformStats {
     pub bulge_height: f64,
     /// γ·h_v, the height actually applied.
     pub applied_bulge_height: f64,
-    /// True if h_v preserves the volume exactly (a root of the cubic); false for the fallback.
+    /// True if h_v preserves the volume exactly (a root of the cubic); false for the no-root
+    /// fallback and when volume preservation is off.
     pub volume_exact: bool,
     /// ΔV(h_v) at γ = 1 (0 up to round-off when `volume_exact`).
     pub volume_residual: f64,
@@ -105,6 +109,10 @@ pub struct DeformStats {
     pub num_contact: usize,
     /// Boundary points of ∂𝒞.
     pub num_boundary_points: usize,
+    /// Vertices on the region's outer boundary that moved (in 𝒞 or 𝒟). Should be 0: when the
+    /// region is part of a larger mesh, these vertices are shared with faces outside the region,
+    /// which then deform without being accounted for in the volume; pick a larger working region.
+    pub outer_boundary_moved: usize,
     /// Numeric factorizations run by this call.
     pub numeric_factorizations: usize,
     /// Per-stage timings.
@@ -247,13 +255,13 @@ pub fn deform_region(
         }
     }
     let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / n.max(1) as f64;
+    let cubic = VolumeCubic::new(mesh, &displacement, reference);
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
-        let cubic = VolumeCubic::new(mesh, &displacement, reference);
         let solution = solve_bulge_height(&cubic, params.extent);
         fallbacks.volume_without_root = usize::from(!solution.exact);
         (solution.height, solution.exact, solution.residual)
     } else {
-        (params.bulge_height, false, f64::NAN)
+        (params.bulge_height, false, cubic.eval(params.bulge_height))
     };
     let applied = params.bulge * bulge_height;
     let mut positions = mesh.positions.clone();
@@ -282,6 +290,12 @@ pub fn deform_region(
         num_deformable: parametrization.num_deformable(),
         num_contact: contact.num_inside(),
         num_boundary_points: contact.boundary.len(),
+        outer_boundary_moved: solver
+            .outer_boundary()
+            .iter()
+            .zip(&displacement.moved)
+            .filter(|(on_boundary, moved)| **on_boundary && **moved)
+            .count(),
         numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
         timings,
         fallbacks,

@@ -26,7 +26,9 @@ pub enum DirectionFieldMethod {
 #[serde(default)]
 pub struct DeformParams {
     /// φ_max: the geodesic distance from ∂𝒞 where the deformation ends (§5.1), world units.
-    /// Required: finite and positive.
+    /// Required: finite and positive. Unset (NaN) by default; an unset extent is left out when
+    /// serializing (JSON has no NaN), so default parameters round-trip.
+    #[serde(skip_serializing_if = "is_unset")]
     pub extent: f64,
     /// γ: volume compensation, 0 = none, 1 = preserve, > 1 exaggerate (§5.4.2). Default 1.
     pub bulge: f64,
@@ -59,6 +61,11 @@ pub struct DeformParams {
     pub constraint_weight_factor: f64,
     /// How the direction field is built. Default [`DirectionFieldMethod::Blended`].
     pub direction_method: DirectionFieldMethod,
+}
+
+/// True for an unset (NaN) extent, which serde leaves out.
+fn is_unset(extent: &f64) -> bool {
+    extent.is_nan()
 }
 
 impl Default for DeformParams {
@@ -258,6 +265,9 @@ mod tests {
         let json = serde_json::to_string(&p).unwrap();
         let back: DeformParams = serde_json::from_str(&json).unwrap();
         assert_eq!(back, p);
+        let defaults: DeformParams =
+            serde_json::from_str(&serde_json::to_string(&DeformParams::default()).unwrap()).unwrap();
+        assert!(defaults.extent.is_nan() && defaults.validate().is_err());
         let partial: DeformParams = serde_json::from_str(r#"{"extent": 2.0, "bulge": 0.5}"#).unwrap();
         assert_eq!(partial, DeformParams::new(2.0).with_bulge(0.5));
     }
