@@ -59,7 +59,8 @@ struct Emitter {
 }
 
 /// The anisotropic map of Eq. 5.6 on the vertices of `deformable` (1 elsewhere); see the module
-/// doc. Returns the map and whether it fell back to 1.
+/// doc. Returns the map and whether it fell back to 1. (Zone data beyond the mesh's vertices is
+/// ignored; [`super::deform_region`] validates the zones first.)
 pub fn anisotropic_bulge_map(
     mesh: &TriMesh,
     zones: &[ContactZone],
@@ -74,7 +75,7 @@ pub fn anisotropic_bulge_map(
     let mut total = 0.0;
     for (k, zone) in zones.iter().enumerate() {
         let direction = contact.mapping_directions.get(k).copied().unwrap_or(DVec3::ZERO);
-        for (j, &inside) in zone.region.inside().iter().enumerate() {
+        for (j, &inside) in zone.region.inside().iter().enumerate().take(n.min(zone.targets.len())) {
             if !inside {
                 continue;
             }
@@ -94,7 +95,8 @@ pub fn anisotropic_bulge_map(
     let (omega, psi) = (params.exponent, params.offset);
     // Each vertex sums its emitters in a fixed order, so the parallel loop is deterministic.
     let mut eta = vec![1.0; n];
-    eta.par_iter_mut().enumerate().filter(|(i, _)| deformable[*i]).for_each(|(i, value)| {
+    let in_region = |i: usize| deformable.get(i).copied().unwrap_or(false);
+    eta.par_iter_mut().enumerate().filter(|(i, _)| in_region(*i)).for_each(|(i, value)| {
         let x = mesh.positions[i];
         let mut sum = 0.0;
         for e in &emitters {
@@ -109,7 +111,7 @@ pub fn anisotropic_bulge_map(
         }
         *value = sum * scale;
     });
-    let largest = eta.iter().zip(deformable).filter(|(_, d)| **d).fold(0.0f64, |m, (e, _)| m.max(*e));
+    let largest = eta.iter().enumerate().filter(|(i, _)| in_region(*i)).fold(0.0f64, |m, (_, e)| m.max(*e));
     if !(largest.is_finite() && largest > VANISHED_BULGE_MAP) {
         return uniform();
     }

@@ -84,6 +84,10 @@ pub fn direction_field(
     params: &DirectionParams,
 ) -> Result<DirectionField, DeformError> {
     let n = mesh.num_vertices();
+    DeformError::check_len("normals", n, normals.len())?;
+    DeformError::check_len("contact set (vertices)", n, contact.vertex_zone.len())?;
+    DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
+    DeformError::check_len("parametrization (𝒟)", n, parametrization.deformable.len())?;
     let DirectionFieldMethod::Blended = params.method;
     let first_direction = contact.boundary.first().map_or(DVec3::ZERO, |b| contact.directions[b.zone as usize]);
     let diffused = contact.has_several_directions();

@@ -38,6 +38,10 @@ pub enum DeformError {
         "the region's mean edge length is {mean_edge_length}; the heat step needs a positive length scale (is the region empty or collapsed to a point?)"
     )]
     DegenerateRegion { mean_edge_length: f64 },
+    #[error(
+        "{what} has {actual} entries but {expected} were expected: the inputs of a stage must come from the same region and frame"
+    )]
+    LengthMismatch { what: &'static str, expected: usize, actual: usize },
     #[error("the {stage} solve failed: {source}")]
     Solve {
         stage: &'static str,
@@ -54,5 +58,10 @@ impl DeformError {
     /// Wraps a solver error with the stage it happened in.
     pub(crate) fn solve(stage: &'static str) -> impl FnOnce(SolveError) -> Self {
         move |source| Self::Solve { stage, source }
+    }
+
+    /// Checks that `what` has `expected` entries.
+    pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<(), Self> {
+        if expected == actual { Ok(()) } else { Err(Self::LengthMismatch { what, expected, actual }) }
     }
 }

@@ -92,7 +92,8 @@ pub struct GuideFields {
 }
 
 /// The α-weighted averages of per-boundary-point `values` onto the outside vertices of ∂𝒞, in
-/// increasing vertex id, with their constraint weights `min(1, Σα)`.
+/// increasing vertex id, with their constraint weights `min(1, Σα)` (points on vertices beyond
+/// `num_vertices` are ignored).
 pub fn boundary_averages(num_vertices: usize, contact: &ContactSet, values: &[f64]) -> Vec<BoundaryVertex> {
     let mut alpha_sum = vec![0.0; num_vertices];
     let mut weighted_sum = vec![0.0; num_vertices];
@@ -100,6 +101,9 @@ pub fn boundary_averages(num_vertices: usize, contact: &ContactSet, values: &[f6
     let mut count = vec![0u32; num_vertices];
     for (b, &x) in contact.boundary.iter().zip(values) {
         let j = b.point.outside as usize;
+        if j >= num_vertices {
+            continue;
+        }
         alpha_sum[j] += b.point.alpha;
         weighted_sum[j] += b.point.alpha * x;
         plain_sum[j] += x;
@@ -122,6 +126,8 @@ pub fn deformable_face_weights(
     contact: &ContactSet,
     parametrization: &Parametrization,
 ) -> Result<Vec<f64>, DeformError> {
+    DeformError::check_len("parametrization (u)", topology.num_vertices(), parametrization.u.len())?;
+    DeformError::check_len("contact set (vertices)", topology.num_vertices(), contact.region.inside().len())?;
     let level: Vec<f64> = parametrization.u.iter().map(|&u| u - 1.0).collect();
     let below_one = EdgeRegion::sublevel_set(topology, &level);
     let deformable = contact.region.complement().intersection(&below_one, topology);
@@ -169,6 +175,10 @@ pub fn guide_fields(
     params: &GuideParams,
 ) -> Result<GuideFields, DeformError> {
     let n = mesh.num_vertices();
+    DeformError::check_len("contact set (vertices)", n, contact.vertex_zone.len())?;
+    DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
+    DeformError::check_len("direction field", n, field.directions.len())?;
+    DeformError::check_len("boundary directions", contact.boundary.len(), field.boundary.len())?;
     let boundary_amplitude: Vec<f64> =
         contact.boundary.iter().zip(&field.boundary).map(|(b, d)| (b.position - b.target).dot(*d)).collect();
     let amplitude_constraints = boundary_averages(n, contact, &boundary_amplitude);

@@ -255,7 +255,7 @@ pub fn deform_region(
         }
     }
     let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / n.max(1) as f64;
-    let cubic = VolumeCubic::new(mesh, &displacement, reference);
+    let cubic = VolumeCubic::new(mesh, &displacement, reference)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
         let solution = solve_bulge_height(&cubic, params.extent);
         fallbacks.volume_without_root = usize::from(!solution.exact);

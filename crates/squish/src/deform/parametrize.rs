@@ -83,6 +83,7 @@ pub fn parametrize(
         return Err(DeformError::InvalidExtent { extent: params.extent });
     }
     let n = mesh.num_vertices();
+    DeformError::check_len("contact set (vertices)", n, contact.vertex_zone.len())?;
     let outside_weights = cut_face_weights(mesh, topology, contact.region.inside(), contact.region.points())
         .map_err(DeformError::solve("cut-face weights"))?;
     if contact.boundary.is_empty() {

@@ -24,6 +24,7 @@
 
 use glam::DVec3;
 
+use super::DeformError;
 use crate::mesh::TriMesh;
 
 /// Bulge heights beyond this many extents are not searched (no meaningful deformation).
@@ -71,7 +72,11 @@ pub struct VolumeCubic {
 
 impl VolumeCubic {
     /// Expands ΔV(h) over the faces of `mesh` that have a moved vertex, relative to `reference`.
-    pub fn new(mesh: &TriMesh, displacement: &AffineDisplacement, reference: DVec3) -> Self {
+    pub fn new(mesh: &TriMesh, displacement: &AffineDisplacement, reference: DVec3) -> Result<Self, DeformError> {
+        let n = mesh.num_vertices();
+        DeformError::check_len("displacement (linear)", n, displacement.linear.len())?;
+        DeformError::check_len("displacement (constant)", n, displacement.constant.len())?;
+        DeformError::check_len("displacement (moved)", n, displacement.moved.len())?;
         let mut c = [0.0; 4];
         for tri in &mesh.triangles {
             let [i, j, k] = tri.map(|v| v as usize);
@@ -90,7 +95,7 @@ impl VolumeCubic {
             c[2] += in_h[2];
             c[3] += in_h[3];
         }
-        Self { coefficients: c.map(|x| x / 6.0) }
+        Ok(Self { coefficients: c.map(|x| x / 6.0) })
     }
 
     /// ΔV(h).
@@ -260,7 +265,8 @@ mod tests {
                 displacement.constant[v] = DVec3::new(rng.signed(), rng.signed(), rng.signed()) * 0.05;
             }
         }
-        let cubic = VolumeCubic::new(&mesh, &displacement, DVec3::new(0.1, -0.2, 0.3));
+        let cubic = VolumeCubic::new(&mesh, &displacement, DVec3::new(0.1, -0.2, 0.3)).unwrap();
+        assert!(VolumeCubic::new(&mesh, &AffineDisplacement::none(3), DVec3::ZERO).is_err());
         let v0 = signed_volume(&mesh);
         for h in [0.0, 0.3, -1.2, 2.5] {
             let mut moved = mesh.clone();
