@@ -4,9 +4,9 @@
 //!
 //! Every vertex of 𝒟 moves by Eq. 5.1, `p′_i = p_i + 𝓗_{a_i,s_i}(u_i)·d_i`, built in four steps,
 //! one module each:
-//! 1. [`parametrize`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
+//! 1. [`mod@parametrize`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
 //!    least-squares edge constraints, `u = φ/φ_max`, 𝒟 = {u < 1} outside 𝒞;
-//! 2. [`direction_field`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones push
+//! 2. [`mod@direction_field`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones push
 //!    different ways) blended into the input normals;
 //! 3. [`guide`] (§5.3): signed amplitude a and slope s at ∂𝒞, diffused over 𝒟;
 //! 4. [`profile`] (§5.4.1), [`bulge`] (§5.5) and [`volume`] (§5.4.2, App. C): the per-vertex
@@ -76,7 +76,7 @@ pub struct StageTimings {
 /// How often a documented fallback was taken.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FallbackCounters {
-    /// Vertices of 𝒟 (and ∂𝒞 points) whose blended direction vanished ([`direction_field`]).
+    /// Vertices of 𝒟 (and ∂𝒞 points) whose blended direction vanished ([`mod@direction_field`]).
     pub direction_blend: usize,
     /// 1 if the anisotropic bulge map fell back to uniform ([`bulge`]).
     pub bulge_map: usize,
