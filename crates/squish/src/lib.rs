@@ -12,10 +12,13 @@
 //!   sparse Cholesky with symbolic reuse (thesis App. B);
 //! - [`spatial`]: bounding volume hierarchies, ray and segment queries, exact triangle tests;
 //! - [`contact`]: intersection, mapping, potential contact surface and contact zones (ch. 4);
+//! - [`deform`]: radial parametrization, direction field, amplitude/slope fields, profile curve,
+//!   volume-preserving bulge and bulge maps of one working region (ch. 5);
 //! - [`animation`], [`skinning`]: skeletal animation evaluation and linear blend skinning.
 
 pub mod animation;
 pub mod contact;
+pub mod deform;
 pub mod linalg;
 pub mod mesh;
 pub mod skinning;

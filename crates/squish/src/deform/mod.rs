@@ -1,0 +1,313 @@
+//! The deformation stage (thesis chapter 5, method B): given a working region and its contact
+//! zones, move the zones onto the contact surface 𝒮 and displace the surrounding deformable region
+//! 𝒟 along a smooth direction field with a volume-preserving bulge.
+//!
+//! Every vertex of 𝒟 moves by Eq. 5.1, `p′_i = p_i + 𝓗_{a_i,s_i}(u_i)·d_i`, built in four steps,
+//! one module each:
+//! 1. [`mod@parametrize`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
+//!    least-squares edge constraints, `u = φ/φ_max`, 𝒟 = {u < 1} outside 𝒞;
+//! 2. [`mod@direction_field`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones push
+//!    different ways) blended into the input normals;
+//! 3. [`guide`] (§5.3): signed amplitude a and slope s at ∂𝒞, diffused over 𝒟;
+//! 4. [`profile`] (§5.4.1), [`bulge`] (§5.5) and [`volume`] (§5.4.2, App. C): the per-vertex
+//!    B-spline profile, the bulge map η and the bulge height h_v that preserves the volume.
+//!
+//! Contact-zone vertices go to their targets p′_i on 𝒮; every other vertex outside 𝒟 is copied
+//! bit for bit. The working region may be part of a larger closed object (a [`crate::SubMesh`]):
+//! faces outside it do not move, so the region's volume change is the object's — provided 𝒟 stays
+//! inside the region (vertices of its outer boundary are shared with outside faces; the stats
+//! count those that moved). [`RegionSolver`] caches the region's pattern, symbolic analysis and numeric
+//! factorizations across frames (three refactorizations per frame: heat, Poisson — reused by the
+//! multi-zone direction diffusion — and the guide diffusion).
+//!
+//! Entry point: [`deform_region`].
+
+pub mod bulge;
+pub mod contact_set;
+pub mod direction_field;
+mod error;
+pub mod guide;
+pub mod parametrize;
+mod params;
+pub mod profile;
+mod solver;
+pub mod volume;
+
+#[cfg(test)]
+mod test_support;
+#[cfg(test)]
+mod tests;
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+
+pub use contact_set::ContactSet;
+pub use error::DeformError;
+pub use params::{DeformParams, DirectionFieldMethod};
+pub use profile::{ProfileShape, Wrinkles};
+pub use solver::RegionSolver;
+
+use crate::contact::ContactZone;
+use crate::mesh::{Topology, TriMesh, vertex_normals};
+use bulge::{AnisotropyParams, bulge_map};
+use direction_field::{DirectionParams, direction_field};
+use guide::{GuideParams, guide_fields};
+use parametrize::{ParametrizeParams, parametrize};
+use volume::{AffineDisplacement, VolumeCubic, solve_bulge_height};
+
+/// Wall-clock time of each stage of [`deform_region`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StageTimings {
+    /// Contact set, cut weights, heat step and Poisson solve (§5.1).
+    pub parametrization: Duration,
+    /// Normals, mapping-field diffusion and blend (§5.2).
+    pub directions: Duration,
+    /// Amplitude and slope estimation and diffusion (§5.3).
+    pub guide: Duration,
+    /// Bulge map, profiles, volume cubic and final positions (§5.4–5.5).
+    pub deformation: Duration,
+    /// Of the above: time spent assembling and numerically factorizing the three systems.
+    pub factorization: Duration,
+    /// The whole call.
+    pub total: Duration,
+}
+
+/// How often a documented fallback was taken.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct FallbackCounters {
+    /// Vertices of 𝒟 (and ∂𝒞 points) whose blended direction vanished ([`mod@direction_field`]).
+    pub direction_blend: usize,
+    /// 1 if the anisotropic bulge map fell back to uniform ([`bulge`]).
+    pub bulge_map: usize,
+    /// 1 if the volume cubic had no non-negative root ([`volume`]).
+    pub volume_without_root: usize,
+    /// Vertices next to ∂𝒞 whose slope division was clamped at u = 10⁻⁶ ([`guide`]).
+    pub clamped_slopes: usize,
+}
+
+/// Figures of one call of [`deform_region`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DeformStats {
+    /// h_v: solved for volume preservation, or the user's `bulge_height`.
+    pub bulge_height: f64,
+    /// γ·h_v, the height actually applied.
+    pub applied_bulge_height: f64,
+    /// True if h_v preserves the volume exactly (a root of the cubic); false for the no-root
+    /// fallback and when volume preservation is off.
+    pub volume_exact: bool,
+    /// ΔV(h_v) at γ = 1 (0 up to round-off when `volume_exact`).
+    pub volume_residual: f64,
+    /// Signed volume of the region before (relative to its centroid; the object's volume when the
+    /// region is a closed mesh).
+    pub volume_before: f64,
+    /// Signed volume after, same reference point.
+    pub volume_after: f64,
+    /// |𝒟|.
+    pub num_deformable: usize,
+    /// |𝒞|.
+    pub num_contact: usize,
+    /// Boundary points of ∂𝒞.
+    pub num_boundary_points: usize,
+    /// Vertices on the region's outer boundary that moved (in 𝒞 or 𝒟). Should be 0: when the
+    /// region is part of a larger mesh, these vertices are shared with faces outside the region,
+    /// which then deform without being accounted for in the volume; pick a larger working region.
+    pub outer_boundary_moved: usize,
+    /// Numeric factorizations run by this call.
+    pub numeric_factorizations: usize,
+    /// Per-stage timings.
+    pub timings: StageTimings,
+    /// Fallback counters.
+    pub fallbacks: FallbackCounters,
+}
+
+/// The deformed region.
+#[derive(Clone, Debug)]
+pub struct RegionDeformation {
+    /// New positions: targets on 𝒮 for 𝒞, Eq. 5.1 for 𝒟, the input (bit-identical) elsewhere.
+    pub positions: Vec<DVec3>,
+    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable).
+    pub u: Vec<f64>,
+    /// The deformable region 𝒟.
+    pub deformable: Vec<bool>,
+    /// The contact region 𝒞 (union of the zones).
+    pub contact: Vec<bool>,
+    /// The displacement direction d (unit on 𝒟, the input normal elsewhere).
+    pub directions: Vec<DVec3>,
+    /// 𝓗_i(u_i) on 𝒟 (0 elsewhere): `p′_i = p_i + heights[i]·directions[i]`.
+    pub heights: Vec<f64>,
+    /// The bulge map η used (1 outside 𝒟).
+    pub bulge_map: Vec<f64>,
+    /// Figures and timings.
+    pub stats: DeformStats,
+}
+
+/// Signed volume of `positions` on the region's faces relative to `reference`.
+fn volume_about(triangles: &[[u32; 3]], positions: &[DVec3], reference: DVec3) -> f64 {
+    let mut sum = 0.0;
+    for tri in triangles {
+        let [a, b, c] = tri.map(|v| positions[v as usize] - reference);
+        sum += a.dot(b.cross(c));
+    }
+    sum / 6.0
+}
+
+/// Deforms one working region with all its contact zones (thesis ch. 5; see the module doc).
+///
+/// `mesh` is the region at this frame (positions may change every frame, connectivity may not),
+/// `topology` its connectivity, `solver` the region's cache (build it once with
+/// [`RegionSolver::new`]), `zones` its contact zones from chapter 4 (possibly none or empty).
+/// Deterministic: the same input gives bit-identical output, with a fresh or a reused solver.
+pub fn deform_region(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    zones: &[ContactZone],
+    params: &DeformParams,
+) -> Result<RegionDeformation, DeformError> {
+    let start = Instant::now();
+    params.validate()?;
+    solver.check_region(mesh, topology)?;
+    let n = mesh.num_vertices();
+    if let Some(map) = params.bulge_map.as_ref().filter(|map| map.len() != n) {
+        return Err(DeformError::BulgeMapLength { expected: n, actual: map.len() });
+    }
+    if let Some((vertex, p)) = mesh.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+        return Err(DeformError::NonFinitePosition { vertex, position: p.to_array() });
+    }
+    let factorizations_before = solver.numeric_factorizations();
+    let factorization_time_before = solver.factorization_time();
+    let mut timings = StageTimings::default();
+    let mut fallbacks = FallbackCounters::default();
+
+    // §5.1: parametrization.
+    let stage = Instant::now();
+    let contact = ContactSet::new(mesh, topology, zones)?;
+    let parametrize_params = ParametrizeParams {
+        extent: params.extent,
+        heat_time_factor: params.heat_time_factor,
+        constraint_weight_factor: params.constraint_weight_factor,
+    };
+    let parametrization = parametrize(mesh, topology, solver, &contact, &parametrize_params)?;
+    timings.parametrization = stage.elapsed();
+
+    // §5.2: directions.
+    let stage = Instant::now();
+    let normals = vertex_normals(mesh);
+    let direction_params =
+        DirectionParams { method: params.direction_method, normalize_diffused: params.normalize_diffused };
+    let field = direction_field(mesh, solver, &contact, &parametrization, &normals, &direction_params)?;
+    fallbacks.direction_blend = field.fallbacks;
+    timings.directions = stage.elapsed();
+
+    // §5.3: amplitude and slope.
+    let stage = Instant::now();
+    let guide = guide_fields(
+        mesh,
+        topology,
+        solver,
+        &contact,
+        &parametrization,
+        &field,
+        &GuideParams { constraint_weight_factor: params.constraint_weight_factor },
+    )?;
+    fallbacks.clamped_slopes = guide.clamped_slopes;
+    timings.guide = stage.elapsed();
+
+    // §5.4–5.5: bulge map, profiles, volume, positions.
+    let stage = Instant::now();
+    let anisotropy = params
+        .anisotropic_bulge
+        .then_some(AnisotropyParams { exponent: params.anisotropy_exponent, offset: params.anisotropy_offset });
+    let eta = bulge_map(
+        mesh,
+        zones,
+        &contact,
+        &parametrization.deformable,
+        params.bulge_map.as_deref(),
+        anisotropy.as_ref(),
+        params.extent,
+    );
+    fallbacks.bulge_map = usize::from(eta.fallback);
+
+    let mut displacement = AffineDisplacement::none(n);
+    let mut fixed_heights = vec![0.0; n];
+    let mut bulge_weights = vec![0.0; n];
+    for v in 0..n {
+        let zone = contact.vertex_zone[v];
+        if zone != contact_set::NO_ZONE {
+            displacement.moved[v] = true;
+            displacement.constant[v] = zones[zone as usize].targets[v] - mesh.positions[v];
+        } else if parametrization.deformable[v] {
+            let sample = profile::sample(
+                &params.profile,
+                &params.wrinkles,
+                guide.amplitude[v],
+                guide.slope[v],
+                parametrization.u[v],
+            );
+            let d = field.directions[v];
+            displacement.moved[v] = true;
+            displacement.linear[v] = d * (eta.weights[v] * sample.bulge_weight);
+            displacement.constant[v] = d * sample.fixed;
+            fixed_heights[v] = sample.fixed;
+            bulge_weights[v] = eta.weights[v] * sample.bulge_weight;
+        }
+    }
+    let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / n.max(1) as f64;
+    let cubic = VolumeCubic::new(mesh, &displacement, reference)?;
+    let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
+        let solution = solve_bulge_height(&cubic, params.extent);
+        fallbacks.volume_without_root = usize::from(!solution.exact);
+        (solution.height, solution.exact, solution.residual)
+    } else {
+        (params.bulge_height, false, cubic.eval(params.bulge_height))
+    };
+    let applied = params.bulge * bulge_height;
+    let mut positions = mesh.positions.clone();
+    let mut heights = vec![0.0; n];
+    for v in 0..n {
+        if displacement.moved[v] {
+            positions[v] = mesh.positions[v] + applied * displacement.linear[v] + displacement.constant[v];
+            if parametrization.deformable[v] {
+                heights[v] = fixed_heights[v] + applied * bulge_weights[v];
+            }
+        }
+    }
+    let volume_before = volume_about(&mesh.triangles, &mesh.positions, reference);
+    let volume_after = volume_about(&mesh.triangles, &positions, reference);
+    timings.deformation = stage.elapsed();
+    timings.factorization = solver.factorization_time().saturating_sub(factorization_time_before);
+    timings.total = start.elapsed();
+
+    let stats = DeformStats {
+        bulge_height,
+        applied_bulge_height: applied,
+        volume_exact,
+        volume_residual,
+        volume_before,
+        volume_after,
+        num_deformable: parametrization.num_deformable(),
+        num_contact: contact.num_inside(),
+        num_boundary_points: contact.boundary.len(),
+        outer_boundary_moved: solver
+            .outer_boundary()
+            .iter()
+            .zip(&displacement.moved)
+            .filter(|(on_boundary, moved)| **on_boundary && **moved)
+            .count(),
+        numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
+        timings,
+        fallbacks,
+    };
+    Ok(RegionDeformation {
+        positions,
+        u: parametrization.u,
+        deformable: parametrization.deformable,
+        contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
+        directions: field.directions,
+        heights,
+        bulge_map: eta.weights,
+        stats,
+    })
+}

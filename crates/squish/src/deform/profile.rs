@@ -1,0 +1,358 @@
+//! The displacement profile 𝓗 (thesis §5.4.1): an open uniform cubic 2D B-spline
+//! `f(t) = Σ_k v_k N_k(t)`, `t ∈ [0, 1]`, knots `(0, 0, 0, 0, 1/3, 2/3, 1, 1, 1, 1)`, six control
+//! points per vertex, evaluated as a function of the radial parameter `u` by
+//! `𝓗(u) = f₂(f₁⁻¹(u))`.
+//!
+//! Control points (decisions):
+//! - `v0 = (0, −a)`: `𝓗(0) = −a`. Amplitudes are signed (see [`super::guide`]): a vertex at the
+//!   contact boundary moves by `−a·d`.
+//! - `v1` on the ellipse arc of THESIS-NOTES item 5 (the table version, not the algorithm box):
+//!   centre `(0, −a)`, semi-axes `0.2` along x and `0.4·|a|` along y, on the line of slope `s`
+//!   through `v0`: `x1 = 0.2·|a| / √(a² + s²/4)` (0.2 when `a = s = 0`), `y1 = −a + s·x1`. The
+//!   curve's tangent at `t = 0` is `v1 − v0`, so `𝓗′(0) = s` exactly (world units per unit of u)
+//!   for either sign of `a`, as long as `a ≠ 0`. When `a = 0` and `s ≠ 0`, `v1 = v0`: the slope
+//!   handle vanishes with the amplitude (the ellipse has no height), and the initial slope is that
+//!   of `v2 − v0`. This is the thesis' design (the slope is expressed relative to the amplitude);
+//!   it is continuous in `(a, s)`.
+//! - `v2 = (x2, γ·η·h_v)`: the bulge ordinate, set by the volume stage.
+//! - `v3 = (x3, 0)`, `v4 = (x4, 0)`, `v5 = (1, 0)`: three aligned points give `𝓗(1) = 𝓗′(1) =
+//!   𝓗″(1) = 0`, a C² junction with the undeformed surface at ∂𝒟.
+//!
+//! Abscissas `(x2, x3, x4)` default to `(1/3, 5/6, 11/12)` and must satisfy
+//! `0.2 < x2 < x3 < x4 < 1`: with `0 ≤ x1 ≤ 0.2` the abscissas of the control polygon increase, so
+//! `f₁` is increasing (a B-spline's derivative is a spline of the control-point differences, all
+//! non-negative here) and 𝓗 is a function of u.
+//!
+//! Inversion of `f₁`: the secant method safeguarded by bisection on a bracket (f₁ is monotone),
+//! to `|f₁(t) − u| ≤ 1e-14`.
+//!
+//! Optional wrinkles (Figs. 7.18–7.19, "adding a sinusoid to the profile curve"): `𝓗(u) +=
+//! A·sin(2π·f·u)·64·(u(1 − u))³`. The window `64(u(1 − u))³` peaks at 1 for `u = ½` and has a
+//! triple zero at both ends, so the modulation vanishes with zero slope at `u = 0` (the contact
+//! boundary keeps its amplitude and slope) and with zero slope and curvature at `u = 1` (the C²
+//! junction at ∂𝒟 is kept). `A` is in world units, `f` in cycles over `[0, 1]`.
+
+use super::DeformError;
+
+/// The knot vector of the profile spline.
+const KNOTS: [f64; 10] = [0.0, 0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0, 1.0];
+
+/// Largest abscissa of `v1` (reached when the slope vanishes): `x2` must exceed it.
+pub const MAX_SECOND_ABSCISSA: f64 = 0.2;
+
+/// Tolerance of the inversion of `f₁`.
+const INVERSION_TOLERANCE: f64 = 1e-14;
+
+/// User-editable abscissas of the control points `v2`, `v3`, `v4` (thesis Fig. 5.4, Fig. 7.18).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct ProfileShape {
+    /// Abscissa of `v2`, the bulge control point. Default 1/3.
+    pub x2: f64,
+    /// Abscissa of `v3`. Default 5/6.
+    pub x3: f64,
+    /// Abscissa of `v4`. Default 11/12.
+    pub x4: f64,
+}
+
+impl Default for ProfileShape {
+    fn default() -> Self {
+        Self { x2: 1.0 / 3.0, x3: 5.0 / 6.0, x4: 11.0 / 12.0 }
+    }
+}
+
+impl ProfileShape {
+    /// Checks `0.2 < x2 < x3 < x4 < 1` (and finiteness).
+    pub fn validate(&self) -> Result<(), DeformError> {
+        let Self { x2, x3, x4 } = *self;
+        let ordered = MAX_SECOND_ABSCISSA < x2 && x2 < x3 && x3 < x4 && x4 < 1.0;
+        if ordered { Ok(()) } else { Err(DeformError::InvalidProfile { x2, x3, x4 }) }
+    }
+}
+
+/// Procedural sinusoidal modulation of the profile (wrinkles, thesis Figs. 7.18–7.19).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct Wrinkles {
+    /// Amplitude `A` in world units (0 = no wrinkles, the default).
+    pub amplitude: f64,
+    /// Frequency `f` in cycles over the deformable region's radial range `u ∈ [0, 1]`.
+    pub frequency: f64,
+}
+
+impl Wrinkles {
+    /// The modulation `A·sin(2π·f·u)·64·(u(1 − u))³` added to 𝓗(u) (0 outside `[0, 1]`).
+    #[inline]
+    pub fn at(&self, u: f64) -> f64 {
+        if self.amplitude == 0.0 || !(0.0..=1.0).contains(&u) {
+            return 0.0;
+        }
+        let window = u * (1.0 - u);
+        self.amplitude * (std::f64::consts::TAU * self.frequency * u).sin() * 64.0 * window * window * window
+    }
+}
+
+/// The six cubic B-spline basis functions `N_k(t)` of the profile's knot vector at `t` (clamped
+/// to `[0, 1]`). They are non-negative and sum to 1.
+pub fn basis(t: f64) -> [f64; 6] {
+    let t = t.clamp(0.0, 1.0);
+    // Knot span [KNOTS[k], KNOTS[k + 1]) holding t, k ∈ {3, 4, 5}; t = 1 belongs to the last span.
+    let span = if t < KNOTS[4] {
+        3
+    } else if t < KNOTS[5] {
+        4
+    } else {
+        5
+    };
+    // Cox–de Boor triangle for the four basis functions that are nonzero on the span.
+    let mut n = [0.0f64; 4];
+    let mut left = [0.0f64; 4];
+    let mut right = [0.0f64; 4];
+    n[0] = 1.0;
+    for j in 1..=3 {
+        left[j] = t - KNOTS[span + 1 - j];
+        right[j] = KNOTS[span + j] - t;
+        let mut saved = 0.0;
+        for r in 0..j {
+            let denominator = right[r + 1] + left[j - r];
+            let temp = if denominator == 0.0 { 0.0 } else { n[r] / denominator };
+            n[r] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        n[j] = saved;
+    }
+    let mut out = [0.0; 6];
+    out[span - 3..=span].copy_from_slice(&n);
+    out
+}
+
+/// The abscissa of `v1` for amplitude `a` and slope `s`: `0.2·|a| / √(a² + s²/4)`, 0.2 when both
+/// vanish (see the module doc).
+#[inline]
+pub fn second_abscissa(amplitude: f64, slope: f64) -> f64 {
+    let norm = amplitude.hypot(0.5 * slope);
+    if norm == 0.0 || !norm.is_finite() {
+        // a = s = 0: a flat start; an infinite slope: a vertical start.
+        return if norm == 0.0 { MAX_SECOND_ABSCISSA } else { 0.0 };
+    }
+    MAX_SECOND_ABSCISSA * amplitude.abs() / norm
+}
+
+/// One vertex's profile curve: abscissas and ordinates of its six control points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile {
+    /// Abscissas `x_0 … x_5`.
+    pub x: [f64; 6],
+    /// Ordinates `y_0 … y_5` (`y_2` is the bulge ordinate).
+    pub y: [f64; 6],
+}
+
+impl Profile {
+    /// The profile with amplitude `a` (𝓗(0) = −a), slope `s` (𝓗′(0) = s when a ≠ 0) and bulge
+    /// ordinate `bulge` (= γ·η·h_v) for the given abscissas.
+    pub fn new(shape: &ProfileShape, amplitude: f64, slope: f64, bulge: f64) -> Self {
+        let x1 = second_abscissa(amplitude, slope);
+        Self {
+            x: [0.0, x1, shape.x2, shape.x3, shape.x4, 1.0],
+            y: [-amplitude, -amplitude + slope * x1, bulge, 0.0, 0.0, 0.0],
+        }
+    }
+
+    /// The curve point `f(t) = (f₁(t), f₂(t))`.
+    pub fn point(&self, t: f64) -> (f64, f64) {
+        let n = basis(t);
+        let mut p = (0.0, 0.0);
+        for ((x, y), n) in self.x.iter().zip(&self.y).zip(&n) {
+            p.0 += x * n;
+            p.1 += y * n;
+        }
+        p
+    }
+
+    /// `f₁(t)`.
+    #[inline]
+    pub fn abscissa(&self, t: f64) -> f64 {
+        let n = basis(t);
+        (0..6).map(|k| self.x[k] * n[k]).sum()
+    }
+
+    /// `t = f₁⁻¹(u)` for `u ∈ [0, 1]` (clamped): secant iterations kept inside a bracket, with a
+    /// bisection whenever the secant step leaves the bracket or stops shrinking it.
+    pub fn parameter_at(&self, u: f64) -> f64 {
+        if u.is_nan() || u <= 0.0 {
+            return 0.0;
+        }
+        if u >= 1.0 {
+            return 1.0;
+        }
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        // The two latest iterates of the secant method and their residuals f₁(t) − u.
+        let (mut t0, mut r0) = (lo, -u);
+        let (mut t1, mut r1) = (hi, 1.0 - u);
+        let mut width = hi - lo;
+        for iteration in 0..200 {
+            let secant = if r1 != r0 { t1 - r1 * (t1 - t0) / (r1 - r0) } else { f64::NAN };
+            // Bisect every third iteration unless the bracket halves: guarantees convergence even
+            // when the secant creeps from one side.
+            let t = if secant > lo && secant < hi && (iteration % 3 != 2 || hi - lo < 0.5 * width) {
+                secant
+            } else {
+                width = hi - lo;
+                0.5 * (lo + hi)
+            };
+            let r = self.abscissa(t) - u;
+            if r.abs() <= INVERSION_TOLERANCE {
+                return t;
+            }
+            if r < 0.0 {
+                lo = t;
+            } else {
+                hi = t;
+            }
+            if hi - lo <= f64::EPSILON * hi {
+                return 0.5 * (lo + hi);
+            }
+            (t0, r0, t1, r1) = (t1, r1, t, r);
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// 𝓗(u) = f₂(f₁⁻¹(u)) (without wrinkles); 0 for `u ≥ 1`.
+    pub fn height(&self, u: f64) -> f64 {
+        self.point(self.parameter_at(u)).1
+    }
+}
+
+/// The profile at one vertex split into what the volume stage needs: 𝓗(u) = `bulge_weight`·y₂ +
+/// `fixed`, affine in the bulge ordinate `y₂` (thesis Eq. 5.5, App. C).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProfileSample {
+    /// `N₂(t)` at `t = f₁⁻¹(u)`: the weight of the bulge ordinate.
+    pub bulge_weight: f64,
+    /// `Σ_{k≠2} y_k N_k(t)` plus the wrinkle modulation.
+    pub fixed: f64,
+}
+
+/// Samples the profile of a vertex with amplitude `a`, slope `s` at parameter `u`.
+pub fn sample(shape: &ProfileShape, wrinkles: &Wrinkles, amplitude: f64, slope: f64, u: f64) -> ProfileSample {
+    let profile = Profile::new(shape, amplitude, slope, 0.0);
+    let n = basis(profile.parameter_at(u));
+    let fixed = profile.y[0] * n[0] + profile.y[1] * n[1] + wrinkles.at(u);
+    ProfileSample { bulge_weight: n[2], fixed }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn profile(a: f64, s: f64, bulge: f64) -> Profile {
+        Profile::new(&ProfileShape::default(), a, s, bulge)
+    }
+
+    #[test]
+    fn basis_is_a_partition_of_unity_and_interpolates_the_ends() {
+        for k in 0..=1000 {
+            let t = k as f64 / 1000.0;
+            let n = basis(t);
+            assert!(n.iter().all(|&x| x >= -1e-15), "t = {t}: {n:?}");
+            assert!((n.iter().sum::<f64>() - 1.0).abs() < 1e-14, "t = {t}");
+        }
+        assert_eq!(basis(0.0), [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(basis(1.0), [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        // Continuity across the interior knots.
+        for knot in [1.0 / 3.0, 2.0 / 3.0] {
+            let (a, b) = (basis(knot - 1e-12), basis(knot + 1e-12));
+            for k in 0..6 {
+                assert!((a[k] - b[k]).abs() < 1e-10);
+            }
+        }
+    }
+
+    #[test]
+    fn profile_starts_at_minus_the_amplitude_with_the_requested_slope() {
+        // Finite differences of 𝓗 at u = 0, both signs of a and s, steep and flat slopes.
+        for &(a, s) in &[(0.3, 0.5), (0.3, -0.5), (-0.2, 0.7), (-0.2, -0.1), (0.05, 4.0), (1.0, 0.0), (0.01, -2.0)] {
+            for bulge in [0.0, 0.4] {
+                let p = profile(a, s, bulge);
+                assert_eq!(p.height(0.0), -a);
+                let du = 1e-9;
+                let slope = (p.height(du) - p.height(0.0)) / du;
+                // The second-order term of 𝓗 at 0 makes the one-sided difference O(du · 𝓗″).
+                assert!((slope - s).abs() < 2e-5 * (1.0 + s.abs()), "a = {a}, s = {s}: slope {slope}");
+            }
+        }
+    }
+
+    #[test]
+    fn profile_joins_the_surface_with_zero_value_slope_and_curvature() {
+        for &(a, s, bulge) in &[(0.3, 0.5, 0.2), (-0.2, -1.0, 0.5), (0.0, 0.0, 1.0)] {
+            let p = profile(a, s, bulge);
+            assert_eq!(p.height(1.0), 0.0);
+            // 𝓗(1 − δ) = O(δ³): value, slope and curvature vanish at u = 1.
+            for delta in [1e-2, 5e-3, 2.5e-3] {
+                let h = p.height(1.0 - delta);
+                assert!(h.abs() < 60.0 * bulge.abs().max(1e-3) * delta * delta * delta, "δ = {delta}: {h}");
+            }
+            let (h1, h2) = (p.height(1.0 - 0.01), p.height(1.0 - 0.005));
+            // Cubic decay: halving δ divides 𝓗 by about 8.
+            if h1.abs() > 1e-12 {
+                let ratio = h1 / h2;
+                assert!((ratio - 8.0).abs() < 0.5, "decay ratio {ratio}");
+            }
+        }
+    }
+
+    #[test]
+    fn abscissa_is_increasing_and_inversion_is_accurate() {
+        for &(a, s) in &[(0.3, 0.5), (0.0, 3.0), (0.0, 0.0), (1e-6, 1e3), (-0.4, 0.2)] {
+            let p = profile(a, s, 0.3);
+            let mut previous = -1.0;
+            for k in 0..=2000 {
+                let x = p.abscissa(k as f64 / 2000.0);
+                assert!(x >= previous, "f1 must be non-decreasing (a = {a}, s = {s})");
+                previous = x;
+            }
+            for k in 0..=997 {
+                let u = k as f64 / 997.0;
+                let t = p.parameter_at(u);
+                assert!((p.abscissa(t) - u).abs() <= 1e-13, "a = {a}, s = {s}, u = {u}");
+            }
+        }
+    }
+
+    #[test]
+    fn shape_validation_rejects_unordered_abscissas() {
+        assert!(ProfileShape::default().validate().is_ok());
+        for (x2, x3, x4) in [(0.2, 0.5, 0.9), (0.5, 0.4, 0.9), (0.3, 0.6, 1.0), (f64::NAN, 0.5, 0.9)] {
+            let err = ProfileShape { x2, x3, x4 }.validate().unwrap_err();
+            assert!(err.to_string().contains("0.2 < x2 < x3 < x4 < 1"), "{err}");
+        }
+    }
+
+    #[test]
+    fn wrinkles_vanish_with_their_derivatives_at_the_ends() {
+        let w = Wrinkles { amplitude: 0.1, frequency: 3.5 };
+        assert_eq!(w.at(0.0), 0.0);
+        assert_eq!(w.at(1.0), 0.0);
+        let d = 1e-3;
+        // Triple zeros: w(δ) = O(δ³) at both ends.
+        assert!(w.at(d).abs() < 64.0 * 0.1 * 25.0 * d.powi(4) + 1e-15);
+        assert!(w.at(1.0 - d).abs() < 64.0 * 0.1 * d.powi(3) + 1e-15);
+        assert!((w.at(0.5) - 0.1 * (std::f64::consts::PI * 3.5).sin()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn samples_are_affine_in_the_bulge_ordinate() {
+        let shape = ProfileShape::default();
+        let wrinkles = Wrinkles { amplitude: 0.02, frequency: 2.0 };
+        for &(a, s, u) in &[(0.3, 0.5, 0.1), (-0.1, 1.0, 0.5), (0.0, 0.4, 0.8)] {
+            let sample = sample(&shape, &wrinkles, a, s, u);
+            for bulge in [0.0, 0.7, -0.3] {
+                let direct = Profile::new(&shape, a, s, bulge).height(u) + wrinkles.at(u);
+                let affine = sample.fixed + bulge * sample.bulge_weight;
+                assert!((direct - affine).abs() < 1e-14, "{direct} vs {affine}");
+            }
+        }
+    }
+}

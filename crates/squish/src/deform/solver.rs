@@ -1,0 +1,428 @@
+//! The per-region solver cache (thesis ch. 7 §5.2: the factorizations dominate a frame).
+//!
+//! A [`RegionSolver`] is built once per working region (its connectivity) and reused by every
+//! frame. It owns the region's [`SparsePattern`] and its one symbolic Cholesky analysis, and three
+//! numeric factorizations that are refactorized in place each frame (no symbolic analysis, no
+//! allocation of `L` after the first frame):
+//! - **heat**: `M_w + tK_w + λCᵀC + λ·(outer-boundary rows)` (§5.1 step 1);
+//! - **Poisson**: `K_w + λCᵀC` (§5.1 step 3). With the same ∂𝒞 constraint rows, this is exactly
+//!   the matrix of the multi-contact direction diffusion of §5.2.2 (only the right-hand side
+//!   differs), so that diffusion reuses this factorization as the thesis says ("reusing the matrix
+//!   factorized for solving the second Poisson problem");
+//! - **guide**: `K_𝒟 + λ·diag(ω)` for the amplitude and slope diffusions of §5.3, which share one
+//!   factorization (two right-hand sides). Its vertex constraints have individual weights ω (see
+//!   [`super::guide`]), which [`ConstrainedSolver`] does not offer, so this system is assembled
+//!   here on the same pattern and symbolic analysis.
+//!
+//! The Poisson factorization carries the *generation* of the parametrization that made it, so a
+//! later stage cannot silently use the factorization of another frame.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::DeformError;
+use crate::linalg::{
+    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NEGLIGIBLE_FACE_WEIGHT,
+    NumericFactor, Operator, SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
+};
+use crate::mesh::{Topology, TriMesh};
+
+/// The cached linear systems of one working region; see the module doc.
+#[derive(Debug)]
+pub struct RegionSolver {
+    pattern: Arc<SparsePattern>,
+    symbolic: Arc<SymbolicFactor>,
+    outer_boundary: Vec<bool>,
+    heat_operator: Option<Operator>,
+    heat: Option<ConstrainedSolver>,
+    poisson_operator: Option<Operator>,
+    poisson: Option<ConstrainedSolver>,
+    guide_operator: Option<Operator>,
+    guide: Option<WeightedSystem>,
+    generation: u64,
+    poisson_generation: u64,
+    symbolic_analyses: usize,
+    numeric_factorizations: usize,
+    factorization_time: Duration,
+}
+
+impl RegionSolver {
+    /// Builds the pattern and runs the symbolic analysis of the region `mesh` (once per region).
+    pub fn new(mesh: &TriMesh, topology: &Topology) -> Result<Self, DeformError> {
+        check_topology(mesh, topology)?;
+        let pattern = SparsePattern::shared(mesh, topology).map_err(DeformError::solve("symbolic analysis"))?;
+        let symbolic = SymbolicFactor::analyze(&pattern).map_err(DeformError::solve("symbolic analysis"))?;
+        Ok(Self {
+            pattern,
+            symbolic,
+            outer_boundary: topology.boundary_vertices(),
+            heat_operator: None,
+            heat: None,
+            poisson_operator: None,
+            poisson: None,
+            guide_operator: None,
+            guide: None,
+            generation: 0,
+            poisson_generation: 0,
+            symbolic_analyses: 1,
+            numeric_factorizations: 0,
+            factorization_time: Duration::ZERO,
+        })
+    }
+
+    /// Number of symbolic analyses run by this solver (1: the one of [`Self::new`]).
+    pub fn symbolic_analyses(&self) -> usize {
+        self.symbolic_analyses
+    }
+
+    /// Number of numeric factorizations run so far (three per frame with a contact).
+    pub fn numeric_factorizations(&self) -> usize {
+        self.numeric_factorizations
+    }
+
+    /// Total time spent assembling constraints into and numerically factorizing the systems,
+    /// summed over the systems (the heat and Poisson factorizations run concurrently, so this can
+    /// exceed the wall-clock time of a frame's parametrization).
+    pub fn factorization_time(&self) -> Duration {
+        self.factorization_time
+    }
+
+    /// Number of vertices of the region.
+    pub fn num_vertices(&self) -> usize {
+        self.pattern.num_vertices()
+    }
+
+    /// The region's vertices on its outer boundary (an open mesh or a region cut from a larger
+    /// one), fixed by its connectivity.
+    pub fn outer_boundary(&self) -> &[bool] {
+        &self.outer_boundary
+    }
+
+    /// Checks that `mesh` and `topology` are the region this solver was built for.
+    pub fn check_region(&self, mesh: &TriMesh, topology: &Topology) -> Result<(), DeformError> {
+        check_topology(mesh, topology)?;
+        if mesh.num_vertices() != self.pattern.num_vertices() || mesh.triangles.as_slice() != self.pattern.triangles() {
+            return Err(DeformError::RegionMismatch {
+                vertices: mesh.num_vertices(),
+                faces: mesh.num_triangles(),
+                solver_vertices: self.pattern.num_vertices(),
+                solver_faces: self.pattern.num_faces(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Assembles and factorizes the heat step `M_w + tK_w + λCᵀC` (with `heat_constraints`) and
+    /// the Poisson system `K_w + λCᵀC` (with `poisson_constraints`) for a new parametrization.
+    /// Neither matrix depends on the other's solution, so the two factorizations run concurrently
+    /// (`rayon::join`; each is sequential and deterministic). Returns the new generation, to be
+    /// checked by [`Self::poisson`].
+    pub(crate) fn factorize_distance_systems(
+        &mut self,
+        mesh: &TriMesh,
+        face_weights: &[f64],
+        time: f64,
+        heat_constraints: &[EdgeConstraint],
+        poisson_constraints: &[EdgeConstraint],
+        params: &ConstraintParams,
+    ) -> Result<u64, DeformError> {
+        self.generation += 1;
+        self.poisson_generation = 0;
+        let pattern = Arc::clone(&self.pattern);
+        let heat_operator = assemble(&mut self.heat_operator, mesh, &pattern, face_weights, 1.0, time)
+            .map_err(DeformError::solve("heat"))?;
+        let poisson_operator = assemble(&mut self.poisson_operator, mesh, &pattern, face_weights, 0.0, 1.0)
+            .map_err(DeformError::solve("Poisson"))?;
+        let symbolic = &self.symbolic;
+        let (heat, poisson) = (&mut self.heat, &mut self.poisson);
+        let timed = |slot: &mut Option<ConstrainedSolver>, operator: &Operator, constraints: &[EdgeConstraint]| {
+            let start = Instant::now();
+            let result = refactorize(slot, symbolic, operator, constraints, params);
+            (result, start.elapsed())
+        };
+        let ((heat_result, heat_time), (poisson_result, poisson_time)) = rayon::join(
+            || timed(heat, heat_operator, heat_constraints),
+            || timed(poisson, poisson_operator, poisson_constraints),
+        );
+        self.factorization_time += heat_time + poisson_time;
+        self.numeric_factorizations += 2;
+        heat_result.map_err(DeformError::solve("heat"))?;
+        poisson_result.map_err(DeformError::solve("Poisson"))?;
+        self.poisson_generation = self.generation;
+        Ok(self.generation)
+    }
+
+    /// The heat-step factorization of the last [`Self::factorize_distance_systems`].
+    pub(crate) fn heat(&mut self, generation: u64) -> Result<&mut ConstrainedSolver, DeformError> {
+        if generation == 0 || generation != self.poisson_generation {
+            return Err(DeformError::StaleFactorization { stage: "heat" });
+        }
+        self.heat.as_mut().ok_or(DeformError::StaleFactorization { stage: "heat" })
+    }
+
+    /// The Poisson factorization of parametrization `generation`, for the direction diffusion.
+    pub(crate) fn poisson(
+        &mut self,
+        generation: u64,
+        stage: &'static str,
+    ) -> Result<&mut ConstrainedSolver, DeformError> {
+        if generation == 0 || generation != self.poisson_generation {
+            return Err(DeformError::StaleFactorization { stage });
+        }
+        self.poisson.as_mut().ok_or(DeformError::StaleFactorization { stage })
+    }
+
+    /// Assembles and factorizes the guide system `K_𝒟 + λ·diag(ω)` (`weighted`: `(vertex, ω)`
+    /// pairs; the stiffness weights `face_weights` are the area fractions inside 𝒟).
+    pub(crate) fn factorize_guide(
+        &mut self,
+        mesh: &TriMesh,
+        face_weights: &[f64],
+        weighted: &[(u32, f64)],
+        lambda: f64,
+    ) -> Result<&mut WeightedSystem, DeformError> {
+        let pattern = Arc::clone(&self.pattern);
+        let operator = assemble(&mut self.guide_operator, mesh, &pattern, face_weights, 0.0, 1.0)
+            .map_err(DeformError::solve("guide"))?;
+        let system = match &mut self.guide {
+            Some(system) => system,
+            None => self.guide.insert(WeightedSystem::new(&self.symbolic).map_err(DeformError::solve("guide"))?),
+        };
+        let start = Instant::now();
+        let result = system.factorize(operator, weighted, lambda);
+        self.factorization_time += start.elapsed();
+        self.numeric_factorizations += 1;
+        result.map_err(DeformError::solve("guide"))?;
+        self.guide.as_mut().ok_or(DeformError::Solve { stage: "guide", source: SolveError::NotFactorized })
+    }
+}
+
+fn check_topology(mesh: &TriMesh, topology: &Topology) -> Result<(), DeformError> {
+    if topology.num_vertices() != mesh.num_vertices() || topology.num_faces() != mesh.num_triangles() {
+        return Err(DeformError::TopologyMismatch {
+            vertices: mesh.num_vertices(),
+            faces: mesh.num_triangles(),
+            topology_vertices: topology.num_vertices(),
+            topology_faces: topology.num_faces(),
+        });
+    }
+    Ok(())
+}
+
+/// Reassembles the cached operator in place (or builds it on the first frame).
+fn assemble<'a>(
+    slot: &'a mut Option<Operator>,
+    mesh: &TriMesh,
+    pattern: &Arc<SparsePattern>,
+    face_weights: &[f64],
+    mass: f64,
+    stiffness: f64,
+) -> Result<&'a Operator, SolveError> {
+    match slot {
+        Some(operator) => operator.reassemble(mesh, Some(face_weights), mass, stiffness)?,
+        None => *slot = Some(Operator::new(mesh, pattern, Some(face_weights), mass, stiffness)?),
+    }
+    slot.as_ref().ok_or(SolveError::NotAssembled)
+}
+
+/// Refactorizes the cached constrained solver in place (or builds it on the first frame).
+fn refactorize(
+    slot: &mut Option<ConstrainedSolver>,
+    symbolic: &Arc<SymbolicFactor>,
+    operator: &Operator,
+    constraints: &[EdgeConstraint],
+    params: &ConstraintParams,
+) -> Result<(), SolveError> {
+    match slot {
+        Some(solver) => solver.update(operator, constraints, params),
+        None => {
+            *slot = Some(ConstrainedSolver::new(symbolic, operator, constraints, params)?);
+            Ok(())
+        }
+    }
+}
+
+/// `K + λ·Σ_j ω_j e_j e_jᵀ + pins`: harmonic diffusion with individually weighted soft vertex
+/// constraints, Neumann elsewhere.
+///
+/// Pinning (as in [`crate::linalg::ConstrainedSystem`]): a vertex whose component — through faces
+/// of weight ≥ [`NEGLIGIBLE_FACE_WEIGHT`] — holds no constraint of weight ≥
+/// [`NEGLIGIBLE_CONSTRAINT_COEFFICIENT`] is undetermined; it gets +1 on its diagonal and the value
+/// 0 (these are vertices outside 𝒟, or a component of 𝒟 whose constraints all faded out).
+#[derive(Debug)]
+pub(crate) struct WeightedSystem {
+    matrix: SymmetricMatrix,
+    factor: NumericFactor,
+    /// `λ·ω` of each constraint as assembled by the last factorization (0: not assembled, on a
+    /// pinned vertex).
+    assembled: Vec<f64>,
+    pinned: Vec<bool>,
+    parent: Vec<u32>,
+    anchored: Vec<bool>,
+    rhs: Vec<f64>,
+}
+
+impl WeightedSystem {
+    fn new(symbolic: &Arc<SymbolicFactor>) -> Result<Self, SolveError> {
+        Ok(Self {
+            matrix: SymmetricMatrix::zeros(symbolic.pattern()),
+            factor: NumericFactor::new(symbolic)?,
+            assembled: Vec::new(),
+            pinned: Vec::new(),
+            parent: Vec::new(),
+            anchored: Vec::new(),
+            rhs: Vec::new(),
+        })
+    }
+
+    fn factorize(&mut self, operator: &Operator, weighted: &[(u32, f64)], lambda: f64) -> Result<(), SolveError> {
+        let pattern = Arc::clone(operator.pattern());
+        let n = pattern.num_vertices();
+        if !operator.matrix().same_pattern(&self.matrix) {
+            return Err(SolveError::PatternMismatch);
+        }
+        for (k, &(v, w)) in weighted.iter().enumerate() {
+            if v as usize >= n {
+                return Err(SolveError::VertexOutOfRange { what: "guide constraint", vertex: v, vertices: n });
+            }
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(SolveError::NonFiniteConstraint { constraint: k, alpha: 0.0, value: w });
+            }
+        }
+        // Components through non-negligible faces; anchored if they hold a non-negligible weight.
+        let parent = &mut self.parent;
+        parent.clear();
+        parent.extend(0..n as u32);
+        for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
+            if w >= NEGLIGIBLE_FACE_WEIGHT {
+                let r0 = find(parent, tri[0]);
+                for &v in &tri[1..] {
+                    let r = find(parent, v);
+                    if r != r0 {
+                        parent[r as usize] = r0;
+                    }
+                }
+            }
+        }
+        self.anchored.clear();
+        self.anchored.resize(n, false);
+        for &(v, w) in weighted {
+            if w >= NEGLIGIBLE_CONSTRAINT_COEFFICIENT {
+                let root = find(parent, v);
+                self.anchored[root as usize] = true;
+            }
+        }
+        self.pinned.clear();
+        for v in 0..n as u32 {
+            let root = find(parent, v);
+            self.pinned.push(!self.anchored[root as usize]);
+        }
+
+        let values = self.matrix.values_mut();
+        values.copy_from_slice(operator.matrix().values());
+        self.assembled.clear();
+        for &(v, w) in weighted {
+            let lambda_w = if self.pinned[v as usize] { 0.0 } else { lambda * w };
+            values[pattern.diag_slot(v)] += lambda_w;
+            self.assembled.push(lambda_w);
+        }
+        for (v, &pinned) in self.pinned.iter().enumerate() {
+            if pinned {
+                values[pattern.diag_slot(v as u32)] += 1.0;
+            }
+        }
+        self.factor.factorize(&self.matrix)
+    }
+
+    /// Solves for several sets of constraint values: `values[c][k]` is the value of constraint `k`
+    /// (in the order of the `weighted` list given to the factorization) for column `c`. Pinned
+    /// vertices get 0.
+    pub(crate) fn solve(&mut self, weighted: &[(u32, f64)], values: &[&[f64]]) -> Result<Vec<Vec<f64>>, SolveError> {
+        let n = self.matrix.dimension();
+        if weighted.len() != self.assembled.len() {
+            return Err(SolveError::DimensionMismatch {
+                what: "guide constraints",
+                expected: self.assembled.len(),
+                actual: weighted.len(),
+            });
+        }
+        self.rhs.clear();
+        self.rhs.resize(n * values.len(), 0.0);
+        for (column, column_values) in self.rhs.chunks_exact_mut(n.max(1)).zip(values) {
+            if column_values.len() != weighted.len() {
+                return Err(SolveError::DimensionMismatch {
+                    what: "guide constraint values",
+                    expected: weighted.len(),
+                    actual: column_values.len(),
+                });
+            }
+            for ((&(v, _), &lambda_w), &value) in weighted.iter().zip(&self.assembled).zip(column_values.iter()) {
+                column[v as usize] += lambda_w * value;
+            }
+        }
+        self.factor.solve_columns_in_place(&mut self.rhs, values.len())?;
+        Ok(self.rhs.chunks_exact(n.max(1)).take(values.len()).map(<[f64]>::to_vec).collect())
+    }
+
+    /// Per vertex: true if it was pinned (undetermined) in the last factorization.
+    #[cfg(test)]
+    pub(crate) fn pinned(&self) -> &[bool] {
+        &self.pinned
+    }
+}
+
+fn find(parent: &mut [u32], mut v: u32) -> u32 {
+    while parent[v as usize] != v {
+        let grand = parent[parent[v as usize] as usize];
+        parent[v as usize] = grand;
+        v = grand;
+    }
+    v
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes;
+
+    #[test]
+    fn weighted_constraints_pull_in_proportion_to_their_weight() {
+        // Two weak vertex constraints on a closed sphere with values 0 and 1: when λ is small the
+        // diffusion wins and the solution is nearly constant, the weighted mean of the values.
+        // A heavier constraint pulls it towards its value; a zero-weight one does nothing.
+        let mesh = shapes::icosphere(1.0, 2);
+        let topology = Topology::new(&mesh);
+        let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
+        let weights = vec![1.0; mesh.num_triangles()];
+        let (north, south) = (0u32, 3u32);
+        let mean = |solver: &mut RegionSolver, w: &[(u32, f64)]| {
+            let system = solver.factorize_guide(&mesh, &weights, w, 1e-4).unwrap();
+            let columns = system.solve(w, &[&[0.0, 1.0]]).unwrap();
+            columns[0].iter().sum::<f64>() / mesh.num_vertices() as f64
+        };
+        let balanced = mean(&mut solver, &[(north, 1.0), (south, 1.0)]);
+        let heavy = mean(&mut solver, &[(north, 1.0), (south, 4.0)]);
+        let gone = mean(&mut solver, &[(north, 1.0), (south, 0.0)]);
+        assert!((balanced - 0.5).abs() < 0.01, "{balanced}");
+        assert!((heavy - 0.8).abs() < 0.01, "{heavy} vs the weighted mean 0.8");
+        assert!(gone.abs() < 1e-12, "a zero weight must not constrain ({gone})");
+        assert_eq!(solver.symbolic_analyses(), 1);
+        assert_eq!(solver.numeric_factorizations(), 3);
+    }
+
+    #[test]
+    fn vertices_without_anchored_component_are_pinned_to_zero() {
+        let mesh = shapes::icosphere(1.0, 2);
+        let topology = Topology::new(&mesh);
+        let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
+        // Only faces touching vertex 0 are in the domain; the constraint sits elsewhere.
+        let weights: Vec<f64> = mesh.triangles.iter().map(|t| if t.contains(&0) { 1.0 } else { 0.0 }).collect();
+        let w = [(5u32, 1.0)];
+        let system = solver.factorize_guide(&mesh, &weights, &w, 100.0).unwrap();
+        let x = system.solve(&w, &[&[3.0]]).unwrap().remove(0);
+        assert!((x[5] - 3.0).abs() < 1e-12);
+        assert_eq!(x[0], 0.0);
+        assert!(system.pinned()[0] && !system.pinned()[5]);
+    }
+}
