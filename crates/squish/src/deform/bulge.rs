@@ -10,7 +10,11 @@
 //!   every vertex of the plane, η ≡ 0 and no bulge at all; with p′_j (inside the dent) both sides
 //!   of a normal press get a positive η decreasing with the distance, and a tilted d̂ pushes the
 //!   bulge forward. For Eq. 5.6 to place the bulge, d̂ must point from 𝒮 towards the side's
-//!   deformable region.
+//!   deformable region, which depends on the shapes, not on the pair's order (a flattened ball
+//!   has its 𝒟 behind 𝒮, a dented plane in front of it): each zone's d̂ is therefore oriented by
+//!   the sign of the area-weighted mean of d̂·(x_i − c) over 𝒟, c the emitters' centroid on 𝒮. The
+//!   sign only changes when 𝒟 is balanced on both sides of 𝒮, where Eq. 5.6 has no preferred
+//!   side anyway.
 //! - **Scale.** The sum is divided by `Σ A_j |p′_j − p_j|` and multiplied by the extent φ_max: a
 //!   dimensionless weighted mean of the emitters' fields, O(1) near the contact, continuous in the
 //!   zones (a normalization by the maximum over 𝒟 would jump when the maximizing vertex enters 𝒞).
@@ -75,6 +79,8 @@ pub fn anisotropic_bulge_map(
     let mut total = 0.0;
     for (k, zone) in zones.iter().enumerate() {
         let direction = contact.mapping_directions.get(k).copied().unwrap_or(DVec3::ZERO);
+        let first = emitters.len();
+        let (mut centroid, mut zone_weight) = (DVec3::ZERO, 0.0);
         for (j, &inside) in zone.region.inside().iter().enumerate().take(n.min(zone.targets.len())) {
             if !inside {
                 continue;
@@ -82,7 +88,23 @@ pub fn anisotropic_bulge_map(
             let weight = areas[j] * (zone.targets[j] - mesh.positions[j]).length();
             if weight > 0.0 {
                 emitters.push(Emitter { position: zone.targets[j], direction, weight });
+                centroid += weight * zone.targets[j];
+                zone_weight += weight;
                 total += weight;
+            }
+        }
+        // Orient d̂ from 𝒮 towards this side's deformable region (see the module doc): the sign of
+        // the area-weighted mean height of 𝒟 above the zone's emitters along d̂.
+        if zone_weight > 0.0 {
+            let centroid = centroid / zone_weight;
+            let height: f64 = (0..n)
+                .filter(|&i| deformable.get(i).copied().unwrap_or(false))
+                .map(|i| areas[i] * direction.dot(mesh.positions[i] - centroid))
+                .sum();
+            if height < 0.0 {
+                for e in &mut emitters[first..] {
+                    e.direction = -e.direction;
+                }
             }
         }
     }
@@ -195,15 +217,44 @@ mod tests {
     }
 
     #[test]
+    fn the_map_does_not_depend_on_the_orientation_of_the_pair() {
+        // d̂ is oriented along the second object's normals, so swapping the pair flips it; the
+        // map orients each zone's d̂ towards its own 𝒟 and must give the same result.
+        let (mesh, zones, contact, deformable) = pressed_grid(DVec3::Z);
+        let (up, _) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, zones, contact, deformable) = pressed_grid(-DVec3::Z);
+        let (down, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        assert!(!fallback);
+        assert_eq!(up, down);
+    }
+
+    #[test]
+    fn a_flattened_side_bulges_behind_the_contact_surface() {
+        // A soft sphere flattened by a rigid plane at z = c: its 𝒟 lies above 𝒮 (z > c), the
+        // opposite side of a dented plane. With d̂ along the plane's normal pointing into the
+        // sphere (+z) or out of it (−z), η is positive around the contact either way.
+        let mesh = shapes::icosphere(1.0, 4);
+        let topology = Topology::new(&mesh);
+        for mapping in [DVec3::Z, -DVec3::Z] {
+            let mut zone = crate::deform::test_support::plane_zone(&mesh, &topology, DVec3::Z, -0.8);
+            zone.mapping_direction = mapping;
+            let contact = ContactSet::new(&mesh, &topology, std::slice::from_ref(&zone)).unwrap();
+            let deformable: Vec<bool> =
+                (0..mesh.num_vertices()).map(|v| !contact.contains(v as u32) && mesh.positions[v].z < 0.0).collect();
+            let (eta, fallback) = anisotropic_bulge_map(&mesh, &[zone], &contact, &deformable, &PARAMS, 1.0);
+            assert!(!fallback, "{mapping}");
+            let positive = (0..mesh.num_vertices()).filter(|&v| deformable[v] && eta[v] > 0.0).count();
+            let total = deformable.iter().filter(|&&d| d).count();
+            assert!(positive * 10 >= total * 9, "{mapping}: η > 0 on {positive} of {total} vertices of 𝒟");
+        }
+    }
+
+    #[test]
     fn without_penetration_the_map_falls_back_to_uniform() {
         let (mesh, mut zones, contact, deformable) = pressed_grid(DVec3::Z);
         zones[0].targets = mesh.positions.clone();
         let (eta, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
         assert!(fallback && eta.iter().all(|&x| x == 1.0));
-        // A mapping direction pointing away from 𝒟 (ψ = 0): every lobe vanishes, fall back too.
-        let (mesh, zones, contact, deformable) = pressed_grid(-DVec3::Z);
-        let (_, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
-        assert!(fallback);
         // A painted map multiplies.
         let painted: Vec<f64> =
             (0..mesh.num_vertices()).map(|v| if mesh.positions[v].x < 0.0 { 0.0 } else { 2.0 }).collect();
