@@ -21,8 +21,10 @@ pub mod contact;
 pub mod deform;
 pub mod linalg;
 pub mod mesh;
+pub mod pipeline;
 pub mod skinning;
 pub mod spatial;
 
 pub use glam::DVec3;
 pub use mesh::{MeshError, SubMesh, Topology, TriMesh};
+pub use pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats, ObjectParams};

@@ -127,6 +127,77 @@ pub struct MappingStats {
     /// Mapping-region vertices that are flagged as working-region border vertices (the zone may
     /// then be cut by the working region).
     pub border_vertices: usize,
+    /// Vertices removed from ℳ because another part of their own mesh hides them from the other
+    /// object along the mapping direction (see [`visible_part`]).
+    pub occluded_vertices: usize,
+}
+
+/// True if a part of `side`'s own mesh lies beyond `x` along `away` (x is then hidden from the
+/// other object). The segment starts a hair beyond x so that x's own faces do not count.
+fn is_occluded(side: &ContactSide, x: DVec3, away: DVec3, offset: f64, length: f64) -> bool {
+    side.bvh.segment_nearest(x + away * offset, x + away * length).is_some()
+}
+
+/// The part of a mapping region that the other object can reach (thesis §4.5, Fig. 4.12 and its
+/// discussion: "a subset of the mapping region is not reachable by the other one … it
+/// contributes to the computation of ε_c, which is then biased. This subset should thus be
+/// removed from the mapping region").
+///
+/// A point x of side l is matched along `toward` (+d̂ for a, −d̂ for b) to the other mesh, and
+/// the other mesh matches its points back along −`toward` to the *farthest* point of l: so x can
+/// only be reached if no part of its own mesh lies beyond it along −`toward`. Otherwise x sits on
+/// a hidden layer (the belly above a foot that rests on the ground, the inside of a fold), whose
+/// large gap to the other object would drag the statistics m_𝒮, σ_𝒮 of Eq. 4.3 far from the
+/// actual contact. Hidden vertices leave the region; on an edge from a visible vertex to a hidden
+/// one the boundary point is where the hiding layer's silhouette crosses the edge, found by
+/// bisection to 2⁻⁴⁰ of the edge, so the region still moves continuously with the geometry.
+/// Returns the region and the number of vertices removed.
+pub fn visible_part(region: &EdgeRegion, side: &ContactSide, toward: DVec3) -> (EdgeRegion, usize) {
+    use rayon::prelude::*;
+    let bounds = side.bvh.bounds();
+    let scale = bounds.diagonal().max(f64::MIN_POSITIVE);
+    let (offset, away) = (1e-9 * scale, -toward);
+    let length = |x: DVec3| (x - bounds.center()).length() + scale;
+    let positions = &side.mesh.positions;
+    let candidates: Vec<u32> = (0..positions.len() as u32).filter(|&v| region.contains(v)).collect();
+    let hidden: Vec<bool> = candidates
+        .par_iter()
+        .map(|&v| {
+            let x = positions[v as usize];
+            is_occluded(side, x, away, offset, length(x))
+        })
+        .collect();
+    let occluded = hidden.iter().filter(|&&h| h).count();
+    if occluded == 0 {
+        return (region.clone(), 0);
+    }
+    let mut inside = region.inside().to_vec();
+    for (&v, &h) in candidates.iter().zip(&hidden) {
+        if h {
+            inside[v as usize] = false;
+        }
+    }
+    let visible = EdgeRegion::from_inside(side.topology, inside, |e, i, j| {
+        if region.contains(j) {
+            // Both ends in ℳ, j hidden: bisect the visibility along the edge.
+            let (pi, pj) = (positions[i as usize], positions[j as usize]);
+            let (mut lo, mut hi) = (0.0f64, 1.0f64);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                let x = pi.lerp(pj, mid);
+                if is_occluded(side, x, away, offset, length(x)) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        } else {
+            // j was already outside ℳ: keep ℳ's own boundary point.
+            region.point_on_edge(e).map_or(0.5, |p| region.points()[p as usize].alpha)
+        }
+    });
+    (visible, occluded)
 }
 
 /// The front-facing function g = n·toward at every vertex.
@@ -423,6 +494,7 @@ pub fn map_regions(
         midpoint_alphas: stats_a.midpoint_alphas + stats_b.midpoint_alphas,
         closest_point_matches: stats_a.closest_point_matches + stats_b.closest_point_matches,
         border_vertices: stats_a.border_vertices + stats_b.border_vertices,
+        occluded_vertices: stats_a.occluded_vertices + stats_b.occluded_vertices,
     };
     Ok(([a, b], stats))
 }
@@ -441,7 +513,8 @@ fn map_side(
     let mut stats = MappingStats::default();
     let projected = projected_region(other_outline, side.mesh, side.topology, g, plane)?;
     stats.midpoint_alphas = projected.midpoint_alphas;
-    let region = projected.region.union(&front, side.topology);
+    let (region, occluded) = visible_part(&projected.region.union(&front, side.topology), side, toward);
+    stats.occluded_vertices = occluded;
     let vertices: Vec<u32> = (0..side.mesh.num_vertices() as u32).filter(|&v| region.contains(v)).collect();
     let mut vertex_slot = vec![NO_SLOT; side.mesh.num_vertices()];
     for (k, &v) in vertices.iter().enumerate() {

@@ -237,11 +237,11 @@ impl EdgeRegion {
                     polygon[len] = Sample::Vertex(tri[k]);
                     len += 1;
                 }
-                if let Some(p) = self.point_on_edge(edges[k]) {
-                    if len < 4 {
-                        polygon[len] = Sample::Point(p);
-                        len += 1;
-                    }
+                if let Some(p) = self.point_on_edge(edges[k])
+                    && len < 4
+                {
+                    polygon[len] = Sample::Point(p);
+                    len += 1;
                 }
             }
             if len >= 3 {

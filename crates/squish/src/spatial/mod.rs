@@ -30,7 +30,7 @@ mod exact;
 mod queries;
 mod self_intersection;
 #[cfg(test)]
-mod test_meshes;
+pub(crate) mod test_meshes;
 mod tri_tri;
 mod winding;
 
