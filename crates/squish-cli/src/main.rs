@@ -4,8 +4,16 @@
 //! arguments, reads files, calls the library and writes results atomically. Parameters are the
 //! library's own structures; the command line never re-declares them.
 
+mod cmd_bench;
+mod cmd_contact;
+mod cmd_deform;
+mod cmd_demo;
 mod cmd_info;
+mod cmd_run;
 mod error;
+mod input;
+mod params;
+mod report;
 
 use std::process::ExitCode;
 
@@ -29,12 +37,27 @@ struct Cli {
 enum Command {
     /// Report a mesh's size, topology, self-intersections, volume and bounding box.
     Info(cmd_info::InfoArgs),
+    /// Deform two intersecting meshes into clean contact (one frame).
+    Deform(cmd_deform::DeformArgs),
+    /// Compute and export the contact definition of two meshes (labels, boundary points, JSON).
+    Contact(cmd_contact::ContactArgs),
+    /// Run an animated scene file: every frame in parallel, outputs, report and previews.
+    Run(cmd_run::RunArgs),
+    /// Build embedded animated scenes, deform them and write meshes, reports and pictures.
+    Demo(cmd_demo::DemoArgs),
+    /// Time the pipeline on reproducible scenes at the thesis' sizes.
+    Bench(cmd_bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: Result<(), CliError> = match cli.command {
         Command::Info(args) => cmd_info::run(&args),
+        Command::Deform(args) => cmd_deform::run(&args),
+        Command::Contact(args) => cmd_contact::run(&args),
+        Command::Run(args) => cmd_run::run(&args),
+        Command::Demo(args) => cmd_demo::run(&args),
+        Command::Bench(args) => cmd_bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,224 @@
+//! `squish contact A B -o DIR`: the contact definition of thesis chapter 4 alone, exported for
+//! inspection: each mesh as a PLY with per-vertex labels and colours (outside / intersection /
+//! mapping / contact), the exact boundary points as a point cloud and a JSON summary.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+use squish::contact::{BoundaryKind, ContactSide, PairContact, contact_pair, debug_export};
+use squish::mesh::{Topology, vertex_normals};
+use squish::spatial::TriangleBvh;
+use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
+use squish_render::{Label, rgba8};
+
+use crate::error::CliError;
+use crate::input::{InputMesh, WeldChoice, create_dir, output_stems, write_text};
+use crate::params::pair_settings;
+
+#[derive(Args, Debug)]
+pub struct ContactArgs {
+    /// The first mesh (its points are pushed along the mapping direction d̂).
+    pub a: PathBuf,
+    /// The second mesh (d̂ is oriented along its normals).
+    pub b: PathBuf,
+    /// Output directory.
+    #[arg(short, long, default_value = "squish-contact")]
+    pub output: PathBuf,
+    /// Parameters file (TOML with tables [a], [b], [pair]).
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// Set one parameter, e.g. --set b.rigid=true --set pair.contact_tau=0.5.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Weld duplicate vertices before processing (outputs keep the file's vertices).
+    #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
+    pub weld: WeldChoice,
+}
+
+#[derive(Serialize)]
+struct SideSummary {
+    name: String,
+    labelled_mesh: String,
+    intersection_vertices: usize,
+    intersection_boundary_points: usize,
+    intersection_area: f64,
+    mapping_vertices: usize,
+    mapping_boundary_points: usize,
+    mapping_area: f64,
+    contact_vertices: usize,
+    contact_boundary_points: usize,
+    contact_area_on_mesh: f64,
+    contact_area_on_surface: f64,
+    relative_stiffness: f64,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    inputs: [String; 2],
+    mapping_direction: [f64; 3],
+    direction_automatic: bool,
+    /// ε_c = m_S + τσ_S (Eq. 4.3).
+    threshold: f64,
+    mean_depth: f64,
+    depth_std_dev: f64,
+    contact_tau: f64,
+    contact_area_on_surface: f64,
+    intersection_points: Vec<[f64; 3]>,
+    sides: [SideSummary; 2],
+    boundary_points: String,
+    timings_ms: Timings,
+    numerical_fallbacks: usize,
+}
+
+#[derive(Serialize)]
+struct Timings {
+    intersection: f64,
+    direction: f64,
+    mapping: f64,
+    surface: f64,
+    zone: f64,
+    total: f64,
+}
+
+const LABELS: [Label; 4] = [Label::Outside, Label::Intersection, Label::Mapping, Label::Contact];
+
+pub fn run(args: &ContactArgs) -> Result<(), CliError> {
+    let settings = pair_settings(args.params.as_deref(), &args.sets)?;
+    let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
+    let stems = output_stems(&inputs[0], &inputs[1]);
+    let mut prepared = Vec::new();
+    for (input, name) in inputs.iter().zip(&stems) {
+        let topology = input.mesh.check_for_deformation().map_err(|e| CliError::input(format!("{name}: {e}")))?;
+        let bvh = TriangleBvh::new(&input.mesh).map_err(|e| CliError::input(format!("{name}: {e}")))?;
+        prepared.push((topology, vertex_normals(&input.mesh), bvh));
+    }
+    let side = |i: usize, params: &squish::ObjectParams| {
+        let (topology, normals, bvh): &(Topology, _, TriangleBvh) = &prepared[i];
+        ContactSide::new(&inputs[i].mesh, topology, normals, bvh)
+            .with_name(&stems[i])
+            .with_stiffness(params.contact_stiffness())
+    };
+    let result = contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair)
+        .map_err(|e| CliError::input(e.to_string()))?;
+    create_dir(&args.output)?;
+    let debug = debug_export(&result, [&inputs[0].mesh, &inputs[1].mesh]);
+
+    let mut side_summaries = Vec::new();
+    for (l, (input, data)) in inputs.iter().zip(&debug).enumerate() {
+        let labels = input.to_file_values(&data.labels);
+        let colors: Vec<[u8; 3]> = labels
+            .iter()
+            .map(|&k| {
+                let c = rgba8(LABELS[usize::from(k).min(3)].color());
+                [c[0], c[1], c[2]]
+            })
+            .collect();
+        let mut properties = VertexProperty::rgb(&colors);
+        properties.push(VertexProperty::int("label", &labels.iter().map(|&k| i32::from(k)).collect::<Vec<_>>()));
+        let path = args.output.join(format!("{}.ply", stems[l]));
+        write_ply_with(&path, &input.file.positions, Some(&input.file.triangles), &properties, &PlyWriteOptions::default())?;
+        side_summaries.push(side_summary(&result, l, &stems[l], &path, &inputs[l], &prepared[l].0));
+    }
+
+    let mut points = Vec::new();
+    let mut kinds = Vec::new();
+    let mut sides = Vec::new();
+    for (l, data) in debug.iter().enumerate() {
+        for p in &data.points {
+            points.push(p.position);
+            kinds.push(match p.kind {
+                BoundaryKind::Intersection => 1,
+                BoundaryKind::Mapping => 2,
+                BoundaryKind::Contact => 3,
+            });
+            sides.push(l as i32);
+        }
+    }
+    let colors: Vec<[u8; 3]> = kinds
+        .iter()
+        .map(|&k: &i32| {
+            let c = rgba8(LABELS[k as usize].color());
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let mut properties = VertexProperty::rgb(&colors);
+    properties.push(VertexProperty::int("kind", &kinds));
+    properties.push(VertexProperty::int("side", &sides));
+    let points_path = args.output.join("boundary_points.ply");
+    write_point_cloud_ply(&points_path, &points, &properties, &PlyWriteOptions::default())?;
+
+    let t = &result.stats.timings;
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    let [side_a, side_b]: [SideSummary; 2] =
+        side_summaries.try_into().map_err(|_| CliError::failure("internal: two sides expected"))?;
+    let summary = Summary {
+        inputs: [args.a.display().to_string(), args.b.display().to_string()],
+        mapping_direction: result.direction.to_array(),
+        direction_automatic: matches!(result.direction_source, squish::contact::DirectionSource::Automatic),
+        threshold: result.criterion.threshold,
+        mean_depth: result.criterion.mean,
+        depth_std_dev: result.criterion.std_dev,
+        contact_tau: settings.pair.contact_tau,
+        contact_area_on_surface: result.contact_area,
+        intersection_points: result.intersection_points.iter().map(|p| p.position.to_array()).collect(),
+        sides: [side_a, side_b],
+        boundary_points: points_path.display().to_string(),
+        timings_ms: Timings {
+            intersection: ms(t.intersection),
+            direction: ms(t.direction),
+            mapping: ms(t.mapping),
+            surface: ms(t.surface),
+            zone: ms(t.zone),
+            total: ms(t.total),
+        },
+        numerical_fallbacks: result.stats.fallbacks.numerical(),
+    };
+    let json_path = args.output.join("contact.json");
+    write_text(&json_path, &serde_json::to_string_pretty(&summary)?)?;
+    if result.is_empty() {
+        println!("the meshes do not intersect (no contact zone)");
+    } else {
+        let d = result.direction;
+        println!(
+            "d̂ = [{:.4}, {:.4}, {:.4}], ε_c = {:.4e} (m = {:.4e}, σ = {:.4e}), contact area on S {:.4e}",
+            d.x, d.y, d.z, result.criterion.threshold, result.criterion.mean, result.criterion.std_dev, result.contact_area
+        );
+        for s in &summary.sides {
+            println!(
+                "{}: intersection {} vertices, mapping {}, contact {} → {}",
+                s.name, s.intersection_vertices, s.mapping_vertices, s.contact_vertices, s.labelled_mesh
+            );
+        }
+    }
+    println!("boundary points: {} ({} points)", points_path.display(), points.len());
+    println!("summary: {}", json_path.display());
+    Ok(())
+}
+
+fn side_summary(
+    result: &PairContact,
+    l: usize,
+    name: &str,
+    path: &std::path::Path,
+    input: &InputMesh,
+    topology: &Topology,
+) -> SideSummary {
+    let side = &result.sides[l];
+    let mesh = &input.mesh;
+    SideSummary {
+        name: name.to_string(),
+        labelled_mesh: path.display().to_string(),
+        intersection_vertices: side.intersection.num_inside(),
+        intersection_boundary_points: side.intersection.points().len(),
+        intersection_area: side.intersection.area(mesh, topology),
+        mapping_vertices: side.mapping.region.num_inside(),
+        mapping_boundary_points: side.mapping.region.points().len(),
+        mapping_area: side.mapping.region.area(mesh, topology),
+        contact_vertices: side.zone.region.num_inside(),
+        contact_boundary_points: side.zone.region.points().len(),
+        contact_area_on_mesh: side.zone_area_on_mesh,
+        contact_area_on_surface: side.zone_area_on_surface,
+        relative_stiffness: side.relative_stiffness,
+    }
+}

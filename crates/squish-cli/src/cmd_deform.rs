@@ -1,0 +1,131 @@
+//! `squish deform A B -o DIR`: one frame of the deformer on two meshes from files.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+use squish::pipeline::{Deformer, Frame, FrameObject, FramePair};
+use squish::spatial;
+
+use crate::error::CliError;
+use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
+use crate::params::{PairSettings, pair_settings};
+use crate::report::FrameReport;
+
+#[derive(Args, Debug)]
+pub struct DeformArgs {
+    /// The first mesh (its points are pushed along the mapping direction d̂).
+    pub a: PathBuf,
+    /// The second mesh (d̂ is oriented along its normals).
+    pub b: PathBuf,
+    /// Output directory: DIR/<stem of A>.<ext>, DIR/<stem of B>.<ext>, DIR/report.json.
+    #[arg(short, long, default_value = "squish-out")]
+    pub output: PathBuf,
+    /// Parameters file (TOML with tables [a], [b], [pair]).
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// Set one parameter, e.g. --set a.extent=0.4 --set b.rigid=true --set pair.contact_tau=0.5.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Output format (default: the format of each input).
+    #[arg(long, value_enum)]
+    pub format: Option<FormatChoice>,
+    /// Weld duplicate vertices before processing (outputs keep the file's vertices).
+    #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
+    pub weld: WeldChoice,
+}
+
+#[derive(Serialize)]
+struct DeformReport<'a> {
+    inputs: [String; 2],
+    outputs: [String; 2],
+    parameters: Parameters<'a>,
+    /// Deepest vertex of either mesh inside the other, before and after (closed meshes only).
+    penetration_before: Option<f64>,
+    penetration_after: Option<f64>,
+    frame: FrameReport,
+}
+
+#[derive(Serialize)]
+struct Parameters<'a> {
+    a: &'a squish::ObjectParams,
+    b: &'a squish::ObjectParams,
+    pair: &'a squish::contact::PairParams,
+}
+
+/// Deepest penetration of either closed mesh into the other, or `None` if one is open.
+pub fn deepest_penetration(a: &squish::TriMesh, b: &squish::TriMesh) -> Option<f64> {
+    let ab = spatial::penetration_depths(a, b).ok()?;
+    let ba = spatial::penetration_depths(b, a).ok()?;
+    Some(ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d)))
+}
+
+pub fn run(args: &DeformArgs) -> Result<(), CliError> {
+    let settings: PairSettings = pair_settings(args.params.as_deref(), &args.sets)?;
+    let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
+    let stems = output_stems(&inputs[0], &inputs[1]);
+    let names = [stems[0].as_str(), stems[1].as_str()];
+    let frame = Frame {
+        objects: vec![
+            FrameObject { name: names[0], mesh: &inputs[0].mesh, params: &settings.a },
+            FrameObject { name: names[1], mesh: &inputs[1].mesh, params: &settings.b },
+        ],
+        pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
+    };
+    let result = Deformer::new().deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
+    create_dir(&args.output)?;
+    let mut outputs = [String::new(), String::new()];
+    let mut deformed = Vec::new();
+    for (i, input) in inputs.iter().enumerate() {
+        let ext = args.format.map_or(FormatChoice::extension_of(input.format), FormatChoice::extension);
+        let path = args.output.join(format!("{}.{ext}", stems[i]));
+        let mesh = input.file_mesh_with(&result.positions[i]);
+        squish_io::write_mesh(&path, &mesh)?;
+        outputs[i] = path.display().to_string();
+        deformed.push(result.mesh(&frame, i));
+    }
+    let report = DeformReport {
+        inputs: [args.a.display().to_string(), args.b.display().to_string()],
+        outputs: outputs.clone(),
+        parameters: Parameters { a: &settings.a, b: &settings.b, pair: &settings.pair },
+        penetration_before: deepest_penetration(&inputs[0].mesh, &inputs[1].mesh),
+        penetration_after: deepest_penetration(&deformed[0], &deformed[1]),
+        frame: FrameReport::from(&result.stats),
+    };
+    let report_path = args.output.join("report.json");
+    write_text(&report_path, &serde_json::to_string_pretty(&report)?)?;
+
+    let pair = &result.stats.pairs[0];
+    if pair.in_contact {
+        println!(
+            "contact: d̂ = [{:.3}, {:.3}, {:.3}] ({}), ε_c = {:.4}, contact area {:.4}",
+            pair.direction[0],
+            pair.direction[1],
+            pair.direction[2],
+            if pair.direction_automatic { "automatic" } else { "given" },
+            pair.threshold,
+            pair.contact_area
+        );
+    } else {
+        println!("the meshes do not intersect: outputs are copies of the inputs");
+    }
+    for (object, output) in result.stats.objects.iter().zip(&outputs) {
+        if object.deformed {
+            println!(
+                "{}: {} contact and {} deformed vertices, extent {:.4}, volume change {:.2e} → {output}",
+                object.name,
+                object.contact_vertices,
+                object.deformable_vertices,
+                object.extent,
+                object.relative_volume_change
+            );
+        } else {
+            println!("{}: unchanged → {output}", object.name);
+        }
+    }
+    if let (Some(before), Some(after)) = (report.penetration_before, report.penetration_after) {
+        println!("deepest penetration {before:.4e} → {after:.4e}");
+    }
+    println!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
+    Ok(())
+}
