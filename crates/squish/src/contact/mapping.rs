@@ -569,6 +569,33 @@ mod tests {
     use crate::contact::test_support::Owned;
     use crate::mesh::{shapes, vertex_normals};
 
+    /// A layer hidden behind the contact (a second ball stacked right above the one dipped into
+    /// the grid, as one mesh) is in the shadow of the intersection and front-facing, but the grid
+    /// can only reach the lower ball: the hidden layer leaves ℳ and the statistics of Eq. 4.3 are
+    /// those of the lower ball alone.
+    #[test]
+    fn layers_hidden_from_the_other_object_leave_the_mapping_region() {
+        use crate::contact::{PairParams, contact_pair};
+        let h = 0.3;
+        let lower = shapes::icosphere(1.0, 3);
+        let mut stacked = lower.clone();
+        let mut upper = shapes::icosphere(1.0, 3);
+        upper.map_positions(|p| p + DVec3::new(0.0, 0.0, 2.5));
+        stacked.append(&upper);
+        let offset = DVec3::new(0.0, 0.0, 1.0 - h);
+        let (single, double) = (Owned::new(lower, offset), Owned::new(stacked, offset));
+        let grid = Owned::new(shapes::grid(4.0, 4.0, 40, 40), DVec3::ZERO);
+        let params = PairParams::default();
+        let alone = contact_pair(&single.side(), &grid.side(), &params).unwrap();
+        let both = contact_pair(&double.side(), &grid.side(), &params).unwrap();
+        let upper_start = single.mesh.num_vertices() as u32;
+        let mapped_upper = both.sides[0].mapping.vertices.iter().filter(|&&v| v >= upper_start).count();
+        assert_eq!(mapped_upper, 0, "vertices of the hidden ball in ℳ");
+        assert!(both.stats.fallbacks.mapping.occluded_vertices > 0, "the hidden layer was in the shadow");
+        assert!((alone.criterion.threshold - both.criterion.threshold).abs() < 1e-12);
+        assert!((alone.contact_area - both.contact_area).abs() < 1e-12);
+    }
+
     /// Seen along +z (d̂ = z, side a looks toward +z), the front-facing region of a sphere is its
     /// lower hemisphere, bounded by contour points on the equator up to the chord error.
     #[test]
