@@ -12,8 +12,13 @@ mod cmd_info;
 mod cmd_run;
 mod error;
 mod input;
+mod interrupt;
 mod params;
+mod preview;
+mod quality;
 mod report;
+mod scene_shot;
+mod shot;
 
 use std::process::ExitCode;
 
