@@ -29,8 +29,8 @@ use crate::error::CliError;
 use crate::input::{create_dir, write_text};
 use crate::interrupt;
 use crate::preview::{PictureSettings, strip, write_png, write_previews};
-use crate::quality::{ShotSummary, write_report};
-use crate::shot::{ShotFrame, ShotObject, ShotSettings, ShotSource, run_shot};
+use crate::quality::{ShotSummary, percent, write_report};
+use crate::shot::{ShotFrame, ShotObject, ShotSettings, ShotSource, run_shot, worker_pool};
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -209,11 +209,7 @@ struct SceneResult {
 
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let detail = Detail::new(args.quick);
-    let threads = match args.threads {
-        Some(0) => return Err(CliError::input("--threads 0: give at least 1 (or leave it out to use every core)")),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, usize::from),
-    };
+    let pool = worker_pool(args.threads)?;
     let root = std::path::absolute(&args.output).unwrap_or_else(|_| args.output.clone());
     create_dir(&root)?;
     let interrupt = interrupt::install();
@@ -228,7 +224,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let mut results = Vec::new();
     let mut strips = Vec::new();
     for (k, demo) in demos.iter().enumerate() {
-        let (result, strip_image) = run_scene(demo, &root, threads, interrupt, k, demos.len())?;
+        let (result, strip_image) = run_scene(demo, &root, &pool, interrupt, k, demos.len())?;
         results.push(result);
         strips.extend(strip_image);
         if interrupt.requested() {
@@ -247,7 +243,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         &serde_json::to_string_pretty(&serde_json::json!({
             "squish_version": env!("CARGO_PKG_VERSION"),
             "quick": args.quick,
-            "threads": threads,
+            "threads": pool.current_num_threads(),
             "total_time_s": start.elapsed().as_secs_f64(),
             "scenes": results,
         }))?,
@@ -272,7 +268,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
 fn run_scene(
     demo: &DemoScene,
     root: &Path,
-    threads: usize,
+    pool: &rayon::ThreadPool,
     interrupt: &interrupt::Interrupt,
     index: usize,
     count: usize,
@@ -297,7 +293,6 @@ fn run_scene(
     let shown = shown_frames(&demo.frames, 6);
     let settings = ShotSettings {
         frames: demo.frames.clone(),
-        threads,
         preview_frames: shown.clone(),
         keep_outputs: false,
         label: format!("  {}", demo.slug),
@@ -309,7 +304,7 @@ fn run_scene(
         }
         Ok(())
     };
-    let outcome = run_shot(demo, &settings, interrupt, &write)?;
+    let outcome = run_shot(demo, &settings, pool, interrupt, &write)?;
     let description = DemoDescription {
         name: demo.slug,
         title: demo.title,
@@ -328,7 +323,8 @@ fn run_scene(
             .collect(),
         pairs: first.pairs.iter().map(|p| p.objects.map(|i| first.objects[i].name.clone())).collect(),
     };
-    let (previews, pictures) = write_previews(&dir.join("preview"), &outcome, &PictureSettings::default())?;
+    let (previews, pictures) =
+        pool.install(|| write_previews(&dir.join("preview"), &outcome, &PictureSettings::default()))?;
     let strip_image = strip(&pictures, 6);
     if let Some(image) = &strip_image {
         write_png(&dir.join("strip.png"), image)?;
@@ -361,7 +357,7 @@ fn demo_line(s: &ShotSummary) -> String {
     let volume = s.max_volume_change.as_ref().map_or(0.0, |e| e.value);
     let penetration = s.max_penetration_ratio.as_ref().map_or_else(
         || "no penetration".to_string(),
-        |p| format!("residual penetration {:.1}% of the input's", 100.0 * p.value),
+        |p| format!("residual penetration {} of the input's", percent(p.value)),
     );
     let step = s.max_step_ratio.as_ref().map_or_else(
         || "one frame".to_string(),

@@ -20,7 +20,7 @@ use crate::interrupt;
 use crate::preview::{ColorMode, PictureSettings, UpAxis, preview_frames, write_previews};
 use crate::quality::write_report;
 use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
-use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot};
+use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -58,11 +58,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::input(format!("{}: {e}", args.scene.display())))?,
         None => scene.frames(),
     };
-    let threads = match args.threads {
-        Some(0) => return Err(CliError::input("--threads 0: give at least 1 (or leave it out to use every core)")),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, usize::from),
-    };
+    let pool = worker_pool(args.threads)?;
     let mut output = scene.output().clone();
     if let Some(dir) = &args.output {
         output.dir = std::path::absolute(dir).unwrap_or_else(|_| dir.clone());
@@ -95,7 +91,6 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     let settings = ShotSettings {
         frames: frames.clone(),
-        threads,
         preview_frames: preview,
         keep_outputs: !output.format.per_frame(),
         label: "squish run".into(),
@@ -110,14 +105,14 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         Ok(())
     };
     let interrupt = interrupt::install();
-    let outcome = run_shot(&source, &settings, interrupt, &write)?;
+    let outcome = run_shot(&source, &settings, &pool, interrupt, &write)?;
 
     let mut animated = Vec::new();
     if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
         animated = write_animated(&scene, &output, &first, &numbering, &outcome)?;
     }
     let pictures = PictureSettings { color: args.color, up: args.up, ..PictureSettings::default() };
-    let (previews, _) = write_previews(&output.dir.join("preview"), &outcome, &pictures)?;
+    let (previews, _) = pool.install(|| write_previews(&output.dir.join("preview"), &outcome, &pictures))?;
     let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;
     let outputs = outputs_json(&output, &first, &numbering, &animated, &previews);
     let summary = write_report(&output.dir, &scene_json, &outputs, &outcome)?;

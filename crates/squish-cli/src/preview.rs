@@ -12,6 +12,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use rayon::prelude::*;
 use squish::TriMesh;
 use squish_render::{
     Camera, Image, Label, RenderMesh, RenderOptions, Rgb, draw_line, draw_text, encode_png, grid, label,
@@ -404,6 +405,13 @@ pub fn half_size(image: &Image) -> Image {
     out
 }
 
+/// A frame's picture files and its output picture.
+struct WrittenFrame {
+    frame: i64,
+    files: [PathBuf; 2],
+    output: Image,
+}
+
 /// Writes `dir/<frame:04>.png` and `dir/<frame:04>_compare.png` for every previewed frame;
 /// returns the files written and the output pictures, by frame.
 pub fn write_previews(
@@ -418,12 +426,24 @@ pub fn write_previews(
     }
     create_dir(dir)?;
     let view = shot_view(outcome, settings);
-    for (&frame, p) in &outcome.previews {
-        let name = squish_io::scene::format_frame(frame, 4);
-        let pictures = frame_pictures(frame, p, &view, settings)?;
-        written.push(write_png(&dir.join(format!("{name}.png")), &pictures.output)?);
-        written.push(write_png(&dir.join(format!("{name}_compare.png")), &pictures.compare)?);
-        outputs.insert(frame, pictures.output);
+    // Frames in parallel: PNG encoding is sequential within a picture.
+    let done: Vec<Result<WrittenFrame, CliError>> = outcome
+        .previews
+        .par_iter()
+        .map(|(&frame, p)| {
+            let name = squish_io::scene::format_frame(frame, 4);
+            let pictures = frame_pictures(frame, p, &view, settings)?;
+            let files = [
+                write_png(&dir.join(format!("{name}.png")), &pictures.output)?,
+                write_png(&dir.join(format!("{name}_compare.png")), &pictures.compare)?,
+            ];
+            Ok(WrittenFrame { frame, files, output: pictures.output })
+        })
+        .collect();
+    for result in done {
+        let WrittenFrame { frame, files, output } = result?;
+        written.extend(files);
+        outputs.insert(frame, output);
     }
     Ok((written, outputs))
 }

@@ -242,7 +242,7 @@ impl ShotSummary {
         let mut text = format!("max |ΔV/V| {volume:.1e}");
         match &self.max_penetration_ratio {
             Some(p) => {
-                let _ = write!(text, ", residual penetration ≤ {:.1}% of the input's", 100.0 * p.value);
+                let _ = write!(text, ", residual penetration ≤ {} of the input's", percent(p.value));
             }
             None => text.push_str(", no penetration measured"),
         }
@@ -250,6 +250,18 @@ impl ShotSummary {
             let _ = write!(text, ", largest step {:.2}× the input's (frame {})", step.value, step.frame);
         }
         text
+    }
+}
+
+/// A ratio as a percentage with enough digits to tell small values from zero.
+pub fn percent(ratio: f64) -> String {
+    let p = 100.0 * ratio;
+    if p == 0.0 || p >= 1.0 {
+        format!("{p:.1}%")
+    } else if p >= 0.01 {
+        format!("{p:.2}%")
+    } else {
+        format!("{p:.0e}%")
     }
 }
 
@@ -422,7 +434,7 @@ pub fn quality_plots(records: &[FrameRecord]) -> Vec<Plot> {
             per_object(&|o| o.deformed.then_some(o.relative_volume_change)),
         ),
         plot("residual penetration / input penetration", "ratio", per_pair(&|p| p.penetration_ratio)),
-        plot("largest step from the previous frame: output / input", "ratio", per_object(&|o| o.step_ratio)),
+        plot("frame-to-frame step: output / input", "ratio", per_object(&|o| o.step_ratio)),
         plot("contact area", "area", per_pair(&|p| Some(p.contact_area))),
         plot("time per frame", "ms", vec![Series::new("frame", times)]),
     ]
@@ -468,6 +480,14 @@ mod tests {
         assert_eq!(o.step_ratio, Some(2.0));
         o.set_steps(0.2, 0.0);
         assert_eq!(o.step_ratio, None);
+    }
+
+    #[test]
+    fn percentages_keep_small_values_visible() {
+        assert_eq!(percent(0.123), "12.3%");
+        assert_eq!(percent(0.00123), "0.12%");
+        assert_eq!(percent(1.7e-6), "2e-4%");
+        assert_eq!(percent(0.0), "0.0%");
     }
 
     #[test]

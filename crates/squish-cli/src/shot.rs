@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use rayon::prelude::*;
 use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats};
 use squish::{ObjectParams, TriMesh};
@@ -76,8 +76,6 @@ pub type FrameWriter<'a> = dyn Fn(i64, &ShotFrame, &[Vec<DVec3>]) -> Result<(), 
 pub struct ShotSettings {
     /// The frames to compute (inclusive).
     pub frames: RangeInclusive<i64>,
-    /// Worker threads (≥ 1).
-    pub threads: usize,
     /// Frames whose meshes and labels are kept for pictures.
     pub preview_frames: BTreeSet<i64>,
     /// Keep every frame's output positions (for animated files written at the end).
@@ -187,6 +185,21 @@ impl ShotOutcome {
     }
 }
 
+/// The worker pool of a job, `threads` wide (`None`: every core). Everything the job computes
+/// runs on it — frames, the library's loops inside a frame, pictures — so `--threads` bounds
+/// the whole job.
+pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, CliError> {
+    let threads = match threads {
+        Some(0) => return Err(CliError::input("--threads 0: give at least 1 (or leave it out to use every core)")),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, usize::from),
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CliError::failure(format!("cannot start {threads} worker threads: {e}")))
+}
+
 /// One frame's end.
 enum FrameOutcome {
     Done(Box<FrameDone>),
@@ -200,20 +213,17 @@ struct FrameDone {
     kept: Option<Vec<Vec<DVec3>>>,
 }
 
-/// Runs `settings.frames` of `source` in parallel; `write` writes each frame's files. Stops
-/// scheduling frames at the first failure or Ctrl-C; the frames in progress finish (and are
-/// written) and the outcome says what happened.
+/// Runs `settings.frames` of `source` in parallel on `pool` (see [`worker_pool`]); `write`
+/// writes each frame's files. Stops scheduling frames at the first failure or Ctrl-C; the frames
+/// in progress finish (and are written) and the outcome says what happened.
 pub fn run_shot(
     source: &dyn ShotSource,
     settings: &ShotSettings,
+    pool: &rayon::ThreadPool,
     interrupt: &Interrupt,
     write: &FrameWriter,
 ) -> Result<ShotOutcome, CliError> {
-    let threads = settings.threads.max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| CliError::failure(format!("cannot start {threads} worker threads: {e}")))?;
+    let threads = pool.current_num_threads();
     let frames: Vec<i64> = settings.frames.clone().collect();
     let progress = progress_bar(frames.len() as u64, &settings.label);
     let deformers: Mutex<Vec<Deformer>> = Mutex::new(Vec::new());
@@ -339,9 +349,12 @@ fn progress_bar(len: u64, label: &str) -> ProgressBar {
     }
     let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
     if let Ok(style) =
-        ProgressStyle::with_template("{prefix} [{bar:32}] {pos}/{len} frames  {per_sec}  {eta} left  ({elapsed})")
+        ProgressStyle::with_template("{prefix} [{bar:32}] {pos}/{len} frames  {fps}  {eta} left  ({elapsed})")
     {
-        bar.set_style(style.progress_chars("=> "));
+        let fps = |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+            let _ = write!(w, "{:.1} frames/s", state.per_sec());
+        };
+        bar.set_style(style.with_key("fps", fps).progress_chars("=> "));
     }
     bar.set_prefix(label.to_string());
     bar.tick();
