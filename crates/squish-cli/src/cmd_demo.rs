@@ -25,6 +25,7 @@ use squish::pipeline::scenes::{self, ProceduralScene, SceneObject};
 use squish_io::scene::{OutputFormat, OutputSpec};
 use squish_render::vstack;
 
+use crate::console::say;
 use crate::error::CliError;
 use crate::input::{create_dir, write_text};
 use crate::interrupt;
@@ -214,7 +215,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     create_dir(&root)?;
     let interrupt = interrupt::install();
     let demos = demo_scenes(detail);
-    println!(
+    say!(
         "squish demo{}: {} animated scenes → {}",
         if args.quick { " --quick" } else { "" },
         demos.len(),
@@ -256,11 +257,11 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             summary_path.display()
         )));
     }
-    println!("done in {:.1} s", start.elapsed().as_secs_f64());
+    say!("done in {:.1} s", start.elapsed().as_secs_f64());
     if let Some(path) = overview {
-        println!("overview: {}", path.display());
+        say!("overview: {}", path.display());
     }
-    println!("summary: {}", summary_path.display());
+    say!("summary: {}", summary_path.display());
     Ok(())
 }
 
@@ -281,7 +282,7 @@ fn run_scene(
     }
     let vertices: usize = first.objects.iter().map(|o| o.mesh.num_vertices()).sum();
     let frame_count = demo.frames.clone().count();
-    println!(
+    say!(
         "[{}/{count}] {}: {} ({} frame{}, {} objects, {vertices} vertices)",
         index + 1,
         demo.slug,
@@ -339,8 +340,8 @@ fn run_scene(
     if let Some(failure) = outcome.failure {
         return Err(failure.error);
     }
-    println!("      {}", demo_line(&summary));
-    println!("      → {}/ (meshes, report.json, quality.png, preview/, strip.png)", dir.display());
+    say!("      {}", demo_line(&summary));
+    say!("      → {}/ (meshes, report.json, quality.png, preview/, strip.png)", dir.display());
     let result = SceneResult {
         name: demo.slug.to_string(),
         title: demo.title.to_string(),

@@ -14,6 +14,7 @@ use serde_json::json;
 use squish_io::Scene;
 use squish_io::scene::{ContactMethod, MeshSource, OutputFormat, OutputSpec};
 
+use crate::console::say;
 use crate::error::CliError;
 use crate::input::create_dir;
 use crate::interrupt;
@@ -143,10 +144,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             missing.iter().map(|m| format!("--frames {m}")).collect::<Vec<_>>().join(", ")
         )));
     }
-    println!("{}", summary.one_line());
-    println!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
+    say!("{}", summary.one_line());
+    say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
     if !previews.is_empty() {
-        println!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
+        say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
     }
     Ok(())
 }
@@ -232,8 +233,8 @@ fn print_dry_run(
 ) {
     let description = scene.description();
     let range = scene.frame_range();
-    println!("scene: {}", scene.path().display());
-    println!(
+    say!("scene: {}", scene.path().display());
+    say!(
         "frames: {}:{} ({} frame{}) of the scene's {}:{} at {} fps",
         frames.start(),
         frames.end(),
@@ -243,7 +244,7 @@ fn print_dry_run(
         range.end,
         range.fps
     );
-    println!("objects:");
+    say!("objects:");
     for ((spec, object), n) in description.objects.iter().zip(&first.objects).zip(numbering) {
         let source = match &spec.mesh {
             MeshSource::File { file, .. } => format!("file {}", file.display()),
@@ -254,44 +255,44 @@ fn print_dry_run(
         let vertices = object.mesh.num_vertices();
         let written = n.vertex_count(vertices);
         let numbering = if written == vertices { String::new() } else { format!(", {written} in the file") };
-        println!(
+        say!(
             "  {:<16} {} vertices{numbering}, {} triangles, {kind}; {source}",
             spec.name,
             vertices,
             object.mesh.num_triangles()
         );
         if let Some(note) = &n.note {
-            println!("  {:<16} note: {note}", "");
+            say!("  {:<16} note: {note}", "");
         }
     }
-    println!("pairs:");
+    say!("pairs:");
     if description.pairs.is_empty() {
-        println!("  none (the objects are copied unchanged)");
+        say!("  none (the objects are copied unchanged)");
     }
     for pair in &description.pairs {
         let method = match pair.contact_method {
             ContactMethod::Geometric => "geometric",
             ContactMethod::Ball { .. } => "ball",
         };
-        println!("  {} / {}: {method} contact", pair.objects[0], pair.objects[1]);
+        say!("  {} / {}: {method} contact", pair.objects[0], pair.objects[1]);
     }
     let ext = output.format.extension();
     match output.format {
-        OutputFormat::Glb => println!("outputs: {}/<object>.glb (one animated file per object)", output.dir.display()),
-        _ => println!(
+        OutputFormat::Glb => say!("outputs: {}/<object>.glb (one animated file per object)", output.dir.display()),
+        _ => say!(
             "outputs: {} to {} per object, e.g. {}",
             squish_io::scene::format_frame(*frames.start(), 4) + "." + ext,
             squish_io::scene::format_frame(*frames.end(), 4) + "." + ext,
             output.path_for(&first.objects[0].name, *frames.start()).display()
         ),
     }
-    println!("report: {}", output.dir.join("report.json").display());
+    say!("report: {}", output.dir.join("report.json").display());
     if missing.is_empty() {
-        println!("missing sequence files: none");
+        say!("missing sequence files: none");
     } else {
-        println!("missing sequence files: {}", missing.len());
+        say!("missing sequence files: {}", missing.len());
         for (object, frame, path) in missing {
-            println!("  object \"{object}\", frame {frame}: {}", path.display());
+            say!("  object \"{object}\", frame {frame}: {}", path.display());
         }
     }
 }

@@ -10,6 +10,7 @@ mod cmd_deform;
 mod cmd_demo;
 mod cmd_info;
 mod cmd_run;
+mod console;
 mod error;
 mod input;
 mod interrupt;

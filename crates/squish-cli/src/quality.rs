@@ -11,11 +11,13 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use glam::DVec3;
 use serde::Serialize;
 use squish::pipeline::FrameResult;
+use squish::spatial::TriangleBvh;
+use squish::{Topology, TriMesh};
 use squish_render::{Plot, Series, encode_png, grid, plot_image, svg_line_plot};
 
-use crate::cmd_deform::deepest_penetration;
 use crate::error::CliError;
 use crate::input::{write_bytes, write_text};
 use crate::report::FrameReport;
@@ -66,8 +68,61 @@ pub struct PairQuality {
     pub penetration_ratio: Option<f64>,
 }
 
+/// What measuring a frame reuses from the previous frames a worker measured: per object,
+/// whether it is closed and triangle trees over its input and its output, refitted to each
+/// frame's positions (rebuilding two trees per object and frame would cost as much as a third
+/// of the deformation itself).
+#[derive(Default)]
+pub struct MeasureCache {
+    objects: Vec<Option<ObjectTrees>>,
+}
+
+struct ObjectTrees {
+    triangles: Vec<[u32; 3]>,
+    closed: bool,
+    input: TriangleBvh,
+    output: TriangleBvh,
+}
+
+impl MeasureCache {
+    /// Trees of object `i` over `input` and `output` positions; `None` for an open mesh (no
+    /// inside, no penetration) or a mesh the trees cannot be built for.
+    fn trees(&mut self, i: usize, mesh: &TriMesh, output: &[DVec3]) -> Option<&ObjectTrees> {
+        if self.objects.len() <= i {
+            self.objects.resize_with(i + 1, || None);
+        }
+        let slot = &mut self.objects[i];
+        let reusable = slot.as_ref().is_some_and(|t| t.triangles == mesh.triangles);
+        if reusable {
+            let trees = slot.as_mut()?;
+            if trees.closed && (trees.input.refit(&mesh.positions).is_err() || trees.output.refit(output).is_err()) {
+                *slot = None;
+                return None;
+            }
+        } else {
+            let closed = Topology::new(mesh).is_closed();
+            let output_mesh = TriMesh { positions: output.to_vec(), triangles: mesh.triangles.clone() };
+            let (input, output) = (TriangleBvh::new(mesh).ok()?, TriangleBvh::new(&output_mesh).ok()?);
+            *slot = Some(ObjectTrees { triangles: mesh.triangles.clone(), closed, input, output });
+        }
+        slot.as_ref().filter(|t| t.closed)
+    }
+}
+
+/// Deepest vertex of either point set inside the other tree's closed mesh.
+fn deepest(a: &[DVec3], tree_a: &TriangleBvh, b: &[DVec3], tree_b: &TriangleBvh) -> f64 {
+    if !tree_a.bounds().intersects(&tree_b.bounds()) {
+        return 0.0;
+    }
+    tree_b.penetration_depths(a).into_iter().chain(tree_a.penetration_depths(b)).fold(0.0, f64::max)
+}
+
 /// The quality figures of a computed frame (steps are filled in later, see `shot`).
-pub fn measure(shot: &ShotFrame, result: &FrameResult) -> (Vec<ObjectQuality>, Vec<PairQuality>) {
+pub fn measure(
+    shot: &ShotFrame,
+    result: &FrameResult,
+    cache: &mut MeasureCache,
+) -> (Vec<ObjectQuality>, Vec<PairQuality>) {
     let stats = &result.stats;
     let mut area = vec![0.0f64; shot.objects.len()];
     let mut pairs = Vec::with_capacity(shot.pairs.len());
@@ -76,12 +131,17 @@ pub fn measure(shot: &ShotFrame, result: &FrameResult) -> (Vec<ObjectQuality>, V
         for &i in &pair.objects {
             area[i] = area[i].max(pair_stats.contact_area);
         }
-        let before = deepest_penetration(&shot.objects[a].mesh, &shot.objects[b].mesh);
-        let output = |i: usize| squish::TriMesh {
-            positions: result.positions[i].clone(),
-            triangles: shot.objects[i].mesh.triangles.clone(),
+        let (mesh_a, mesh_b) = (&shot.objects[a].mesh, &shot.objects[b].mesh);
+        let (out_a, out_b) = (&result.positions[a], &result.positions[b]);
+        let closed_a = cache.trees(a, mesh_a, out_a).is_some();
+        let closed_b = cache.trees(b, mesh_b, out_b).is_some();
+        let (before, after) = match (closed_a, closed_b, &cache.objects[a], &cache.objects[b]) {
+            (true, true, Some(ta), Some(tb)) => (
+                Some(deepest(&mesh_a.positions, &ta.input, &mesh_b.positions, &tb.input)),
+                Some(deepest(out_a, &ta.output, out_b, &tb.output)),
+            ),
+            _ => (None, None),
         };
-        let after = deepest_penetration(&output(a), &output(b));
         pairs.push(PairQuality {
             objects: pair_stats.objects.clone(),
             in_contact: pair_stats.in_contact,
@@ -480,6 +540,26 @@ mod tests {
         assert_eq!(o.step_ratio, Some(2.0));
         o.set_steps(0.2, 0.0);
         assert_eq!(o.step_ratio, None);
+    }
+
+    #[test]
+    fn penetrations_match_the_direct_measure_with_reused_trees() {
+        use squish::mesh::shapes;
+        let mut cache = MeasureCache::default();
+        let a = shapes::icosphere(1.0, 2);
+        let mut b = a.clone();
+        for depth in [0.3, 0.5, -0.1] {
+            b.positions = a.positions.iter().map(|p| *p + DVec3::new(0.0, 0.0, 2.0 - depth)).collect();
+            let direct = crate::cmd_deform::deepest_penetration(&a, &b).unwrap();
+            let ta = cache.trees(0, &a, &a.positions).map(|t| t.input.clone()).unwrap();
+            let tb = cache.trees(1, &b, &b.positions).map(|t| t.input.clone()).unwrap();
+            let cached = deepest(&a.positions, &ta, &b.positions, &tb);
+            assert_eq!(cached, direct, "depth {depth}");
+        }
+        // An open mesh has no inside.
+        let mut open = a.clone();
+        open.triangles.pop();
+        assert!(cache.trees(2, &open, &open.positions).is_none());
     }
 
     #[test]

@@ -10,9 +10,9 @@
 //! results with a fresh or a reused cache, so the output of a frame does not depend on which
 //! worker computed it, on the thread count, or on how the range was split between jobs.
 //!
-//! Deformers are reused through a small pool rather than one per OS thread: rayon may run a
-//! stolen frame *inside* another frame's parallel loop on the same thread, and two frames must
-//! never share one deformer.
+//! Deformers (and the quality measure's caches) are reused through a small pool rather than one
+//! per OS thread: rayon may run a stolen frame *inside* another frame's parallel loop on the
+//! same thread, and two frames must never share one deformer.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::IsTerminal;
@@ -29,7 +29,7 @@ use squish::{ObjectParams, TriMesh};
 
 use crate::error::CliError;
 use crate::interrupt::Interrupt;
-use crate::quality::{self, ObjectQuality, PairQuality};
+use crate::quality::{self, MeasureCache, ObjectQuality, PairQuality};
 
 /// An object of one frame, owned.
 #[derive(Clone, Debug)]
@@ -226,7 +226,7 @@ pub fn run_shot(
     let threads = pool.current_num_threads();
     let frames: Vec<i64> = settings.frames.clone().collect();
     let progress = progress_bar(frames.len() as u64, &settings.label);
-    let deformers: Mutex<Vec<Deformer>> = Mutex::new(Vec::new());
+    let workers: Mutex<Vec<Worker>> = Mutex::new(Vec::new());
     let continuity = Continuity::default();
     let failed = AtomicBool::new(false);
     let start = Instant::now();
@@ -238,10 +238,10 @@ pub fn run_shot(
                 if interrupt.requested() || failed.load(Ordering::SeqCst) {
                     return FrameOutcome::Skipped;
                 }
-                let mut deformer = deformers.lock().ok().and_then(|mut pool| pool.pop()).unwrap_or_default();
-                let result = compute_frame(source, f, &mut deformer, settings, &continuity, write);
-                if let Ok(mut pool) = deformers.lock() {
-                    pool.push(deformer);
+                let mut worker = workers.lock().ok().and_then(|mut pool| pool.pop()).unwrap_or_default();
+                let result = compute_frame(source, f, &mut worker, settings, &continuity, write);
+                if let Ok(mut pool) = workers.lock() {
+                    pool.push(worker);
                 }
                 match result {
                     Ok(done) => {
@@ -293,18 +293,26 @@ pub fn run_shot(
     Ok(outcome)
 }
 
+/// What a frame in progress owns: a deformer and the quality measure's trees, both caching
+/// connectivity-only data across the frames it computes.
+#[derive(Default)]
+struct Worker {
+    deformer: Deformer,
+    measure: MeasureCache,
+}
+
 fn compute_frame(
     source: &dyn ShotSource,
     f: i64,
-    deformer: &mut Deformer,
+    worker: &mut Worker,
     settings: &ShotSettings,
     continuity: &Continuity,
     write: &FrameWriter,
 ) -> Result<FrameDone, CliError> {
     let shot = source.frame(f)?;
-    let result = deformer.deform(&shot.frame()).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
+    let result = worker.deformer.deform(&shot.frame()).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
     write(f, &shot, &result.positions)?;
-    let (objects, pairs) = quality::measure(&shot, &result);
+    let (objects, pairs) = quality::measure(&shot, &result, &mut worker.measure);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
     let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
