@@ -326,7 +326,7 @@ fn run_scene(
     };
     let (previews, pictures) =
         pool.install(|| write_previews(&dir.join("preview"), &outcome, &PictureSettings::default()))?;
-    let strip_image = strip(&pictures, 6);
+    let strip_image = strip(&pictures);
     if let Some(image) = &strip_image {
         write_png(&dir.join("strip.png"), image)?;
     }

@@ -358,10 +358,11 @@ fn legend(image: &mut Image, entries: &[(Rgb, &str)]) {
     }
 }
 
-/// The pictures of one frame: the output, and the comparison "input | output", whole (top)
-/// and cut through the contacts (bottom).
+/// The pictures of one frame: the output whole and cut through the contacts, and the
+/// comparison "input | output", whole (top) and cut (bottom).
 pub struct FramePictures {
     pub output: Image,
+    pub section: Image,
     pub compare: Image,
 }
 
@@ -372,16 +373,12 @@ pub fn frame_pictures(
     view: &ShotView,
     settings: &PictureSettings,
 ) -> Result<FramePictures, CliError> {
-    let panel = PictureSettings { width: settings.width * 3 / 4, height: settings.height * 3 / 4, ..*settings };
-    let output = render_frame(frame, p, Side::Output, false, view, settings, &format!("frame {frame}"))?;
-    let panels = [
-        render_frame(frame, p, Side::Input, false, view, &panel, &format!("frame {frame}: input"))?,
-        render_frame(frame, p, Side::Output, false, view, &panel, &format!("frame {frame}: output"))?,
-        render_frame(frame, p, Side::Input, true, view, &panel, "section: input")?,
-        render_frame(frame, p, Side::Output, true, view, &panel, "section: output")?,
-    ];
-    let refs: Vec<&Image> = panels.iter().collect();
-    Ok(FramePictures { output, compare: grid(&refs, 2, 4, [255, 255, 255, 255]) })
+    let input = render_frame(frame, p, Side::Input, false, view, settings, &format!("frame {frame}: input"))?;
+    let output = render_frame(frame, p, Side::Output, false, view, settings, &format!("frame {frame}: output"))?;
+    let input_section = render_frame(frame, p, Side::Input, true, view, settings, "section: input")?;
+    let section = render_frame(frame, p, Side::Output, true, view, settings, &format!("frame {frame}: section"))?;
+    let compare = grid(&[&input, &output, &input_section, &section], 2, 4, [255, 255, 255, 255]);
+    Ok(FramePictures { output, section, compare })
 }
 
 /// Half the size: each pixel the average of a 2 × 2 block (in sRGB bytes: close enough for a
@@ -405,20 +402,20 @@ pub fn half_size(image: &Image) -> Image {
     out
 }
 
-/// A frame's picture files and its output picture.
+/// A frame's picture files and its pictures.
 struct WrittenFrame {
     frame: i64,
     files: [PathBuf; 2],
-    output: Image,
+    pictures: FramePictures,
 }
 
-/// Writes `dir/<frame:04>.png` and `dir/<frame:04>_compare.png` for every previewed frame;
-/// returns the files written and the output pictures, by frame.
+/// Writes `dir/<frame:04>.png` (the output) and `dir/<frame:04>_compare.png` for every
+/// previewed frame; returns the files written and the pictures, by frame.
 pub fn write_previews(
     dir: &Path,
     outcome: &ShotOutcome,
     settings: &PictureSettings,
-) -> Result<(Vec<PathBuf>, BTreeMap<i64, Image>), CliError> {
+) -> Result<(Vec<PathBuf>, BTreeMap<i64, FramePictures>), CliError> {
     let mut written = Vec::new();
     let mut outputs = BTreeMap::new();
     if outcome.previews.is_empty() {
@@ -437,25 +434,29 @@ pub fn write_previews(
                 write_png(&dir.join(format!("{name}.png")), &pictures.output)?,
                 write_png(&dir.join(format!("{name}_compare.png")), &pictures.compare)?,
             ];
-            Ok(WrittenFrame { frame, files, output: pictures.output })
+            Ok(WrittenFrame { frame, files, pictures })
         })
         .collect();
     for result in done {
-        let WrittenFrame { frame, files, output } = result?;
+        let WrittenFrame { frame, files, pictures } = result?;
         written.extend(files);
-        outputs.insert(frame, output);
+        outputs.insert(frame, pictures);
     }
     Ok((written, outputs))
 }
 
-/// Thumbnails of `pictures` side by side in rows of `columns`.
-pub fn strip(pictures: &BTreeMap<i64, Image>, columns: usize) -> Option<Image> {
-    let thumbnails: Vec<Image> = pictures.values().map(half_size).collect();
-    if thumbnails.is_empty() {
+/// Half-size thumbnails of the frames: the outputs in the top row, their sections below.
+pub fn strip(pictures: &BTreeMap<i64, FramePictures>) -> Option<Image> {
+    if pictures.is_empty() {
         return None;
     }
+    let thumbnails: Vec<Image> = pictures
+        .values()
+        .map(|p| half_size(&p.output))
+        .chain(pictures.values().map(|p| half_size(&p.section)))
+        .collect();
     let refs: Vec<&Image> = thumbnails.iter().collect();
-    Some(grid(&refs, columns, 4, [255, 255, 255, 255]))
+    Some(grid(&refs, pictures.len(), 4, [255, 255, 255, 255]))
 }
 
 /// Encodes and writes a PNG atomically.

@@ -301,7 +301,7 @@ fn previews_show_the_objects_at_the_chosen_frames() {
         .collect();
     names.sort();
     assert_eq!(names, ["0001.png", "0001_compare.png", "0012.png", "0012_compare.png"]);
-    for (name, size) in [("0012.png", (640, 480)), ("0012_compare.png", (964, 724))] {
+    for (name, size) in [("0012.png", (640, 480)), ("0012_compare.png", (1284, 964))] {
         let decoder =
             png::Decoder::new(std::io::BufReader::new(std::fs::File::open(out.join("preview").join(name)).unwrap()));
         let mut reader = decoder.read_info().unwrap();
