@@ -1,12 +1,298 @@
-//! `squish run`: being built (see the issue tracker); this placeholder only reports that.
+//! `squish run SCENE.toml`: every frame of an animated scene, in parallel, with outputs in the
+//! input files' vertex order, a report (`report.json`, `quality.svg`, `quality.png`) and
+//! optional previews.
+//!
+//! Frames are independent, so a shot can be split over machines with `--frames A:B`: the files
+//! of a frame are the same bit for bit whatever the split and the thread count. Ctrl-C stops
+//! cleanly (see `interrupt`): frames in progress finish, the report covers the frames done and
+//! lists the missing ones for a re-run.
+
+use std::path::PathBuf;
 
 use clap::Args;
+use serde_json::json;
+use squish_io::Scene;
+use squish_io::scene::{ContactMethod, MeshSource, OutputFormat, OutputSpec};
 
+use crate::console::say;
 use crate::error::CliError;
+use crate::input::create_dir;
+use crate::interrupt;
+use crate::preview::{ColorMode, PictureSettings, UpAxis, preview_frames, write_previews};
+use crate::quality::write_report;
+use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
+use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
 
 #[derive(Args, Debug)]
-pub struct RunArgs {}
+pub struct RunArgs {
+    /// The scene file (TOML; see docs/scene-format.md).
+    pub scene: PathBuf,
+    /// Output directory (default: the scene's `output.dir`, relative to the scene file).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Frames to compute: A:B (inclusive), A, A: or :B. Default: the scene's frames.
+    #[arg(long, value_name = "A:B")]
+    pub frames: Option<String>,
+    /// Worker threads for everything (frames and the work inside a frame). Default: all cores.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Write PNG previews to DIR/preview: `--preview` alone renders the first, middle and last
+    /// frames; `--preview=1,12,20:24` renders those.
+    #[arg(long, value_name = "FRAMES", num_args = 0..=1, require_equals = true, default_missing_value = "auto")]
+    pub preview: Option<String>,
+    /// Colouring of the previews' output meshes.
+    #[arg(long, value_enum, default_value_t = ColorMode::Deformable)]
+    pub color: ColorMode,
+    /// The scene's up axis, for the previews' camera.
+    #[arg(long, value_enum, default_value_t = UpAxis::Z)]
+    pub up: UpAxis,
+    /// Check the scene and list objects, pairs, frames, outputs and missing sequence files,
+    /// without computing anything.
+    #[arg(long)]
+    pub dry_run: bool,
+}
 
-pub fn run(_args: &RunArgs) -> Result<(), CliError> {
-    Err(CliError::failure("`squish run` is not available in this build yet"))
+pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    let scene = Scene::load(&args.scene)?;
+    let frames = match &args.frames {
+        Some(text) => squish_io::parse_frame_selection(text, &scene.frame_range())
+            .map_err(|e| CliError::input(format!("{}: {e}", args.scene.display())))?,
+        None => scene.frames(),
+    };
+    let pool = worker_pool(args.threads)?;
+    let mut output = scene.output().clone();
+    if let Some(dir) = &args.output {
+        output.dir = std::path::absolute(dir).unwrap_or_else(|_| dir.clone());
+    }
+    let missing = scene.missing_files(frames.clone());
+    if !args.dry_run && !missing.is_empty() {
+        return Err(missing_error(&args.scene, &missing));
+    }
+    let source = SceneShot { scene: &scene };
+    // The first frame checks the whole mapping (unsupported features fail here, before any
+    // file is written) and gives the objects' names and numbering. A dry run lists missing
+    // files rather than failing on them, so it probes the first frame whose files exist.
+    let probe = frames.clone().find(|f| !missing.iter().any(|m| m.1 == *f)).unwrap_or(*frames.start());
+    let first = source.frame(probe)?;
+    let numbering = file_numbering(&scene, &first);
+    let preview = match &args.preview {
+        Some(text) => preview_frames(text, &frames)?,
+        None => Default::default(),
+    };
+
+    if args.dry_run {
+        print_dry_run(&scene, &frames, &output, &first, &numbering, &missing);
+        return Ok(());
+    }
+    create_dir(&output.dir)?;
+    if output.format.per_frame() {
+        for object in &first.objects {
+            create_dir(&output.object_dir(&object.name))?;
+        }
+    }
+    let settings = ShotSettings {
+        frames: frames.clone(),
+        preview_frames: preview,
+        keep_outputs: !output.format.per_frame(),
+        label: "squish run".into(),
+    };
+    let write = |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| -> Result<(), CliError> {
+        if !output.format.per_frame() {
+            return Ok(());
+        }
+        for ((object, p), n) in shot.objects.iter().zip(positions).zip(&numbering) {
+            squish_io::write_mesh(&output.path_for(&object.name, frame), &n.file_mesh(p))?;
+        }
+        Ok(())
+    };
+    let interrupt = interrupt::install();
+    let outcome = run_shot(&source, &settings, &pool, interrupt, &write)?;
+
+    let mut animated = Vec::new();
+    if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
+        animated = write_animated(&scene, &output, &first, &numbering, &outcome)?;
+    }
+    let pictures = PictureSettings { color: args.color, up: args.up, ..PictureSettings::default() };
+    let (previews, _) = pool.install(|| write_previews(&output.dir.join("preview"), &outcome, &pictures))?;
+    let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;
+    let outputs = outputs_json(&output, &first, &numbering, &animated, &previews);
+    let summary = write_report(&output.dir, &scene_json, &outputs, &outcome)?;
+    let report = output.dir.join("report.json");
+
+    if let Some(failure) = outcome.failure {
+        eprintln!(
+            "{} frame{} done before the failure; report: {}",
+            outcome.records.len(),
+            if outcome.records.len() == 1 { "" } else { "s" },
+            report.display()
+        );
+        return Err(failure.error);
+    }
+    if !outcome.complete() {
+        let missing: Vec<String> =
+            outcome.missing_runs().iter().map(|r| format!("{}:{}", r.start(), r.end())).collect();
+        let glb = if output.format.per_frame() {
+            ""
+        } else {
+            "; the animated .glb files need every frame and were not written"
+        };
+        return Err(CliError::failure(format!(
+            "interrupted: {} of {} frames done (report: {}){glb}; to finish, run the missing frames: {}",
+            outcome.records.len(),
+            frames.clone().count(),
+            report.display(),
+            missing.iter().map(|m| format!("--frames {m}")).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    say!("{}", summary.one_line());
+    say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
+    if !previews.is_empty() {
+        say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
+    }
+    Ok(())
+}
+
+/// The error for missing sequence files: the first few, with the frame and the expected path.
+fn missing_error(scene: &std::path::Path, missing: &[(String, i64, PathBuf)]) -> CliError {
+    let list: Vec<String> = missing
+        .iter()
+        .take(5)
+        .map(|(object, frame, path)| format!("  object \"{object}\", frame {frame}: {}", path.display()))
+        .collect();
+    let more = if missing.len() > 5 { format!("\n  … and {} more", missing.len() - 5) } else { String::new() };
+    let (s, are) = if missing.len() == 1 { ("", "is") } else { ("s", "are") };
+    CliError::input(format!(
+        "{}: {} file{s} of mesh sequences {are} missing:\n{}{more}\nexport those frames, or choose other frames with --frames",
+        scene.display(),
+        missing.len(),
+        list.join("\n")
+    ))
+}
+
+/// Writes one animated `.glb` per object from the kept frames (in frame order).
+fn write_animated(
+    scene: &Scene,
+    output: &OutputSpec,
+    first: &ShotFrame,
+    numbering: &[FileNumbering],
+    outcome: &ShotOutcome,
+) -> Result<Vec<PathBuf>, CliError> {
+    let mut written = Vec::new();
+    for (i, (object, n)) in first.objects.iter().zip(numbering).enumerate() {
+        let frames: Vec<Vec<glam::DVec3>> = outcome.kept.values().map(|positions| n.positions(&positions[i])).collect();
+        let path = output.animated_path(&object.name);
+        squish_io::write_animated_glb(&path, &object.name, &n.triangles, &frames, scene.frame_range().fps)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// The `outputs` section of the report.
+fn outputs_json(
+    output: &OutputSpec,
+    first: &ShotFrame,
+    numbering: &[FileNumbering],
+    animated: &[PathBuf],
+    previews: &[PathBuf],
+) -> serde_json::Value {
+    let objects: Vec<serde_json::Value> = first
+        .objects
+        .iter()
+        .zip(numbering)
+        .map(|(o, n)| {
+            let files = if output.format.per_frame() {
+                output.object_dir(&o.name).join(format!("{{frame:04}}.{}", output.format.extension()))
+            } else {
+                output.animated_path(&o.name)
+            };
+            json!({
+                "name": o.name,
+                "files": files.display().to_string(),
+                "vertices_processed": o.mesh.num_vertices(),
+                "vertices_written": n.vertex_count(o.mesh.num_vertices()),
+                "note": n.note,
+            })
+        })
+        .collect();
+    json!({
+        "dir": output.dir.display().to_string(),
+        "format": output.format.extension(),
+        "objects": objects,
+        "animated_files": animated.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "previews": previews.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+    })
+}
+
+fn print_dry_run(
+    scene: &Scene,
+    frames: &std::ops::RangeInclusive<i64>,
+    output: &OutputSpec,
+    first: &ShotFrame,
+    numbering: &[FileNumbering],
+    missing: &[(String, i64, PathBuf)],
+) {
+    let description = scene.description();
+    let range = scene.frame_range();
+    say!("scene: {}", scene.path().display());
+    say!(
+        "frames: {}:{} ({} frame{}) of the scene's {}:{} at {} fps",
+        frames.start(),
+        frames.end(),
+        frames.clone().count(),
+        if frames.clone().count() == 1 { "" } else { "s" },
+        range.start,
+        range.end,
+        range.fps
+    );
+    say!("objects:");
+    for ((spec, object), n) in description.objects.iter().zip(&first.objects).zip(numbering) {
+        let source = match &spec.mesh {
+            MeshSource::File { file, .. } => format!("file {}", file.display()),
+            MeshSource::Sequence { pattern, .. } => format!("sequence {}", pattern.display()),
+            MeshSource::Gltf(g) => format!("glTF {}", g.file.display()),
+        };
+        let kind = if spec.rigid { "rigid".to_string() } else { format!("stiffness {}", object.params.stiffness) };
+        let vertices = object.mesh.num_vertices();
+        let written = n.vertex_count(vertices);
+        let numbering = if written == vertices { String::new() } else { format!(", {written} in the file") };
+        say!(
+            "  {:<16} {} vertices{numbering}, {} triangles, {kind}; {source}",
+            spec.name,
+            vertices,
+            object.mesh.num_triangles()
+        );
+        if let Some(note) = &n.note {
+            say!("  {:<16} note: {note}", "");
+        }
+    }
+    say!("pairs:");
+    if description.pairs.is_empty() {
+        say!("  none (the objects are copied unchanged)");
+    }
+    for pair in &description.pairs {
+        let method = match pair.contact_method {
+            ContactMethod::Geometric => "geometric",
+            ContactMethod::Ball { .. } => "ball",
+        };
+        say!("  {} / {}: {method} contact", pair.objects[0], pair.objects[1]);
+    }
+    let ext = output.format.extension();
+    match output.format {
+        OutputFormat::Glb => say!("outputs: {}/<object>.glb (one animated file per object)", output.dir.display()),
+        _ => say!(
+            "outputs: {} to {} per object, e.g. {}",
+            squish_io::scene::format_frame(*frames.start(), 4) + "." + ext,
+            squish_io::scene::format_frame(*frames.end(), 4) + "." + ext,
+            output.path_for(&first.objects[0].name, *frames.start()).display()
+        ),
+    }
+    say!("report: {}", output.dir.join("report.json").display());
+    if missing.is_empty() {
+        say!("missing sequence files: none");
+    } else {
+        say!("missing sequence files: {}", missing.len());
+        for (object, frame, path) in missing {
+            say!("  object \"{object}\", frame {frame}: {}", path.display());
+        }
+    }
 }

@@ -10,10 +10,16 @@ mod cmd_deform;
 mod cmd_demo;
 mod cmd_info;
 mod cmd_run;
+mod console;
 mod error;
 mod input;
+mod interrupt;
 mod params;
+mod preview;
+mod quality;
 mod report;
+mod scene_shot;
+mod shot;
 
 use std::process::ExitCode;
 

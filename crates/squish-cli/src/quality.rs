@@ -1,0 +1,582 @@
+//! Quality figures of a shot — what a TD checks before sending a shot to render — and the
+//! report that carries them (`report.json`, `quality.svg`, `quality.png`).
+//!
+//! Per frame and object: the relative volume change, the contact area, the largest displacement
+//! from the input, and the largest vertex displacement from the previous frame's *output* with,
+//! for reference, the same for the *input* (both include the input's own motion, so their ratio
+//! is what tells a jump: ≈ 1 when the result follows the input smoothly). Per frame and pair:
+//! the deepest penetration of either mesh into the other before and after deformation (closed
+//! meshes only). Per shot: the worst of each, the total and per-frame times, frames per second.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::Serialize;
+use squish::pipeline::FrameResult;
+use squish::spatial::TriangleBvh;
+use squish::{Topology, TriMesh};
+use squish_render::{Plot, Series, encode_png, grid, plot_image, svg_line_plot};
+
+use crate::error::CliError;
+use crate::input::{write_bytes, write_text};
+use crate::report::FrameReport;
+use crate::shot::{FrameRecord, ShotFrame, ShotOutcome};
+
+/// Figures of one object at one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObjectQuality {
+    pub name: String,
+    /// True if the object was deformed at this frame.
+    pub deformed: bool,
+    /// (V_after − V_before) / |V_before|.
+    pub relative_volume_change: f64,
+    /// Largest contact area of the object's pairs (on the potential contact surface).
+    pub contact_area: f64,
+    /// Largest vertex displacement from this frame's input.
+    pub max_deformation: f64,
+    /// Largest vertex displacement from the previous frame's output (`None` for the first frame
+    /// of the range, or after a frame that was not computed).
+    pub output_step: Option<f64>,
+    /// Largest vertex displacement of the input from the previous frame's input.
+    pub input_step: Option<f64>,
+    /// `output_step / input_step` (`None` when the input did not move).
+    pub step_ratio: Option<f64>,
+}
+
+impl ObjectQuality {
+    /// Sets the frame-to-frame steps.
+    pub fn set_steps(&mut self, output: f64, input: f64) {
+        self.output_step = Some(output);
+        self.input_step = Some(input);
+        self.step_ratio = (input > 0.0).then(|| output / input);
+    }
+}
+
+/// Figures of one pair at one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PairQuality {
+    pub objects: [String; 2],
+    pub in_contact: bool,
+    /// Area of the contact zone on the potential contact surface.
+    pub contact_area: f64,
+    /// Deepest vertex of either mesh inside the other, before (input) and after (output); `None`
+    /// when a mesh is not closed (inside is undefined).
+    pub penetration_before: Option<f64>,
+    pub penetration_after: Option<f64>,
+    /// `penetration_after / penetration_before` (`None` when there was no penetration).
+    pub penetration_ratio: Option<f64>,
+}
+
+/// What measuring a frame reuses from the previous frames a worker measured: per object,
+/// whether it is closed and triangle trees over its input and its output, refitted to each
+/// frame's positions (rebuilding two trees per object and frame would cost as much as a third
+/// of the deformation itself).
+#[derive(Default)]
+pub struct MeasureCache {
+    objects: Vec<Option<ObjectTrees>>,
+}
+
+struct ObjectTrees {
+    triangles: Vec<[u32; 3]>,
+    closed: bool,
+    input: TriangleBvh,
+    output: TriangleBvh,
+}
+
+impl MeasureCache {
+    /// Trees of object `i` over `input` and `output` positions; `None` for an open mesh (no
+    /// inside, no penetration) or a mesh the trees cannot be built for.
+    fn trees(&mut self, i: usize, mesh: &TriMesh, output: &[DVec3]) -> Option<&ObjectTrees> {
+        if self.objects.len() <= i {
+            self.objects.resize_with(i + 1, || None);
+        }
+        let slot = &mut self.objects[i];
+        let reusable = slot.as_ref().is_some_and(|t| t.triangles == mesh.triangles);
+        if reusable {
+            let trees = slot.as_mut()?;
+            if trees.closed && (trees.input.refit(&mesh.positions).is_err() || trees.output.refit(output).is_err()) {
+                *slot = None;
+                return None;
+            }
+        } else {
+            let closed = Topology::new(mesh).is_closed();
+            let output_mesh = TriMesh { positions: output.to_vec(), triangles: mesh.triangles.clone() };
+            let (input, output) = (TriangleBvh::new(mesh).ok()?, TriangleBvh::new(&output_mesh).ok()?);
+            *slot = Some(ObjectTrees { triangles: mesh.triangles.clone(), closed, input, output });
+        }
+        slot.as_ref().filter(|t| t.closed)
+    }
+}
+
+/// Deepest vertex of either point set inside the other tree's closed mesh.
+fn deepest(a: &[DVec3], tree_a: &TriangleBvh, b: &[DVec3], tree_b: &TriangleBvh) -> f64 {
+    if !tree_a.bounds().intersects(&tree_b.bounds()) {
+        return 0.0;
+    }
+    tree_b.penetration_depths(a).into_iter().chain(tree_a.penetration_depths(b)).fold(0.0, f64::max)
+}
+
+/// The quality figures of a computed frame (steps are filled in later, see `shot`).
+pub fn measure(
+    shot: &ShotFrame,
+    result: &FrameResult,
+    cache: &mut MeasureCache,
+) -> (Vec<ObjectQuality>, Vec<PairQuality>) {
+    let stats = &result.stats;
+    let mut area = vec![0.0f64; shot.objects.len()];
+    let mut pairs = Vec::with_capacity(shot.pairs.len());
+    for (pair, pair_stats) in shot.pairs.iter().zip(&stats.pairs) {
+        let [a, b] = pair.objects;
+        for &i in &pair.objects {
+            area[i] = area[i].max(pair_stats.contact_area);
+        }
+        let (mesh_a, mesh_b) = (&shot.objects[a].mesh, &shot.objects[b].mesh);
+        let (out_a, out_b) = (&result.positions[a], &result.positions[b]);
+        let closed_a = cache.trees(a, mesh_a, out_a).is_some();
+        let closed_b = cache.trees(b, mesh_b, out_b).is_some();
+        let (before, after) = match (closed_a, closed_b, &cache.objects[a], &cache.objects[b]) {
+            (true, true, Some(ta), Some(tb)) => (
+                Some(deepest(&mesh_a.positions, &ta.input, &mesh_b.positions, &tb.input)),
+                Some(deepest(out_a, &ta.output, out_b, &tb.output)),
+            ),
+            _ => (None, None),
+        };
+        pairs.push(PairQuality {
+            objects: pair_stats.objects.clone(),
+            in_contact: pair_stats.in_contact,
+            contact_area: pair_stats.contact_area,
+            penetration_before: before,
+            penetration_after: after,
+            penetration_ratio: match (before, after) {
+                (Some(b), Some(a)) if b > 0.0 => Some(a / b),
+                _ => None,
+            },
+        });
+    }
+    let objects = stats
+        .objects
+        .iter()
+        .zip(&area)
+        .map(|(o, &contact_area)| ObjectQuality {
+            name: o.name.clone(),
+            deformed: o.deformed,
+            relative_volume_change: o.relative_volume_change,
+            contact_area,
+            max_deformation: o.max_displacement,
+            output_step: None,
+            input_step: None,
+            step_ratio: None,
+        })
+        .collect();
+    (objects, pairs)
+}
+
+/// A worst value and where it happened.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Extreme {
+    pub value: f64,
+    pub frame: i64,
+    /// The object or pair ("a/b").
+    pub at: String,
+}
+
+fn keep_max(slot: &mut Option<Extreme>, value: f64, frame: i64, at: impl FnOnce() -> String) {
+    if value.is_finite() && slot.as_ref().is_none_or(|e| value > e.value) {
+        *slot = Some(Extreme { value, frame, at: at() });
+    }
+}
+
+/// Whole-shot figures.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ShotSummary {
+    pub frames_requested: usize,
+    pub frames_computed: usize,
+    /// Largest |relative volume change| of a deformed object.
+    pub max_volume_change: Option<Extreme>,
+    /// Largest residual penetration (world units) and largest ratio residual / input.
+    pub max_residual_penetration: Option<Extreme>,
+    pub max_penetration_ratio: Option<Extreme>,
+    /// Largest frame-to-frame output step, and largest ratio of a frame's largest output step to
+    /// its largest input step (all objects), i.e. how much more the result moved than the input.
+    pub max_output_step: Option<Extreme>,
+    pub max_step_ratio: Option<Extreme>,
+    /// Sum of the frames' own times, and the batch's wall-clock time.
+    pub total_frame_time_s: f64,
+    pub wall_time_s: f64,
+    pub mean_frame_ms: f64,
+    pub max_frame_ms: f64,
+    /// Frames computed per second of wall-clock time.
+    pub frames_per_second: f64,
+    pub threads: usize,
+}
+
+/// The largest output and input steps of a frame over its objects, and their ratio.
+pub fn frame_steps(record: &FrameRecord) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let outputs: Vec<f64> = record.objects.iter().filter_map(|o| o.output_step).collect();
+    let inputs: Vec<f64> = record.objects.iter().filter_map(|o| o.input_step).collect();
+    if outputs.is_empty() || inputs.is_empty() {
+        return (None, None, None);
+    }
+    let out = outputs.iter().copied().fold(0.0, f64::max);
+    let inp = inputs.iter().copied().fold(0.0, f64::max);
+    (Some(out), Some(inp), (inp > 0.0).then(|| out / inp))
+}
+
+impl ShotSummary {
+    /// The summary of an outcome.
+    pub fn of(outcome: &ShotOutcome) -> Self {
+        let mut s = Self {
+            frames_requested: outcome.frames.clone().count(),
+            frames_computed: outcome.records.len(),
+            max_volume_change: None,
+            max_residual_penetration: None,
+            max_penetration_ratio: None,
+            max_output_step: None,
+            max_step_ratio: None,
+            total_frame_time_s: 0.0,
+            wall_time_s: outcome.wall.as_secs_f64(),
+            mean_frame_ms: 0.0,
+            max_frame_ms: 0.0,
+            frames_per_second: 0.0,
+            threads: outcome.threads,
+        };
+        for r in &outcome.records {
+            let ms = r.stats.total.as_secs_f64() * 1e3;
+            s.total_frame_time_s += ms * 1e-3;
+            s.max_frame_ms = s.max_frame_ms.max(ms);
+            for o in r.objects.iter().filter(|o| o.deformed) {
+                keep_max(&mut s.max_volume_change, o.relative_volume_change.abs(), r.frame, || o.name.clone());
+            }
+            for o in &r.objects {
+                if let Some(step) = o.output_step {
+                    keep_max(&mut s.max_output_step, step, r.frame, || o.name.clone());
+                }
+            }
+            for p in &r.pairs {
+                let at = || format!("{}/{}", p.objects[0], p.objects[1]);
+                if let Some(after) = p.penetration_after {
+                    keep_max(&mut s.max_residual_penetration, after, r.frame, at);
+                }
+                if let Some(ratio) = p.penetration_ratio {
+                    keep_max(&mut s.max_penetration_ratio, ratio, r.frame, at);
+                }
+            }
+            if let (_, _, Some(ratio)) = frame_steps(r) {
+                let at = r
+                    .objects
+                    .iter()
+                    .filter(|o| o.output_step.is_some())
+                    .max_by(|a, b| a.output_step.partial_cmp(&b.output_step).unwrap_or(std::cmp::Ordering::Equal))
+                    .map_or_else(String::new, |o| o.name.clone());
+                keep_max(&mut s.max_step_ratio, ratio, r.frame, || at);
+            }
+        }
+        if s.frames_computed > 0 {
+            s.mean_frame_ms = 1e3 * s.total_frame_time_s / s.frames_computed as f64;
+        }
+        if s.wall_time_s > 0.0 {
+            s.frames_per_second = s.frames_computed as f64 / s.wall_time_s;
+        }
+        s
+    }
+
+    /// One line for people: volume, penetration, steps, time.
+    pub fn one_line(&self) -> String {
+        let mut line = format!(
+            "{} frame{} in {:.1} s ({:.2} frames/s, {} thread{})",
+            self.frames_computed,
+            if self.frames_computed == 1 { "" } else { "s" },
+            self.wall_time_s,
+            self.frames_per_second,
+            self.threads,
+            if self.threads == 1 { "" } else { "s" }
+        );
+        let _ = write!(line, "; {}", self.figures());
+        line
+    }
+
+    /// The quality figures in words.
+    pub fn figures(&self) -> String {
+        let volume = self.max_volume_change.as_ref().map_or(0.0, |e| e.value);
+        let mut text = format!("max |ΔV/V| {volume:.1e}");
+        match &self.max_penetration_ratio {
+            Some(p) => {
+                let _ = write!(text, ", residual penetration ≤ {} of the input's", percent(p.value));
+            }
+            None => text.push_str(", no penetration measured"),
+        }
+        if let Some(step) = &self.max_step_ratio {
+            let _ = write!(text, ", largest step {:.2}× the input's (frame {})", step.value, step.frame);
+        }
+        text
+    }
+}
+
+/// A ratio as a percentage with enough digits to tell small values from zero.
+pub fn percent(ratio: f64) -> String {
+    let p = 100.0 * ratio;
+    if p == 0.0 || p >= 1.0 {
+        format!("{p:.1}%")
+    } else if p >= 0.01 {
+        format!("{p:.2}%")
+    } else {
+        format!("{p:.0e}%")
+    }
+}
+
+/// One frame of `report.json`.
+#[derive(Serialize)]
+struct FrameEntry<'a> {
+    frame: i64,
+    time_ms: f64,
+    /// Largest output step over the objects, largest input step, and their ratio.
+    max_output_step: Option<f64>,
+    max_input_step: Option<f64>,
+    step_ratio: Option<f64>,
+    objects: &'a [ObjectQuality],
+    pairs: &'a [PairQuality],
+    stats: FrameReport,
+}
+
+/// How a run ended.
+#[derive(Serialize)]
+pub struct RunStatus {
+    /// "complete", "interrupted" or "failed".
+    pub status: &'static str,
+    /// Frames asked for but not computed, as "A:B" runs for `--frames`.
+    pub missing_frames: Vec<String>,
+    /// The failed frame and why.
+    pub failed_frame: Option<i64>,
+    pub error: Option<String>,
+}
+
+impl RunStatus {
+    pub fn of(outcome: &ShotOutcome) -> Self {
+        let status = if outcome.failure.is_some() {
+            "failed"
+        } else if outcome.interrupted && !outcome.complete() {
+            "interrupted"
+        } else {
+            "complete"
+        };
+        Self {
+            status,
+            missing_frames: outcome.missing_runs().iter().map(|r| format!("{}:{}", r.start(), r.end())).collect(),
+            failed_frame: outcome.failure.as_ref().map(|f| f.frame),
+            error: outcome.failure.as_ref().map(|f| f.error.to_string()),
+        }
+    }
+}
+
+/// `report.json`: what was run and how it went.
+#[derive(Serialize)]
+struct Report<'a, S: Serialize> {
+    squish_version: &'static str,
+    /// The scene as resolved (defaults filled in, paths absolute).
+    scene: &'a S,
+    frames: FramesInfo,
+    run: RunStatus,
+    outputs: &'a serde_json::Value,
+    summary: ShotSummary,
+    per_frame: Vec<FrameEntry<'a>>,
+}
+
+#[derive(Serialize)]
+struct FramesInfo {
+    start: i64,
+    end: i64,
+    computed: usize,
+}
+
+/// Writes `dir/report.json`, `dir/quality.svg` and `dir/quality.png`; returns the summary.
+pub fn write_report<S: Serialize>(
+    dir: &Path,
+    scene: &S,
+    outputs: &serde_json::Value,
+    outcome: &ShotOutcome,
+) -> Result<ShotSummary, CliError> {
+    let summary = ShotSummary::of(outcome);
+    let per_frame = outcome
+        .records
+        .iter()
+        .map(|r| {
+            let (max_output_step, max_input_step, step_ratio) = frame_steps(r);
+            FrameEntry {
+                frame: r.frame,
+                time_ms: r.stats.total.as_secs_f64() * 1e3,
+                max_output_step,
+                max_input_step,
+                step_ratio,
+                objects: &r.objects,
+                pairs: &r.pairs,
+                stats: FrameReport::from(&r.stats),
+            }
+        })
+        .collect();
+    let report = Report {
+        squish_version: env!("CARGO_PKG_VERSION"),
+        scene,
+        frames: FramesInfo {
+            start: *outcome.frames.start(),
+            end: *outcome.frames.end(),
+            computed: outcome.records.len(),
+        },
+        run: RunStatus::of(outcome),
+        outputs,
+        summary: summary.clone(),
+        per_frame,
+    };
+    write_text(&dir.join("report.json"), &serde_json::to_string_pretty(&report)?)?;
+    if !outcome.records.is_empty() {
+        let plots = quality_plots(&outcome.records);
+        write_text(&dir.join("quality.svg"), &stacked_svg(&plots, 2))?;
+        let images: Vec<_> = plots.iter().map(plot_image).collect();
+        let refs: Vec<_> = images.iter().collect();
+        let png = encode_png(&grid(&refs, 2, 0, [255, 255, 255, 255]))
+            .map_err(|e| CliError::failure(format!("quality plot: {e}")))?;
+        write_bytes(&dir.join("quality.png"), &png)?;
+    }
+    Ok(summary)
+}
+
+/// The per-frame curves: volume change, penetration ratio, step ratio, contact area, time.
+pub fn quality_plots(records: &[FrameRecord]) -> Vec<Plot> {
+    let names: Vec<String> =
+        records.first().map(|r| r.objects.iter().map(|o| o.name.clone()).collect()).unwrap_or_default();
+    let pair_names: Vec<String> = records
+        .first()
+        .map(|r| r.pairs.iter().map(|p| format!("{}/{}", p.objects[0], p.objects[1])).collect())
+        .unwrap_or_default();
+    let per_object = |value: &dyn Fn(&crate::quality::ObjectQuality) -> Option<f64>| -> Vec<Series> {
+        names
+            .iter()
+            .enumerate()
+            .map(|(i, name)| {
+                let points = records
+                    .iter()
+                    .map(|r| (r.frame as f64, r.objects.get(i).and_then(value).unwrap_or(f64::NAN)))
+                    .collect();
+                Series::new(name.clone(), points)
+            })
+            .collect()
+    };
+    // Pairs are matched by name: disabled pairs are missing from some frames.
+    let per_pair = |value: &dyn Fn(&PairQuality) -> Option<f64>| -> Vec<Series> {
+        pair_names
+            .iter()
+            .map(|name| {
+                let points = records
+                    .iter()
+                    .map(|r| {
+                        let v = r
+                            .pairs
+                            .iter()
+                            .find(|p| format!("{}/{}", p.objects[0], p.objects[1]) == *name)
+                            .and_then(value);
+                        (r.frame as f64, v.unwrap_or(f64::NAN))
+                    })
+                    .collect();
+                Series::new(name.clone(), points)
+            })
+            .collect()
+    };
+    let plot = |title: &str, y: &str, series: Vec<Series>| {
+        let mut p = Plot::new(title).with_labels("frame", y).with_size(640, 340);
+        p.series = series;
+        p
+    };
+    let times = records.iter().map(|r| (r.frame as f64, r.stats.total.as_secs_f64() * 1e3)).collect();
+    vec![
+        plot(
+            "relative volume change",
+            "(V after - V before) / V",
+            per_object(&|o| o.deformed.then_some(o.relative_volume_change)),
+        ),
+        plot("residual penetration / input penetration", "ratio", per_pair(&|p| p.penetration_ratio)),
+        plot("frame-to-frame step: output / input", "ratio", per_object(&|o| o.step_ratio)),
+        plot("contact area", "area", per_pair(&|p| Some(p.contact_area))),
+        plot("time per frame", "ms", vec![Series::new("frame", times)]),
+    ]
+}
+
+/// Several SVG plots in one document, `columns` per row.
+fn stacked_svg(plots: &[Plot], columns: usize) -> String {
+    let (w, h) = plots.iter().fold((0, 0), |(w, h), p| (w.max(p.width), h.max(p.height)));
+    let rows = plots.len().div_ceil(columns.max(1));
+    let cols = columns.min(plots.len()).max(1);
+    let (total_w, total_h) = (w as usize * cols, h as usize * rows);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{total_w}\" height=\"{total_h}\" viewBox=\"0 0 {total_w} {total_h}\">\n<rect width=\"{total_w}\" height=\"{total_h}\" fill=\"white\"/>\n"
+    );
+    for (k, plot) in plots.iter().enumerate() {
+        let (x, y) = ((k % columns.max(1)) * w as usize, (k / columns.max(1)) * h as usize);
+        // Each plot is a standalone <svg>; nested, it only needs its place.
+        let inner = svg_line_plot(plot);
+        svg.push_str(&inner.replacen("<svg ", &format!("<svg x=\"{x}\" y=\"{y}\" "), 1));
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
+mod tests {
+    use super::*;
+
+    #[test]
+    fn step_ratio_is_undefined_for_a_still_input() {
+        let mut o = ObjectQuality {
+            name: "a".into(),
+            deformed: true,
+            relative_volume_change: 0.0,
+            contact_area: 0.0,
+            max_deformation: 0.0,
+            output_step: None,
+            input_step: None,
+            step_ratio: None,
+        };
+        o.set_steps(0.2, 0.1);
+        assert_eq!(o.step_ratio, Some(2.0));
+        o.set_steps(0.2, 0.0);
+        assert_eq!(o.step_ratio, None);
+    }
+
+    #[test]
+    fn penetrations_match_the_direct_measure_with_reused_trees() {
+        use squish::mesh::shapes;
+        let mut cache = MeasureCache::default();
+        let a = shapes::icosphere(1.0, 2);
+        let mut b = a.clone();
+        for depth in [0.3, 0.5, -0.1] {
+            b.positions = a.positions.iter().map(|p| *p + DVec3::new(0.0, 0.0, 2.0 - depth)).collect();
+            let direct = crate::cmd_deform::deepest_penetration(&a, &b).unwrap();
+            let ta = cache.trees(0, &a, &a.positions).map(|t| t.input.clone()).unwrap();
+            let tb = cache.trees(1, &b, &b.positions).map(|t| t.input.clone()).unwrap();
+            let cached = deepest(&a.positions, &ta, &b.positions, &tb);
+            assert_eq!(cached, direct, "depth {depth}");
+        }
+        // An open mesh has no inside.
+        let mut open = a.clone();
+        open.triangles.pop();
+        assert!(cache.trees(2, &open, &open.positions).is_none());
+    }
+
+    #[test]
+    fn percentages_keep_small_values_visible() {
+        assert_eq!(percent(0.123), "12.3%");
+        assert_eq!(percent(0.00123), "0.12%");
+        assert_eq!(percent(1.7e-6), "2e-4%");
+        assert_eq!(percent(0.0), "0.0%");
+    }
+
+    #[test]
+    fn stacked_svg_places_every_plot() {
+        let plots = vec![Plot::new("a"), Plot::new("b"), Plot::new("c")];
+        let svg = stacked_svg(&plots, 2);
+        assert_eq!(svg.matches("<svg ").count(), 4);
+        assert!(svg.contains("<svg x=\"800\" y=\"0\" "), "{svg}");
+        assert!(svg.contains("<svg x=\"0\" y=\"500\" "));
+        assert!(svg.trim_end().ends_with("</svg>"));
+    }
+}
