@@ -34,6 +34,14 @@
 //! - **Small u.** The division uses `max(u_j, 10⁻⁶)`: continuous, bounded, and a vertex that close
 //!   to ∂𝒞 moves by `−a_j + u_j s_j`, insensitive to s_j. The numerator vanishes with the distance
 //!   to ∂𝒞 as well (q is offset by a_j for that reason), so s stays O(1) as u_j → 0.
+//! - **Slope confidence.** In practice the estimate is ill-conditioned for a vertex very close to
+//!   ∂𝒞: the numerator is a small difference of plane offsets divided by a small u_j, and single
+//!   vertices spiked to 25× the typical slope just before entering 𝒞, which the diffusion spread
+//!   to their neighbours as frame-to-frame jumps of 10× the input's motion. Each vertex value is
+//!   therefore blended toward the confidence-weighted mean slope, with the confidence
+//!   `smoothstep(dist_j / h)` (h the mean edge length, dist_j = u_j·φ_max): a vertex a full edge
+//!   from ∂𝒞 keeps its own estimate, one on ∂𝒞 takes the mean. Both are continuous, so the field
+//!   stays continuous; the slope still matches 𝒮 along ∂𝒞 through the confident vertices.
 //! - A boundary point whose 𝒮 normal is zero gets `s_ij = 0`.
 
 use glam::DVec3;
@@ -44,7 +52,7 @@ use super::parametrize::Parametrization;
 use super::{DeformError, RegionSolver};
 use crate::contact::EdgeRegion;
 use crate::linalg::{SolveError, cut_face_weights};
-use crate::mesh::{Topology, TriMesh};
+use crate::mesh::{Topology, TriMesh, mean_edge_length};
 
 /// u below which the slope division is clamped (see the module doc).
 pub const MIN_SLOPE_U: f64 = 1e-6;
@@ -164,6 +172,45 @@ pub fn boundary_slope(
     (offset.dot(vertex_direction) + vertex_amplitude) / vertex_u.max(MIN_SLOPE_U)
 }
 
+/// C¹ step from 0 at x ≤ 0 to 1 at x ≥ 1.
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// Blends each vertex slope toward the confidence-weighted mean of all of them, by how far the
+/// vertex lies from ∂𝒞 (see the module doc, "Slope confidence").
+fn confident_slopes(
+    mesh: &TriMesh,
+    topology: &Topology,
+    parametrization: &Parametrization,
+    constraints: &mut [BoundaryVertex],
+) {
+    let h = mean_edge_length(mesh, topology);
+    if !(h > 0.0) {
+        return;
+    }
+    let confidence: Vec<f64> = constraints
+        .iter()
+        .map(|c| {
+            let d = parametrization.distance.get(c.vertex as usize).copied().unwrap_or(0.0);
+            if d.is_finite() { smoothstep(d / h) } else { 0.0 }
+        })
+        .collect();
+    let (mut sum, mut total) = (0.0, 0.0);
+    for (c, &k) in constraints.iter().zip(&confidence) {
+        sum += c.weight * k * c.value;
+        total += c.weight * k;
+    }
+    if !(total > 0.0) {
+        return;
+    }
+    let mean = sum / total;
+    for (c, &k) in constraints.iter_mut().zip(&confidence) {
+        c.value = k * c.value + (1.0 - k) * mean;
+    }
+}
+
 /// Computes a and s over 𝒟 (see the module doc).
 pub fn guide_fields(
     mesh: &TriMesh,
@@ -220,7 +267,8 @@ pub fn guide_fields(
             )
         })
         .collect();
-    let slope_constraints = boundary_averages(n, contact, &boundary_slope);
+    let mut slope_constraints = boundary_averages(n, contact, &boundary_slope);
+    confident_slopes(mesh, topology, parametrization, &mut slope_constraints);
     for c in &slope_constraints {
         if parametrization.u[c.vertex as usize] < MIN_SLOPE_U {
             clamped_slopes += 1;

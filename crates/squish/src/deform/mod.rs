@@ -136,6 +136,10 @@ pub struct RegionDeformation {
     pub directions: Vec<DVec3>,
     /// 𝓗_i(u_i) on 𝒟 (0 elsewhere): `p′_i = p_i + heights[i]·directions[i]`.
     pub heights: Vec<f64>,
+    /// The amplitude field a (§5.3), diffused over 𝒟 (meaningful there).
+    pub amplitude: Vec<f64>,
+    /// The slope field s (§5.3), diffused over 𝒟 (meaningful there).
+    pub slope: Vec<f64>,
     /// The bulge map η used (1 outside 𝒟).
     pub bulge_map: Vec<f64>,
     /// Figures and timings.
@@ -307,6 +311,8 @@ pub fn deform_region(
         contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
         directions: field.directions,
         heights,
+        amplitude: guide.amplitude,
+        slope: guide.slope,
         bulge_map: eta.weights,
         stats,
     })

@@ -294,3 +294,32 @@ fn bad_inputs_are_errors_naming_the_object() {
     let err = Deformer::new().deform(&scene.frame()).unwrap_err();
     assert!(err.to_string().contains("degenerate"), "{err}");
 }
+
+/// Regression: deep presses (a third of the ball's radius) used to jump by up to 12× the input's
+/// step between frames, from slope estimates spiking at vertices about to enter 𝒞 (see
+/// `deform::guide`, "Slope confidence").
+#[test]
+fn a_deep_press_stays_continuous() {
+    let mut deformer = Deformer::new();
+    let mut previous: Option<(f64, Vec<Vec<DVec3>>)> = None;
+    let (steps, from, to) = (100, -0.05, 0.45);
+    let mut worst_ratio: f64 = 0.0;
+    for k in 0..=steps {
+        let depth = from + (to - from) * k as f64 / steps as f64;
+        let mut scene = scenes::ball_on_ground(depth, 4, 32);
+        scene.objects[1].params = ObjectParams::default().with_stiffness(2.0);
+        let result = deformer.deform(&scene.frame()).unwrap();
+        if let Some((d0, prev)) = &previous {
+            let step = depth - d0;
+            for (i, (now, before)) in result.positions.iter().zip(prev).enumerate() {
+                let rigid = if i == 0 { DVec3::new(0.0, 0.0, -step) } else { DVec3::ZERO };
+                for (p, q) in now.iter().zip(before) {
+                    worst_ratio = worst_ratio.max((*p - *q - rigid).length() / step);
+                }
+            }
+        }
+        previous = Some((depth, result.positions));
+    }
+    println!("largest jump over a press to 0.45: {worst_ratio:.2} × the step");
+    assert!(worst_ratio < 5.0, "{worst_ratio}");
+}
