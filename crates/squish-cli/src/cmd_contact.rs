@@ -12,6 +12,7 @@ use squish::spatial::TriangleBvh;
 use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
 use squish_render::{Label, rgba8};
 
+use crate::console::say;
 use crate::error::CliError;
 use crate::input::{InputMesh, WeldChoice, create_dir, output_stems, write_text};
 use crate::params::pair_settings;
@@ -117,7 +118,13 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         let mut properties = VertexProperty::rgb(&colors);
         properties.push(VertexProperty::int("label", &labels.iter().map(|&k| i32::from(k)).collect::<Vec<_>>()));
         let path = args.output.join(format!("{}.ply", stems[l]));
-        write_ply_with(&path, &input.file.positions, Some(&input.file.triangles), &properties, &PlyWriteOptions::default())?;
+        write_ply_with(
+            &path,
+            &input.file.positions,
+            Some(&input.file.triangles),
+            &properties,
+            &PlyWriteOptions::default(),
+        )?;
         side_summaries.push(side_summary(&result, l, &stems[l], &path, &inputs[l], &prepared[l].0));
     }
 
@@ -177,22 +184,32 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let json_path = args.output.join("contact.json");
     write_text(&json_path, &serde_json::to_string_pretty(&summary)?)?;
     if result.is_empty() {
-        println!("the meshes do not intersect (no contact zone)");
+        say!("the meshes do not intersect (no contact zone)");
     } else {
         let d = result.direction;
-        println!(
+        say!(
             "d̂ = [{:.4}, {:.4}, {:.4}], ε_c = {:.4e} (m = {:.4e}, σ = {:.4e}), contact area on S {:.4e}",
-            d.x, d.y, d.z, result.criterion.threshold, result.criterion.mean, result.criterion.std_dev, result.contact_area
+            d.x,
+            d.y,
+            d.z,
+            result.criterion.threshold,
+            result.criterion.mean,
+            result.criterion.std_dev,
+            result.contact_area
         );
         for s in &summary.sides {
-            println!(
+            say!(
                 "{}: intersection {} vertices, mapping {}, contact {} → {}",
-                s.name, s.intersection_vertices, s.mapping_vertices, s.contact_vertices, s.labelled_mesh
+                s.name,
+                s.intersection_vertices,
+                s.mapping_vertices,
+                s.contact_vertices,
+                s.labelled_mesh
             );
         }
     }
-    println!("boundary points: {} ({} points)", points_path.display(), points.len());
-    println!("summary: {}", json_path.display());
+    say!("boundary points: {} ({} points)", points_path.display(), points.len());
+    say!("summary: {}", json_path.display());
     Ok(())
 }
 

@@ -7,6 +7,7 @@ use serde::Serialize;
 use squish::pipeline::{Deformer, Frame, FrameObject, FramePair};
 use squish::spatial;
 
+use crate::console::say;
 use crate::error::CliError;
 use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
 use crate::params::{PairSettings, pair_settings};
@@ -97,7 +98,7 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
 
     let pair = &result.stats.pairs[0];
     if pair.in_contact {
-        println!(
+        say!(
             "contact: d̂ = [{:.3}, {:.3}, {:.3}] ({}), ε_c = {:.4}, contact area {:.4}",
             pair.direction[0],
             pair.direction[1],
@@ -107,11 +108,11 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
             pair.contact_area
         );
     } else {
-        println!("the meshes do not intersect: outputs are copies of the inputs");
+        say!("the meshes do not intersect: outputs are copies of the inputs");
     }
     for (object, output) in result.stats.objects.iter().zip(&outputs) {
         if object.deformed {
-            println!(
+            say!(
                 "{}: {} contact and {} deformed vertices, extent {:.4}, volume change {:.2e} → {output}",
                 object.name,
                 object.contact_vertices,
@@ -120,12 +121,12 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
                 object.relative_volume_change
             );
         } else {
-            println!("{}: unchanged → {output}", object.name);
+            say!("{}: unchanged → {output}", object.name);
         }
     }
     if let (Some(before), Some(after)) = (report.penetration_before, report.penetration_after) {
-        println!("deepest penetration {before:.4e} → {after:.4e}");
+        say!("deepest penetration {before:.4e} → {after:.4e}");
     }
-    println!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
+    say!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
     Ok(())
 }

@@ -4,10 +4,11 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde::Serialize;
-use squish::mesh::{bounding_box, face_areas, mean_edge_length, signed_volume, Topology};
+use squish::mesh::{Topology, bounding_box, face_areas, mean_edge_length, signed_volume};
 use squish::spatial;
 use squish_io::WeldMode;
 
+use crate::console::say;
 use crate::error::CliError;
 
 #[derive(Args, Debug)]
@@ -76,14 +77,10 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         volume: signed_volume(&mesh),
         area: face_areas(&mesh).iter().sum(),
         mean_edge_length: mean_edge_length(&mesh, &topology),
-        bounding_box: BoundingBox {
-            min: bbox.min.to_array(),
-            max: bbox.max.to_array(),
-            diagonal: bbox.diagonal(),
-        },
+        bounding_box: BoundingBox { min: bbox.min.to_array(), max: bbox.max.to_array(), diagonal: bbox.diagonal() },
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
+        say!("{}", serde_json::to_string_pretty(&info)?);
     } else {
         print_text(&info);
     }
@@ -92,25 +89,31 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
 
 fn print_text(info: &MeshInfo) {
     let yes_no = |b: bool| if b { "yes" } else { "no" };
-    println!("{}", info.path);
-    println!("  vertices                 {}", info.vertices);
-    println!("  faces                    {}", info.faces);
-    println!("  edges                    {}", info.edges);
-    println!("  components               {}", info.components);
-    println!("  closed                   {}", yes_no(info.closed));
+    say!("{}", info.path);
+    say!("  vertices                 {}", info.vertices);
+    say!("  faces                    {}", info.faces);
+    say!("  edges                    {}", info.edges);
+    say!("  components               {}", info.components);
+    say!("  closed                   {}", yes_no(info.closed));
     match &info.manifold_problem {
-        None => println!("  manifold                 yes"),
-        Some(problem) => println!("  manifold                 no ({problem})"),
+        None => say!("  manifold                 yes"),
+        Some(problem) => say!("  manifold                 no ({problem})"),
     }
-    println!("  boundary loops           {}", info.boundary_loops);
-    println!("  degenerate faces         {}", info.degenerate_faces);
-    println!("  self-intersecting faces  {}", info.self_intersecting_faces);
-    println!("  volume                   {:.6}", info.volume);
-    println!("  area                     {:.6}", info.area);
-    println!("  mean edge length         {:.6}", info.mean_edge_length);
+    say!("  boundary loops           {}", info.boundary_loops);
+    say!("  degenerate faces         {}", info.degenerate_faces);
+    say!("  self-intersecting faces  {}", info.self_intersecting_faces);
+    say!("  volume                   {:.6}", info.volume);
+    say!("  area                     {:.6}", info.area);
+    say!("  mean edge length         {:.6}", info.mean_edge_length);
     let b = &info.bounding_box;
-    println!(
+    say!(
         "  bounding box             [{:.4}, {:.4}, {:.4}] – [{:.4}, {:.4}, {:.4}] (diagonal {:.4})",
-        b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2], b.diagonal
+        b.min[0],
+        b.min[1],
+        b.min[2],
+        b.max[0],
+        b.max[1],
+        b.max[2],
+        b.diagonal
     );
 }

@@ -137,7 +137,6 @@ pub fn write_text(path: &Path, text: &str) -> Result<(), CliError> {
 }
 
 /// Writes `bytes` to `path` atomically.
-#[allow(dead_code)] // used by the picture writers of `run` and `demo`
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     squish_io::write_atomically(path, |w| w.write_all(bytes))?;
     Ok(())

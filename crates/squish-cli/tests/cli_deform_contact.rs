@@ -1,5 +1,7 @@
 //! `squish deform` and `squish contact` end to end on procedural meshes written to files.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::Path;
 use std::process::Command;
 

@@ -1,5 +1,7 @@
 //! `squish info` end to end: the binary reads files, reports the topology and fails cleanly.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::Path;
 use std::process::Command;
 

@@ -187,7 +187,7 @@ fn confident_slopes(
     constraints: &mut [BoundaryVertex],
 ) {
     let h = mean_edge_length(mesh, topology);
-    if !(h > 0.0) {
+    if h.is_nan() || h <= 0.0 {
         return;
     }
     let confidence: Vec<f64> = constraints
@@ -202,7 +202,7 @@ fn confident_slopes(
         sum += c.weight * k * c.value;
         total += c.weight * k;
     }
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return;
     }
     let mean = sum / total;

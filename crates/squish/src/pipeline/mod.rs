@@ -203,7 +203,8 @@ impl ObjectCache {
     fn new(name: &str, mesh: &TriMesh) -> Result<Self, PipelineError> {
         let topology =
             mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
-        let bvh = TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
+        let bvh =
+            TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
         Ok(Self { triangles: mesh.triangles.clone(), closed: topology.is_closed(), topology, bvh, solver: None })
     }
 
@@ -269,7 +270,10 @@ impl Deformer {
                 }
             }
             if pair.objects[0] == pair.objects[1] {
-                return Err(PipelineError::SelfPair { pair: p, object: frame.objects[pair.objects[0]].name.to_string() });
+                return Err(PipelineError::SelfPair {
+                    pair: p,
+                    object: frame.objects[pair.objects[0]].name.to_string(),
+                });
             }
         }
         for object in &frame.objects {
@@ -327,9 +331,11 @@ impl Deformer {
                 let side_b = ContactSide::new(ob.mesh, &caches[ib].topology, &prepared[ib].normals, &caches[ib].bvh)
                     .with_name(ob.name)
                     .with_stiffness(ob.params.contact_stiffness());
-                contact_pair(&side_a, &side_b, &pair.params)
-                    .map(Some)
-                    .map_err(|source| PipelineError::Contact { a: oa.name.to_string(), b: ob.name.to_string(), source })
+                contact_pair(&side_a, &side_b, &pair.params).map(Some).map_err(|source| PipelineError::Contact {
+                    a: oa.name.to_string(),
+                    b: ob.name.to_string(),
+                    source,
+                })
             })
             .collect::<Result<_, _>>()?;
 
@@ -364,10 +370,10 @@ impl Deformer {
                     return Ok(None);
                 }
                 let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
-                let extent =
-                    object.params.extent.unwrap_or_else(|| {
-                        automatic_extent(prepared[i].size, partner_size[i], contact_area[i])
-                    });
+                let extent = object
+                    .params
+                    .extent
+                    .unwrap_or_else(|| automatic_extent(prepared[i].size, partner_size[i], contact_area[i]));
                 if cache.solver.is_none() {
                     cache.solver = Some(RegionSolver::new(object.mesh, &cache.topology).map_err(err)?);
                 }
@@ -429,7 +435,8 @@ impl Deformer {
                     stages.guide += s.timings.guide;
                     stages.deformation += s.timings.deformation;
                     stages.factorization += s.timings.factorization;
-                    let after = TriMesh { positions: deformation.positions.clone(), triangles: object.mesh.triangles.clone() };
+                    let after =
+                        TriMesh { positions: deformation.positions.clone(), triangles: object.mesh.triangles.clone() };
                     stats.deformed = true;
                     stats.volume_after = signed_volume(&after);
                     stats.extent = extent;

@@ -138,11 +138,7 @@ fn identical_balls_give_mirror_symmetric_results() {
     let scene = scenes::mirrored_balls(0.3, 4);
     let result = run(&scene);
     let (top, bottom) = (&result.positions[0], &result.positions[1]);
-    let worst = top
-        .iter()
-        .zip(bottom)
-        .map(|(t, b)| (DVec3::new(t.x, t.y, -t.z) - *b).length())
-        .fold(0.0f64, f64::max);
+    let worst = top.iter().zip(bottom).map(|(t, b)| (DVec3::new(t.x, t.y, -t.z) - *b).length()).fold(0.0f64, f64::max);
     println!("mirror asymmetry {worst:.2e}");
     assert!(worst < 1e-9, "mirror asymmetry {worst}");
     assert!(result.stats.objects[0].max_displacement > 0.05);
