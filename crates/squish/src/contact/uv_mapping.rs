@@ -258,6 +258,8 @@ pub struct SideParametrization {
     pub constrained_points: usize,
     /// Targets located by the nearest-triangle fallback.
     pub location_fallbacks: usize,
+    /// The harmonic correction g per vertex of the mesh (0 away from ℐ and its one-ring).
+    pub correction: Vec<DVec2>,
     locator: UvLocator,
 }
 
@@ -467,6 +469,7 @@ fn map_side_uv(
         affine_residual,
         constrained_points: constraints.len(),
         location_fallbacks: 0,
+        correction: g,
         locator,
     };
     let located: Vec<(Match, bool)> = param.vertex_targets.par_iter().map(|&q| param.locate(other, q)).collect();
@@ -577,4 +580,245 @@ pub(crate) fn rematch_zone(
         Sample::Vertex(v) => targets[v as usize],
         Sample::Point(p) => boundary_targets[p as usize],
     });
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::super::intersect::intersect;
+    use super::super::test_support::{Owned, distance_to};
+    use super::super::{ContactMethod, MappingMethod, PairContact, PairParams, Stiffness, contact_pair};
+    use super::*;
+    use crate::mesh::shapes;
+
+    /// A working region with per-vertex UVs.
+    struct WithUvs {
+        owned: Owned,
+        uvs: Vec<DVec2>,
+    }
+
+    impl WithUvs {
+        fn side(&self) -> ContactSide<'_> {
+            self.owned.side().with_uvs(Some(&self.uvs))
+        }
+    }
+
+    const OFFSET: DVec2 = DVec2::new(0.013, -0.021);
+
+    /// The analytic tip surface z = −0.3 + 1.2‖xy − offset‖².
+    fn tip_height(x: f64, y: f64) -> f64 {
+        let d = DVec2::new(x, y) - OFFSET;
+        -0.3 + 1.2 * d.length_squared()
+    }
+
+    /// A rigid rounded tip pressing down: the paraboloid z = −0.3 + 1.2 r² as a grid whose faces
+    /// look down (the solid is above it), with UVs `uv(x, y)`.
+    fn tip(uv: impl Fn(DVec2) -> DVec2) -> WithUvs {
+        let mut mesh = shapes::grid(2.4, 2.4, 60, 60);
+        mesh.map_positions(|p| DVec3::new(p.x + OFFSET.x, p.y + OFFSET.y, tip_height(p.x + OFFSET.x, p.y + OFFSET.y)));
+        for t in &mut mesh.triangles {
+            t.swap(1, 2);
+        }
+        let uvs = mesh.positions.iter().map(|p| uv(p.truncate())).collect();
+        WithUvs { owned: Owned::new(mesh, DVec3::ZERO).with_stiffness(Stiffness::Rigid), uvs }
+    }
+
+    /// The elastic plane z = 0 with uv = (x, y).
+    fn plane() -> WithUvs {
+        let mesh = shapes::grid(2.4, 2.4, 60, 60);
+        let uvs = mesh.positions.iter().map(|p| p.truncate()).collect();
+        WithUvs { owned: Owned::new(mesh, DVec3::ZERO), uvs }
+    }
+
+    fn shared(a: &WithUvs, b: &WithUvs) -> ([SideMapping; 2], MappingStats, SharedParametrization) {
+        let inter = intersect(&a.side(), &b.side()).unwrap();
+        assert!(inter.points.len() > 50);
+        map_regions_uv([&a.side(), &b.side()], [&inter.regions[0], &inter.regions[1]], &inter.points).unwrap()
+    }
+
+    fn assert_close(x: DMat2, y: DMat2, tolerance: f64) {
+        let d = (x - y).to_cols_array().iter().map(|v| v.abs()).fold(0.0, f64::max);
+        assert!(d <= tolerance, "{x} vs {y}");
+    }
+
+    #[test]
+    fn affine_fit_recovers_a_known_map_and_degenerate_inputs_fall_back() {
+        let linear = DMat2::from_cols(DVec2::new(1.3, -0.1), DVec2::new(0.2, 0.9));
+        let translation = DVec2::new(0.5, -0.2);
+        let pts = [DVec2::new(0.1, 0.2), DVec2::new(-0.4, 0.3), DVec2::new(0.7, -0.5), DVec2::new(0.2, 0.9)];
+        let pairs: Vec<_> = pts.iter().map(|&p| (p, linear * p + translation)).collect();
+        let (a, fit) = fit_affine(&pairs);
+        assert_eq!(fit, AffineFit::Affine);
+        assert_close(a.linear, linear, 1e-13);
+        assert!((a.translation - translation).length() < 1e-13);
+        // Collinear points: a similarity that maps them exactly when they are related by one.
+        let rotation = DMat2::from_angle(0.4) * 1.5;
+        let line: Vec<_> = (0..5).map(|k| DVec2::new(k as f64, 2.0 * k as f64)).map(|p| (p, rotation * p + translation)).collect();
+        let (a, fit) = fit_affine(&line);
+        assert_eq!(fit, AffineFit::Similarity);
+        assert_close(a.linear, rotation, 1e-12);
+        let (a, fit) = fit_affine(&[(DVec2::ONE, DVec2::new(3.0, 4.0))]);
+        assert_eq!(fit, AffineFit::Translation);
+        assert!((a.apply(DVec2::ONE) - DVec2::new(3.0, 4.0)).length() < 1e-15);
+        assert_eq!(fit_affine(&[]).1, AffineFit::Translation);
+    }
+
+    /// Plane (uv = xy) against a rounded tip whose UVs are an affine image of xy: the affine fit
+    /// recovers that map exactly, the residuals vanish, every match lies on the other mesh, and the
+    /// mapping is the vertical projection (uv = xy on the plane).
+    #[test]
+    fn an_affine_uv_relation_is_recovered_exactly() {
+        let linear = DMat2::from_cols(DVec2::new(1.3, -0.1), DVec2::new(0.2, 0.9));
+        let translation = DVec2::new(0.5, -0.2);
+        let (tip, plane) = (tip(|q| linear * q + translation), plane());
+        let (mappings, stats, param) = shared(&tip, &plane);
+        assert_eq!(stats.closest_point_matches, 0, "every target is inside a UV triangle");
+        let on_plane = &param.sides[1];
+        assert_eq!(on_plane.fit, AffineFit::Affine);
+        assert_close(on_plane.affine.linear, linear, 1e-12);
+        assert!((on_plane.affine.translation - translation).length() < 1e-12);
+        let on_tip = &param.sides[0];
+        assert_close(on_tip.affine.linear, linear.inverse(), 1e-12);
+        println!(
+            "affine residuals: plane → tip {:.1e}, tip → plane {:.1e}; constrained boundary points {} and {}",
+            on_plane.affine_residual, on_tip.affine_residual, on_plane.constrained_points, on_tip.constrained_points
+        );
+        assert!(on_plane.affine_residual < 1e-12 && on_tip.affine_residual < 1e-12);
+        for (l, (side, other)) in [(&tip, &plane), (&plane, &tip)].into_iter().enumerate() {
+            let mapping = &mappings[l];
+            assert!(mapping.vertices.len() > 100);
+            for (&v, m) in mapping.vertices.iter().zip(&mapping.vertex_matches) {
+                let p = side.owned.mesh.positions[v as usize];
+                assert_eq!(m.kind, MatchKind::Parametric);
+                assert!(distance_to(&other.owned, m.point) < 1e-12, "match off the other mesh");
+                assert!((m.point.truncate() - p.truncate()).length() < 1e-10, "not a vertical projection: {p} → {}", m.point);
+            }
+            for m in &mapping.point_matches {
+                assert!(distance_to(&other.owned, m.point) < 1e-12);
+            }
+        }
+    }
+
+    /// A tilted plane (uv = its own in-plane coordinates) against the tip (uv = world xy): the uv
+    /// relation is the linear map diag(cos β, 1), so the mapping is the vertical projection onto
+    /// the tip, i.e. onto the analytic paraboloid up to the chord error of its mesh.
+    #[test]
+    fn a_tilted_plane_maps_onto_the_tip_to_chord_error() {
+        let beta: f64 = 0.3;
+        let (tip, mut plane) = (tip(|q| q), plane());
+        // Rotation about y: (x′, y′, 0) ↦ (x′ cos β, y′, −x′ sin β); the UVs stay (x′, y′).
+        plane.owned = Owned::new(
+            {
+                let mut mesh = plane.owned.mesh.clone();
+                mesh.map_positions(|p| DVec3::new(p.x * beta.cos(), p.y, -p.x * beta.sin()));
+                mesh
+            },
+            DVec3::ZERO,
+        );
+        let (mappings, _, param) = shared(&tip, &plane);
+        let on_plane = &param.sides[1];
+        assert_close(on_plane.affine.linear, DMat2::from_diagonal(DVec2::new(beta.cos(), 1.0)), 1e-12);
+        assert!(on_plane.affine.translation.length() < 1e-12);
+        let h = 2.4 / 60.0;
+        // Linear interpolation of a quadratic with Hessian 2.4·I over right triangles of legs h
+        // errs by at most 2.4·(√2 h)²/8 = 0.6 h², from above (the paraboloid is convex).
+        let chord = 0.6 * h * h;
+        let mut worst = 0.0f64;
+        for (&v, m) in mappings[1].vertices.iter().zip(&mappings[1].vertex_matches) {
+            let p = plane.owned.mesh.positions[v as usize];
+            assert!((m.point.truncate() - p.truncate()).length() < 1e-10);
+            let error = m.point.z - tip_height(p.x, p.y);
+            assert!(error >= -1e-12 && error <= chord + 1e-12, "vertex {v}: {error} vs chord error {chord}");
+            worst = worst.max(error);
+        }
+        println!("tilted plane → tip: {} vertices, largest distance to the analytic paraboloid {worst:.2e} (chord bound {chord:.2e})", mappings[1].vertices.len());
+    }
+
+    /// UVs related by a non-affine map: the affine part leaves residuals e_k at the intersection
+    /// points; the harmonic correction g, interpolated at ℐ's boundary points, cancels them (up to
+    /// the least-squares slack), and every match still lies on the other mesh.
+    #[test]
+    fn a_curved_uv_relation_is_corrected_at_the_intersection_boundary() {
+        let (tip, plane) = (tip(|q| DVec2::new(q.x + 0.4 * q.y * q.y, q.y - 0.2 * q.x * q.x)), plane());
+        let inter = intersect(&tip.side(), &plane.side()).unwrap();
+        let (mappings, stats, param) = map_regions_uv(
+            [&tip.side(), &plane.side()],
+            [&inter.regions[0], &inter.regions[1]],
+            &inter.points,
+        )
+        .unwrap();
+        let (mapping, on_plane) = (&mappings[1], &param.sides[1]);
+        let sources = boundary_sources(&mapping.region, 1, &plane.owned.topology, &inter.points);
+        let (mut before, mut after) = (0.0f64, 0.0f64);
+        for ((bp, source), target) in mapping.region.points().iter().zip(&sources).zip(&on_plane.point_targets) {
+            let Some(_) = source else { continue };
+            let q = plane.uvs[bp.inside as usize].lerp(plane.uvs[bp.outside as usize], bp.alpha);
+            let g = on_plane.correction[bp.inside as usize].lerp(on_plane.correction[bp.outside as usize], bp.alpha);
+            before = before.max((on_plane.affine.apply(q) - *target).length());
+            after = after.max((on_plane.affine.apply(q) + g - *target).length());
+        }
+        println!(
+            "curved uv relation: max |e_k| at ℐ's boundary {before:.3e} → {after:.3e} after the harmonic correction ({} constrained points, {} fallbacks)",
+            on_plane.constrained_points, stats.closest_point_matches
+        );
+        assert!(before > 1e-3, "the relation is not affine: {before}");
+        assert!(after < 0.1 * before, "the correction must cancel the residuals: {after} vs {before}");
+        for m in &mapping.vertex_matches {
+            assert!(distance_to(&tip.owned, m.point) < 1e-12);
+        }
+    }
+
+    fn run(a: &WithUvs, b: &WithUvs, params: &PairParams) -> PairContact {
+        contact_pair(&a.side(), &b.side(), params).unwrap()
+    }
+
+    /// The whole contact definition with the shared parametrization: with the geometric criterion
+    /// and with ball testing, ℳ = ℐ, zone targets on the tip, and bit-identical repeated runs.
+    #[test]
+    fn contact_with_the_shared_parametrization_is_consistent_and_deterministic() {
+        let (tip, plane) = (tip(|q| DVec2::new(2.0 * q.x + 0.1, 2.0 * q.y)), plane());
+        let shared = PairParams::default().with_mapping(MappingMethod::SharedParametrization);
+        for params in [shared, shared.with_contact_method(ContactMethod::Ball { radius: 0.3 })] {
+            let first = run(&tip, &plane, &params);
+            let zone = &first.sides[1].zone;
+            assert!(!zone.is_empty(), "{params:?}");
+            assert_eq!(first.sides[1].mapping.region, first.sides[1].intersection, "ℳ = ℐ");
+            for (v, t) in zone.targets.iter().enumerate() {
+                if zone.region.contains(v as u32) {
+                    assert!((t.z - tip_height(t.x, t.y)).abs() < 2e-3, "{t}");
+                }
+            }
+            for t in &zone.boundary_targets {
+                assert!(distance_to(&tip.owned, *t) < 1e-12, "{t}");
+            }
+            let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            for again in [run(&tip, &plane, &params), single.install(|| run(&tip, &plane, &params))] {
+                let z = &again.sides[1].zone;
+                assert_eq!(z.region, zone.region);
+                assert_eq!(z.targets, zone.targets);
+                assert_eq!(z.boundary_targets, zone.boundary_targets);
+                assert_eq!(z.boundary_normals, zone.boundary_normals);
+                assert_eq!(again.sides[1].mapping, first.sides[1].mapping);
+            }
+            println!(
+                "{:?}: zone {} vertices, area on 𝒮 {:.4}",
+                params.contact_method,
+                zone.region.num_inside(),
+                first.contact_area
+            );
+        }
+    }
+
+    #[test]
+    fn the_shared_parametrization_needs_uvs() {
+        let (tip, plane) = (tip(|q| q), plane());
+        let params = PairParams::default().with_mapping(MappingMethod::SharedParametrization);
+        let err = contact_pair(&tip.side().with_name("finger"), &plane.owned.side().with_name("ground"), &params).unwrap_err();
+        assert!(matches!(&err, ContactError::MissingUvs { object } if object == "ground"), "{err}");
+        assert!(err.to_string().contains("UVs"), "{err}");
+        // UVs of the wrong length are an input mismatch.
+        let short = plane.uvs[..10].to_vec();
+        let err = contact_pair(&tip.side(), &plane.owned.side().with_uvs(Some(&short)), &params).unwrap_err();
+        assert!(matches!(err, ContactError::InputMismatch { what: "the UVs", .. }), "{err}");
+    }
 }
