@@ -78,7 +78,7 @@ impl<'a> Points<'a> {
         let r2 = radius * radius;
         self.tree.raw().traverse(|node: &BvhNode| {
             let gap = (node.mins() - centre).max(centre - node.maxs()).max(DVec3::ZERO);
-            if !(gap.length_squared() <= r2) {
+            if gap.length_squared() > r2 || gap.is_nan() {
                 return TraversalAction::Prune;
             }
             if let Some(leaf) = node.leaf_data() {
@@ -295,7 +295,8 @@ pub fn ball_zone(
             let ball = ball_of(samples[k].target, inward[k], lambdas[k]);
             let mut blocked = false;
             tree.visit(ball.centre, r, |w, p| {
-                blocked = w != i && (p - ball.centre).length_squared() < r2 && (p - ball.reference).dot(ball.normal) > 0.0;
+                blocked =
+                    w != i && (p - ball.centre).length_squared() < r2 && (p - ball.reference).dot(ball.normal) > 0.0;
                 blocked
             });
             !blocked
@@ -387,7 +388,9 @@ pub fn ball_zone(
         let reuse = match (s.end, slot_of(s.inside)) {
             (_, Some(ki)) if alpha == 0.0 => Some(samples[ki]),
             (Some(End::Vertex { slot }), _) if alpha == 1.0 => Some(samples[slot]),
-            (Some(End::Point { index, alpha: a }), _) if alpha == a => surface.point_samples.get(index as usize).copied(),
+            (Some(End::Point { index, alpha: a }), _) if alpha == a => {
+                surface.point_samples.get(index as usize).copied()
+            }
             _ => None,
         };
         if reuse.is_none() {
@@ -557,7 +560,10 @@ mod tests {
             let c = run(&sphere, &grid, &ball(1e-3));
             c.sides[1].zone_area_on_surface
         };
-        println!("r_s → 0: area {intersection_area:.4} (the whole intersection cap: 2πh = {:.4})", 2.0 * std::f64::consts::PI * h);
+        println!(
+            "r_s → 0: area {intersection_area:.4} (the whole intersection cap: 2πh = {:.4})",
+            2.0 * std::f64::consts::PI * h
+        );
         for r in [0.05, 0.1, 0.2, 0.4, 0.8, 1.6, 3.2] {
             let contact = run(&sphere, &grid, &ball(r));
             assert!(contact.sides[0].zone.is_empty(), "the rigid side has no zone");
@@ -730,7 +736,8 @@ mod tests {
     /// bottleneck, Table 7.1).
     #[test]
     fn timings_for_a_ten_thousand_vertex_elastic_region() {
-        let sphere = Owned::new(shapes::icosphere(1.0, 5), DVec3::new(0.013, -0.021, 0.75)).with_stiffness(Stiffness::Rigid);
+        let sphere =
+            Owned::new(shapes::icosphere(1.0, 5), DVec3::new(0.013, -0.021, 0.75)).with_stiffness(Stiffness::Rigid);
         let grid = Owned::new(shapes::grid(3.0, 3.0, 100, 100), DVec3::ZERO);
         for r in [0.1, 0.5, 2.0] {
             let mut best = f64::INFINITY;

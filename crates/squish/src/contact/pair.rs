@@ -351,15 +351,31 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         extract_zone(sides[l], sides[1 - l], &mappings[l], &surfaces[l], &setup)
     };
     let zones = match ball {
-        Some((elastic, radius)) => {
-            super::ball::ball_zones(sides, &mappings, &surfaces, [&ia, &ib], elastic, radius, direction, shared.as_ref())?
-        }
+        Some((elastic, radius)) => super::ball::ball_zones(
+            sides,
+            &mappings,
+            &surfaces,
+            [&ia, &ib],
+            elastic,
+            radius,
+            direction,
+            shared.as_ref(),
+        )?,
         None => {
             let mut zones = [0, 1].map(geometric);
             if let Some(shared) = &shared {
                 // Boundary points recomputed in UV space rather than along d̂.
                 for (l, zone) in zones.iter_mut().enumerate() {
-                    super::uv_mapping::rematch_zone(zone, sides[l], sides[1 - l], &mappings[l], &shared.sides[l], toward[l], k[l], k[1 - l]);
+                    super::uv_mapping::rematch_zone(
+                        zone,
+                        sides[l],
+                        sides[1 - l],
+                        &mappings[l],
+                        &shared.sides[l],
+                        toward[l],
+                        k[l],
+                        k[1 - l],
+                    );
                 }
             }
             zones

@@ -50,7 +50,7 @@ use glam::{DMat2, DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::intersect::IntersectionPoint;
-use super::mapping::{Match, MatchKind, MappingStats, NO_SLOT, SideMapping, normal_at};
+use super::mapping::{MappingStats, Match, MatchKind, NO_SLOT, SideMapping, normal_at};
 use super::surface::surface_sample;
 use super::zone::ZoneResult;
 use super::{ContactError, ContactSide, EdgeRegion, Sample};
@@ -125,7 +125,7 @@ pub fn fit_affine(pairs: &[(DVec2, DVec2)]) -> (UvAffine, AffineFit) {
     let trace = sxx + syy;
     let det = sxx * syy - sxy * sxy;
     let translation_only = |linear: DMat2| UvAffine { linear, translation: mean_to - linear * mean_from };
-    if !(trace > 0.0) || !trace.is_finite() {
+    if trace <= 0.0 || !trace.is_finite() {
         return (translation_only(DMat2::IDENTITY), AffineFit::Translation);
     }
     if det > 1e-10 * trace * trace {
@@ -159,7 +159,7 @@ fn uv_corners(mesh: &TriMesh, uvs: &[DVec2], face: u32) -> [DVec2; 3] {
 /// Barycentric coordinates of `q` in the 2D triangle `t` (`None` if it is degenerate).
 fn barycentric_2d(q: DVec2, t: &[DVec2; 3]) -> Option<[f64; 3]> {
     let area = (t[1] - t[0]).perp_dot(t[2] - t[0]);
-    if !(area.abs() > 0.0) || !area.is_finite() {
+    if area == 0.0 || !area.is_finite() {
         return None;
     }
     let b1 = (q - t[0]).perp_dot(t[2] - t[0]) / area;
@@ -169,10 +169,8 @@ fn barycentric_2d(q: DVec2, t: &[DVec2; 3]) -> Option<[f64; 3]> {
 
 impl UvLocator {
     fn new(mesh: &TriMesh, uvs: &[DVec2], faces: Vec<u32>) -> Result<Self, ContactError> {
-        let faces: Vec<u32> = faces
-            .into_iter()
-            .filter(|&f| barycentric_2d(DVec2::ZERO, &uv_corners(mesh, uvs, f)).is_some())
-            .collect();
+        let faces: Vec<u32> =
+            faces.into_iter().filter(|&f| barycentric_2d(DVec2::ZERO, &uv_corners(mesh, uvs, f)).is_some()).collect();
         if faces.is_empty() {
             return Ok(Self { faces, tree: None, scale: 1.0 });
         }
@@ -291,7 +289,14 @@ impl SideParametrization {
 
     /// The match of the point at parameter `t` ∈ [0, 1] between two samples of ℳ (their UV targets
     /// interpolated linearly, then located; `true`: a fallback).
-    pub fn match_between(&self, mapping: &SideMapping, other: &ContactSide, from: Sample, to: Sample, t: f64) -> (Match, bool) {
+    pub fn match_between(
+        &self,
+        mapping: &SideMapping,
+        other: &ContactSide,
+        from: Sample,
+        to: Sample,
+        t: f64,
+    ) -> (Match, bool) {
         let q = match (self.target(mapping, from), self.target(mapping, to)) {
             (Some(a), Some(b)) => a.lerp(b, t),
             (Some(a), None) | (None, Some(a)) => a,
@@ -320,10 +325,17 @@ fn point_uv(p: &IntersectionPoint, l: usize, side: &ContactSide, uvs: &[DVec2]) 
 
 /// For each boundary point of ℐ (side `l`), the intersection point it was made from: the crossing
 /// of its edge nearest to its inside vertex, if its α agrees.
-fn boundary_sources(region: &EdgeRegion, l: usize, topology: &Topology, points: &[IntersectionPoint]) -> Vec<Option<usize>> {
+fn boundary_sources(
+    region: &EdgeRegion,
+    l: usize,
+    topology: &Topology,
+    points: &[IntersectionPoint],
+) -> Vec<Option<usize>> {
     // The points of this side's edges, sorted by (edge, position along it).
     let mut order: Vec<usize> = (0..points.len()).filter(|&k| points[k].edge_side as usize == l).collect();
-    order.sort_by(|&x, &y| points[x].edge.cmp(&points[y].edge).then(points[x].t.total_cmp(&points[y].t)).then(x.cmp(&y)));
+    order.sort_by(|&x, &y| {
+        points[x].edge.cmp(&points[y].edge).then(points[x].t.total_cmp(&points[y].t)).then(x.cmp(&y))
+    });
     region
         .points()
         .iter()
@@ -398,8 +410,7 @@ fn diffuse_residuals(
         values[0].push(e.x);
         values[1].push(e.y);
     }
-    let mut solver =
-        ConstrainedSolver::new(&symbolic, &operator, &local, &ConstraintParams::default()).map_err(err)?;
+    let mut solver = ConstrainedSolver::new(&symbolic, &operator, &local, &ConstraintParams::default()).map_err(err)?;
     let columns = solver
         .solve_many(&[
             RightHandSide { constraint_values: Some(&values[0]), ..Default::default() },
@@ -523,10 +534,8 @@ pub fn map_regions_uv(
     points: &[IntersectionPoint],
 ) -> Result<([SideMapping; 2], MappingStats, SharedParametrization), ContactError> {
     check_uvs(sides)?;
-    let (a, b) = rayon::join(
-        || map_side_uv(0, sides, intersections, points),
-        || map_side_uv(1, sides, intersections, points),
-    );
+    let (a, b) =
+        rayon::join(|| map_side_uv(0, sides, intersections, points), || map_side_uv(1, sides, intersections, points));
     let ((ma, sa, pa), (mb, sb, pb)) = (a?, b?);
     let stats = MappingStats {
         closest_point_matches: sa.closest_point_matches + sb.closest_point_matches,
@@ -653,7 +662,8 @@ mod tests {
         assert!((a.translation - translation).length() < 1e-13);
         // Collinear points: a similarity that maps them exactly when they are related by one.
         let rotation = DMat2::from_angle(0.4) * 1.5;
-        let line: Vec<_> = (0..5).map(|k| DVec2::new(k as f64, 2.0 * k as f64)).map(|p| (p, rotation * p + translation)).collect();
+        let line: Vec<_> =
+            (0..5).map(|k| DVec2::new(k as f64, 2.0 * k as f64)).map(|p| (p, rotation * p + translation)).collect();
         let (a, fit) = fit_affine(&line);
         assert_eq!(fit, AffineFit::Similarity);
         assert_close(a.linear, rotation, 1e-12);
@@ -691,7 +701,11 @@ mod tests {
                 let p = side.owned.mesh.positions[v as usize];
                 assert_eq!(m.kind, MatchKind::Parametric);
                 assert!(distance_to(&other.owned, m.point) < 1e-12, "match off the other mesh");
-                assert!((m.point.truncate() - p.truncate()).length() < 1e-10, "not a vertical projection: {p} → {}", m.point);
+                assert!(
+                    (m.point.truncate() - p.truncate()).length() < 1e-10,
+                    "not a vertical projection: {p} → {}",
+                    m.point
+                );
             }
             for m in &mapping.point_matches {
                 assert!(distance_to(&other.owned, m.point) < 1e-12);
@@ -731,7 +745,10 @@ mod tests {
             assert!(error >= -1e-12 && error <= chord + 1e-12, "vertex {v}: {error} vs chord error {chord}");
             worst = worst.max(error);
         }
-        println!("tilted plane → tip: {} vertices, largest distance to the analytic paraboloid {worst:.2e} (chord bound {chord:.2e})", mappings[1].vertices.len());
+        println!(
+            "tilted plane → tip: {} vertices, largest distance to the analytic paraboloid {worst:.2e} (chord bound {chord:.2e})",
+            mappings[1].vertices.len()
+        );
     }
 
     /// UVs related by a non-affine map: the affine part leaves residuals e_k at the intersection
@@ -741,12 +758,9 @@ mod tests {
     fn a_curved_uv_relation_is_corrected_at_the_intersection_boundary() {
         let (tip, plane) = (tip(|q| DVec2::new(q.x + 0.4 * q.y * q.y, q.y - 0.2 * q.x * q.x)), plane());
         let inter = intersect(&tip.side(), &plane.side()).unwrap();
-        let (mappings, stats, param) = map_regions_uv(
-            [&tip.side(), &plane.side()],
-            [&inter.regions[0], &inter.regions[1]],
-            &inter.points,
-        )
-        .unwrap();
+        let (mappings, stats, param) =
+            map_regions_uv([&tip.side(), &plane.side()], [&inter.regions[0], &inter.regions[1]], &inter.points)
+                .unwrap();
         let (mapping, on_plane) = (&mappings[1], &param.sides[1]);
         let sources = boundary_sources(&mapping.region, 1, &plane.owned.topology, &inter.points);
         let (mut before, mut after) = (0.0f64, 0.0f64);
@@ -813,7 +827,8 @@ mod tests {
     fn the_shared_parametrization_needs_uvs() {
         let (tip, plane) = (tip(|q| q), plane());
         let params = PairParams::default().with_mapping(MappingMethod::SharedParametrization);
-        let err = contact_pair(&tip.side().with_name("finger"), &plane.owned.side().with_name("ground"), &params).unwrap_err();
+        let err = contact_pair(&tip.side().with_name("finger"), &plane.owned.side().with_name("ground"), &params)
+            .unwrap_err();
         assert!(matches!(&err, ContactError::MissingUvs { object } if object == "ground"), "{err}");
         assert!(err.to_string().contains("UVs"), "{err}");
         // UVs of the wrong length are an input mismatch.

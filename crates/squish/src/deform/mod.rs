@@ -31,8 +31,11 @@ pub mod parametrize;
 mod params;
 pub mod profile;
 mod solver;
+pub mod transport;
 pub mod volume;
 
+#[cfg(test)]
+mod method_a_tests;
 #[cfg(test)]
 mod test_support;
 #[cfg(test)]
