@@ -61,6 +61,15 @@
 //! parametrization, the location of its interpolated UV target), p′_ij = p″ and n′_ij from §4.3.
 //! Zones may have several components that split and merge as the geometry moves.
 //!
+//! **Which criterion when.** Ball testing needs one rigid object and a ball that fits inside the
+//! elastic one (r_s below its local thickness); it is local — each contact of a palm on a cushion
+//! is judged on its own geometry (§4.4.2 discussion) — fills saddle-like fits and concavities
+//! without transferring the discontinuities of 𝒮 to 𝒞, and its knob is a length that reads as a
+//! stiffness. The geometric criterion (default) handles elastic–elastic pairs symmetrically, its
+//! τ is scale-free, and it is cheaper, but ε_c is one threshold for the whole pair. Use ball
+//! testing for rigid tools and props pressing soft objects, especially with several separate
+//! contacts or curved fits; the geometric criterion otherwise.
+//!
 //! **Cost.** One radius query per candidate (stopping at the first blocker) and one per sliding
 //! edge, in parallel (rayon); no allocation inside the queries. The thesis reports ball testing/sliding as method A's bottleneck
 //! (ch. 7 §5.1); here it is about as cheap as the ray casts of the mapping (see the timing test).

@@ -47,11 +47,11 @@ fn translated(mut mesh: TriMesh, offset: DVec3) -> TriMesh {
     mesh
 }
 
-/// A closed elastic slab 4 × 4 × 2 with its top face at z = 0 (thick enough for the ball of
-/// §4.4.1 to roll inside it).
-fn thick_slab(cells: u32) -> Object {
+/// A closed elastic block `width` × `width` × 4 with its top face at z = 0 and `cells` cells along
+/// every axis. The balls of §4.4.1 must roll inside it without reaching its other faces.
+fn block(width: f64, cells: u32) -> Object {
     Object::new(
-        translated(shapes::cuboid(DVec3::new(4.0, 4.0, 2.0), cells), DVec3::new(0.0, 0.0, -1.0)),
+        translated(shapes::cuboid(DVec3::new(width, width, 4.0), cells), DVec3::new(0.0, 0.0, -2.0)),
         Stiffness::default(),
     )
 }
@@ -103,7 +103,7 @@ fn with_positions(mesh: &TriMesh, positions: &[DVec3]) -> TriMesh {
 #[test]
 fn methods_a_and_b_agree_where_both_apply() {
     let depth = 0.3;
-    let (sphere, slab) = (rigid_sphere(depth, 4), thick_slab(48));
+    let (sphere, slab) = (rigid_sphere(depth, 4), block(6.0, 72));
     let b = contact(&sphere, &slab, &PairParams::default());
     let target_area = b.contact_area;
     // Ball-rolling area 2πh/(1 + r) (see the ball tests) gives the first guess; a few secant
@@ -112,6 +112,19 @@ fn methods_a_and_b_agree_where_both_apply() {
         contact(&sphere, &slab, &PairParams::default().with_contact_method(ContactMethod::Ball { radius: r }))
             .contact_area
     };
+    // Fig. 4.10 on the closed slab: larger balls, smaller zones, as the ball-rolling area
+    // 2πh/(1 + r_s) (the block is wide and deep enough for these balls).
+    let radii = [0.05, 0.2, 0.4, 0.8, 1.2];
+    let areas: Vec<f64> = radii.iter().map(|&r| area_of(r)).collect();
+    for (&r, &area) in radii.iter().zip(&areas) {
+        let analytic = 2.0 * std::f64::consts::PI * depth / (1.0 + r);
+        assert!((area / analytic - 1.0).abs() < 0.06, "r_s = {r}: {area} vs {analytic}");
+    }
+    println!(
+        "closed slab, sphere 0.3 deep: ball-tested areas {:?} for r_s = {radii:?}",
+        areas.iter().map(|a| (a * 1e4).round() / 1e4).collect::<Vec<_>>()
+    );
+    assert!(areas.windows(2).all(|w| w[1] < w[0]), "{areas:?}");
     let mut r = (2.0 * std::f64::consts::PI * depth / target_area - 1.0).max(0.01);
     let mut previous = (r * 1.1, area_of(r * 1.1));
     for _ in 0..8 {
@@ -121,7 +134,7 @@ fn methods_a_and_b_agree_where_both_apply() {
         }
         let slope = (area - previous.1) / (r - previous.0);
         previous = (r, area);
-        r = (r - (area - target_area) / slope).clamp(0.01, 0.9);
+        r = (r - (area - target_area) / slope).clamp(0.01, 1.5);
     }
     let params_a = PairParams::default().with_contact_method(ContactMethod::Ball { radius: r });
     let a = contact(&sphere, &slab, &params_a);
@@ -197,8 +210,8 @@ fn both_direction_fields_are_fold_free_on_deep_collisions() {
     };
     let tilted = PairParams::default().with_direction(Some(DVec3::new(20f64.to_radians().tan(), 0.0, 1.0)));
     let scenes = [
-        ("sphere 0.6 deep in a slab", rigid_sphere(0.6, 4), thick_slab(48), PairParams::default()),
-        ("sphere 0.6 deep in a slab, d̂ tilted 20°", rigid_sphere(0.6, 4), thick_slab(48), tilted),
+        ("sphere 0.6 deep in a slab", rigid_sphere(0.6, 4), block(4.0, 48), PairParams::default()),
+        ("sphere 0.6 deep in a slab, d̂ tilted 20°", rigid_sphere(0.6, 4), block(4.0, 48), tilted),
         (
             "capsule 0.4 deep in a sphere",
             capsule,
@@ -270,5 +283,37 @@ fn direction_field_timings_on_a_ten_thousand_vertex_region() {
         );
         assert!(d.stats.num_deformable > 3000);
         assert!(best.0 < 5.0);
+    }
+}
+
+/// Ball testing is a per-pair parameter, so the [`crate::pipeline::Deformer`] already runs it
+/// (the direction field is not selectable there yet): a rigid ball in the procedural ground.
+#[test]
+fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
+    use crate::pipeline::{Deformer, ObjectParams, scenes};
+    let mut scene = scenes::ball_on_ground(0.15, 4, 48);
+    scene.objects[0].params = ObjectParams::rigid();
+    // The ground slab is 0.5 thick: the ball (r_s = 0.1) must fit inside it (§4.4.1).
+    scene.pairs[0].params = PairParams::default().with_contact_method(ContactMethod::Ball { radius: 0.1 });
+    let result = Deformer::new().deform(&scene.frame()).unwrap();
+    let ground = &scene.objects[1];
+    let stats = &result.stats.objects[1];
+    let contact = result.contacts[0].as_ref().unwrap();
+    println!(
+        "Deformer with ball testing: zone vertices {:?}, contact area {:.4}, ground volume change {:.2e}",
+        result.stats.pairs[0].zone_vertices, contact.contact_area, stats.relative_volume_change
+    );
+    assert!(stats.deformed && !result.stats.objects[0].deformed);
+    assert!(result.stats.pairs[0].zone_vertices[1] > 0 && result.stats.pairs[0].zone_vertices[0] == 0);
+    assert!(stats.relative_volume_change.abs() < 1e-9);
+    assert_eq!(flipped_faces(&ground.mesh, &result.positions[1]), 0);
+    // The zone is pressed onto the ball.
+    let zone = &contact.sides[1].zone;
+    let centre = DVec3::new(0.0, 0.0, 1.0 - 0.15);
+    for v in 0..ground.mesh.num_vertices() {
+        if zone.region.contains(v as u32) {
+            let d = (result.positions[1][v] - centre).length();
+            assert!((d - 1.0).abs() < 5e-3, "vertex {v} at {d} from the ball's centre");
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! The parallel-transport direction field (thesis §5.2.1, method A; algorithm box of §5.6,
 //! "Direction field computation ▷ §2.1"), selected with
 //! [`DirectionFieldMethod::ParallelTransport`](super::DirectionFieldMethod::ParallelTransport). A
-//! drop-in replacement for the blended field of [`super::direction_field`]: same inputs, same
+//! drop-in replacement for the blended field of [`mod@super::direction_field`]: same inputs, same
 //! [`DirectionField`] output.
 //!
 //! Every unit direction d_i is stored as its tangent part in a frame B_i = [t_i b_i] of the vertex's
@@ -53,6 +53,15 @@
 //!    derivatives at ∂𝒟, where a′ → 0 anyway), and the angle at π.
 //! 7. Outside 𝒟 the direction is the input normal (as for the blended field); at ∂𝒞 the result's
 //!    `boundary` holds the targets d_ij, and `mapping` the tangent parts B_i d̄_i.
+//!
+//! **Which field when.** The blended field (default) is cheap — no solve with one zone direction,
+//! the Poisson factorization reused with several — and w(u) fixes how fast it reaches the
+//! normals. The transport field follows the surface's change of orientation between ∂𝒞 and ∂𝒟
+//! (the bean-shaped case of the chapter's introduction) and honours a different displacement
+//! direction at every point of ∂𝒞, which is what the shared-parametrization mapping produces (its
+//! displacements are not along one d̂); it costs two more factorizations, one of them complex
+//! (about 4× a real one). With a unique mapping direction both give nearly the same surface (the
+//! Fig. 7.14 test measures 10⁻³ between them for a sphere 0.3 deep in a slab).
 //!
 //! **Cost and caching.** Two factorizations per frame on the region's pattern: the complex
 //! connection Laplacian (faer's sparse LLᴴ with `c64` scalars) and the real one of u′. The complex
