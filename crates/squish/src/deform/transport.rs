@@ -80,7 +80,7 @@ use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::{Conj, MatMut, Par, Side, c64};
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::contact_set::ContactSet;
 use super::direction_field::DirectionField;
@@ -315,9 +315,8 @@ pub fn transport_field(
         outer_points: Vec::new(),
         fallbacks: 0,
     };
-    let zone_direction = |zone: u32| contact.directions.get(zone as usize).copied().unwrap_or(DVec3::ZERO);
     if contact.boundary.is_empty() || !parametrization.deformable.iter().any(|&d| d) {
-        field.boundary = contact.boundary.iter().map(|b| zone_direction(b.zone)).collect();
+        field.boundary = contact.boundary.iter().map(|b| zone_direction_of(contact, b.zone)).collect();
         return Ok(field);
     }
     let start = Instant::now();
@@ -519,11 +518,6 @@ fn solve(
 
 fn zone_direction_of(contact: &ContactSet, zone: u32) -> DVec3 {
     contact.directions.get(zone as usize).copied().unwrap_or(DVec3::ZERO)
-}
-
-/// 2D helper for tests and reports: the angle vector as a plain vector.
-pub fn as_vec2(z: c64) -> DVec2 {
-    DVec2::new(z.re, z.im)
 }
 
 #[cfg(test)]
