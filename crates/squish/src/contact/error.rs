@@ -31,6 +31,18 @@ pub enum ContactError {
          (Eq. 4.1); give a direction in PairParams::direction"
     )]
     DirectionUndefined,
+    #[error(
+        "ball testing needs one rigid object (thesis §4.4.1): use the geometric criterion (ContactMethod::Geometric) \
+         or make one object rigid"
+    )]
+    BallTestingNeedsOneRigid,
+    #[error(
+        "object '{object}' has no UVs, but the shared-parametrization mapping (thesis §4.2.1) matches the meshes in UV \
+         space: give both sides per-vertex UVs (ContactSide::with_uvs) or use MappingMethod::UniqueDirection"
+    )]
+    MissingUvs { object: String },
+    #[error("object '{object}': the shared-parametrization mapping failed: {reason}")]
+    UvMapping { object: String, reason: String },
     #[error(transparent)]
     Spatial(#[from] SpatialError),
 }

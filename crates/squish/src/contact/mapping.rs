@@ -51,6 +51,9 @@ pub enum MatchKind {
     Chord,
     /// Fallback: the line missed the other mesh; closest point instead.
     Closest,
+    /// Shared-parametrization mapping (§4.2.1, [`super::uv_mapping`]): located in the other
+    /// mesh's UV space, or an intersection point (known on both meshes).
+    Parametric,
 }
 
 /// The point of the other mesh matched to a point of this one (p″, n″ of §4.2.2–§4.3).

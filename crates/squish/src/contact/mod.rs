@@ -15,6 +15,8 @@
 //!   farthest-hit matches along ±d̂ (§4.2.2);
 //! - [`surface`]: the potential contact surface 𝒮, p′ and n′ (§4.3);
 //! - [`zone`]: the threshold ε_c and the contact zones 𝒞 with exact boundary points (§4.4.2);
+//! - method A's alternatives, chosen in [`PairParams`]: [`uv_mapping`], the shared-parametrization
+//!   mapping (§4.2.1), and [`ball`], ball testing and sliding (§4.4.1, rigid–elastic pairs);
 //! - [`pair`]: [`contact_pair`], which runs them all for a pair and returns a [`PairContact`];
 //! - [`export`]: per-vertex labels and boundary points for debugging.
 //!
@@ -40,12 +42,14 @@
 
 mod region;
 
+pub mod ball;
 pub mod direction;
 pub mod export;
 pub mod intersect;
 pub mod mapping;
 pub mod pair;
 pub mod surface;
+pub mod uv_mapping;
 pub mod zone;
 
 mod error;
@@ -64,7 +68,7 @@ pub use mapping::{MappingStats, Match, MatchKind, SideMapping};
 pub use pair::{
     ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings, contact_pair,
 };
-pub use params::{PairParams, Stiffness, relative_stiffness};
+pub use params::{ContactMethod, MappingMethod, PairParams, Stiffness, relative_stiffness};
 pub use region::{EdgeRegion, Sample};
 pub use surface::{SideSurface, SurfaceSample};
 pub use zone::CriterionStats;

@@ -13,15 +13,20 @@
 //!
 //! Only the working regions are processed: the caller passes the working-region meshes, their
 //! topologies, unit vertex normals and triangle trees (built once and refitted across frames).
+//!
+//! Method A's alternatives (chosen in [`PairParams`]): [`MappingMethod::SharedParametrization`]
+//! replaces the mapping stage by [`super::uv_mapping`] (§4.2.1; the sides then need UVs), and
+//! [`ContactMethod::Ball`] replaces the zone stage by [`super::ball`] (§4.4.1; exactly one rigid
+//! side, whose zone is then empty).
 
 use std::time::{Duration, Instant};
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
 use super::intersect::{IntersectionPoint, IntersectionStats, intersect};
 use super::mapping::{MappingStats, SideMapping, map_regions};
-use super::params::{PairParams, Stiffness, relative_stiffness};
+use super::params::{ContactMethod, MappingMethod, PairParams, Stiffness, relative_stiffness};
 use super::surface::{SideSurface, side_surface};
 use super::zone::{CriterionStats, ZoneSetup, criterion, extract_zone};
 use super::{ContactError, ContactZone, EdgeRegion};
@@ -46,12 +51,14 @@ pub struct ContactSide<'a> {
     /// Per vertex: true where the working region was cut out of a bigger mesh. `None`: the
     /// region is the whole object (its boundary, if any, is genuine).
     pub border: Option<&'a [bool]>,
+    /// Per-vertex texture coordinates, needed by [`MappingMethod::SharedParametrization`] only.
+    pub uvs: Option<&'a [DVec2]>,
 }
 
 impl<'a> ContactSide<'a> {
     /// A side with the default stiffness (elastic, 1), no name and no cut border.
     pub fn new(mesh: &'a TriMesh, topology: &'a Topology, normals: &'a [DVec3], bvh: &'a TriangleBvh) -> Self {
-        Self { name: "", mesh, topology, normals, bvh, stiffness: Stiffness::default(), border: None }
+        Self { name: "", mesh, topology, normals, bvh, stiffness: Stiffness::default(), border: None, uvs: None }
     }
 
     /// Sets the name used in error messages.
@@ -72,6 +79,12 @@ impl<'a> ContactSide<'a> {
         self
     }
 
+    /// Sets the per-vertex UVs (one per vertex; for the shared-parametrization mapping).
+    pub fn with_uvs(mut self, uvs: Option<&'a [DVec2]>) -> Self {
+        self.uvs = uvs;
+        self
+    }
+
     /// The name for messages.
     pub fn display_name(&self) -> String {
         if self.name.is_empty() { "unnamed".to_string() } else { self.name.to_string() }
@@ -87,6 +100,7 @@ impl<'a> ContactSide<'a> {
             ("the normals", nv, self.normals.len()),
             ("the triangle tree", nf, self.bvh.len()),
             ("the border flags", nv, self.border.map_or(nv, <[bool]>::len)),
+            ("the UVs", nv, self.uvs.map_or(nv, <[DVec2]>::len)),
         ];
         for (what, expected, got) in checks {
             if expected != got {
@@ -250,6 +264,14 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     b.validate()?;
     let user_direction = params.validate()?;
     let [ka, kb] = relative_stiffness(a.stiffness, b.stiffness, [a.name, b.name])?;
+    // Method A's choices are checked before any work (§4.4.1: one rigid side; §4.2.1: UVs).
+    let ball = match params.contact_method {
+        ContactMethod::Ball { radius } => Some((super::ball::elastic_side(&a, &b)?, radius)),
+        ContactMethod::Geometric => None,
+    };
+    if params.mapping == MappingMethod::SharedParametrization {
+        super::uv_mapping::check_uvs([&a, &b])?;
+    }
     let sides = [&a, &b];
     let mut stats = ContactStats::default();
 
@@ -295,7 +317,16 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     stats.timings.direction = t.elapsed();
 
     let t = Instant::now();
-    let (mappings, mapping_stats) = map_regions(sides, [&ia, &ib], direction)?;
+    let (mappings, mapping_stats, shared) = match params.mapping {
+        MappingMethod::UniqueDirection => {
+            let (mappings, stats) = map_regions(sides, [&ia, &ib], direction)?;
+            (mappings, stats, None)
+        }
+        MappingMethod::SharedParametrization => {
+            let (mappings, stats, shared) = super::uv_mapping::map_regions_uv(sides, [&ia, &ib], &inter.points)?;
+            (mappings, stats, Some(shared))
+        }
+    };
     stats.timings.mapping = t.elapsed();
     stats.fallbacks.mapping = mapping_stats;
 
@@ -308,7 +339,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
 
     let t = Instant::now();
     let cos_guard = params.safeguard_cosine();
-    let zones = [0, 1].map(|l| {
+    let geometric = |l: usize| {
         let setup = ZoneSetup {
             toward: toward[l],
             mapping_direction: direction,
@@ -318,7 +349,38 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             cos_guard,
         };
         extract_zone(sides[l], sides[1 - l], &mappings[l], &surfaces[l], &setup)
-    });
+    };
+    let zones = match ball {
+        Some((elastic, radius)) => super::ball::ball_zones(
+            sides,
+            &mappings,
+            &surfaces,
+            [&ia, &ib],
+            elastic,
+            radius,
+            direction,
+            shared.as_ref(),
+        )?,
+        None => {
+            let mut zones = [0, 1].map(geometric);
+            if let Some(shared) = &shared {
+                // Boundary points recomputed in UV space rather than along d̂.
+                for (l, zone) in zones.iter_mut().enumerate() {
+                    super::uv_mapping::rematch_zone(
+                        zone,
+                        sides[l],
+                        sides[1 - l],
+                        &mappings[l],
+                        &shared.sides[l],
+                        toward[l],
+                        k[l],
+                        k[1 - l],
+                    );
+                }
+            }
+            zones
+        }
+    };
     stats.timings.zone = t.elapsed();
 
     let [ma, mb] = mappings;
@@ -326,7 +388,8 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let [za, zb] = zones;
     stats.counts.intersection_vertices = [ia.num_inside(), ib.num_inside()];
     stats.fallbacks.zone_closest_point_matches = za.closest_point_matches + zb.closest_point_matches;
-    let contact_area = za.area_on_surface;
+    // With ball testing the rigid side has no zone: the area is the elastic side's.
+    let contact_area = if ball.is_some() { za.area_on_surface.max(zb.area_on_surface) } else { za.area_on_surface };
     let [na, nb] = normal_stats;
     let sides = [
         SideContact {

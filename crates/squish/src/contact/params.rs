@@ -5,6 +5,11 @@
 //!
 //! Defaults are the thesis' values: τ = 0, automatic direction (Eq. 4.1), safeguard 80°, and a
 //! stiffness of 1 (only the ratio k_a / (k_a + k_b) matters).
+//!
+//! Method A's alternatives are chosen per pair: [`ContactMethod::Ball`] (ball testing, §4.4.1, see
+//! [`super::ball`]) instead of the geometric criterion, and [`MappingMethod::SharedParametrization`]
+//! (§4.2.1, see [`super::uv_mapping`]) instead of the unique mapping direction. Both default to
+//! method B, so configurations written before they existed keep their meaning.
 
 use glam::DVec3;
 
@@ -57,6 +62,36 @@ pub fn relative_stiffness(a: Stiffness, b: Stiffness, names: [&str; 2]) -> Resul
     }
 }
 
+/// How the contact zone 𝒞 is extracted from the potential contact surface (thesis §4.4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum ContactMethod {
+    /// Method B's geometric criterion δᵀn′ ≥ ε_c (§4.4.2, Eq. 4.2–4.4), driven by τ. Handles
+    /// elastic–elastic contacts.
+    #[default]
+    Geometric,
+    /// Method A's ball testing and ball sliding (§4.4.1): a vertex is in 𝒞 when a ball of radius
+    /// `radius` (r_s, world units) rolled inside the elastic object touches it without touching the
+    /// rest of the projected surface. r_s is the elastic object's pseudo-stiffness: a larger ball
+    /// gives a smaller zone (Fig. 4.10). Needs exactly one rigid object; `radius` should stay below
+    /// the elastic object's local thickness (the ball must fit inside it, §4.4.1 discussion).
+    Ball {
+        /// r_s, world units; finite and positive.
+        radius: f64,
+    },
+}
+
+/// How the points of one working region are matched on the other (thesis §4.2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum MappingMethod {
+    /// Method B's unique mapping direction d̂ and farthest hits along it (§4.2.2).
+    #[default]
+    UniqueDirection,
+    /// Method A's shared parametrization (§4.2.1): both meshes carry UVs
+    /// ([`super::ContactSide::with_uvs`]); intersection points are matched in UV space by an
+    /// affine map plus a harmonic correction, and the mapping regions are the intersection regions.
+    SharedParametrization,
+}
+
 /// Per-pair parameters of the contact definition.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
@@ -72,11 +107,21 @@ pub struct PairParams {
     /// normal or the normal of its match makes more than this angle with the mapping direction.
     /// Default: 80.
     pub safeguard_angle_degrees: f64,
+    /// How 𝒞 is extracted. Default: the geometric criterion (method B).
+    pub contact_method: ContactMethod,
+    /// How the meshes are matched. Default: the unique mapping direction (method B).
+    pub mapping: MappingMethod,
 }
 
 impl Default for PairParams {
     fn default() -> Self {
-        Self { contact_tau: 0.0, direction: None, safeguard_angle_degrees: 80.0 }
+        Self {
+            contact_tau: 0.0,
+            direction: None,
+            safeguard_angle_degrees: 80.0,
+            contact_method: ContactMethod::Geometric,
+            mapping: MappingMethod::UniqueDirection,
+        }
     }
 }
 
@@ -99,6 +144,18 @@ impl PairParams {
         self
     }
 
+    /// Sets the contact-zone method (e.g. `ContactMethod::Ball { radius }`).
+    pub fn with_contact_method(mut self, method: ContactMethod) -> Self {
+        self.contact_method = method;
+        self
+    }
+
+    /// Sets the mapping method.
+    pub fn with_mapping(mut self, mapping: MappingMethod) -> Self {
+        self.mapping = mapping;
+        self
+    }
+
     /// Checks the values: finite τ, safeguard angle in [0°, 180°], user direction finite and
     /// non-zero. Returns the normalized user direction, if any.
     pub fn validate(&self) -> Result<Option<DVec3>, ContactError> {
@@ -115,6 +172,15 @@ impl PairParams {
                 name: "safeguard_angle_degrees",
                 value: angle,
                 hint: "use an angle between 0 and 180 degrees (the thesis uses 80)",
+            });
+        }
+        if let ContactMethod::Ball { radius } = self.contact_method
+            && !(radius.is_finite() && radius > 0.0)
+        {
+            return Err(ContactError::InvalidParameter {
+                name: "contact_method.Ball.radius",
+                value: radius,
+                hint: "the ball radius r_s is a finite positive length in world units (larger = stiffer, smaller zones)",
             });
         }
         match self.direction {
@@ -168,5 +234,27 @@ mod tests {
         assert_eq!(partial, PairParams::default().with_contact_tau(1.0));
         let s: Stiffness = serde_json::from_str(r#""Rigid""#).unwrap();
         assert!(s.is_rigid());
+    }
+
+    #[test]
+    fn method_a_choices_default_to_method_b_and_round_trip() {
+        let p = PairParams::default();
+        assert_eq!((p.contact_method, p.mapping), (ContactMethod::Geometric, MappingMethod::UniqueDirection));
+        // A configuration written before the methods existed keeps method B.
+        let old: PairParams = serde_json::from_str(r#"{"contact_tau": 0.5, "safeguard_angle_degrees": 70.0}"#).unwrap();
+        assert_eq!(old, PairParams::default().with_contact_tau(0.5).with_safeguard_angle(70.0));
+        let a = PairParams::default()
+            .with_contact_method(ContactMethod::Ball { radius: 0.25 })
+            .with_mapping(MappingMethod::SharedParametrization);
+        let json = serde_json::to_string(&a).unwrap();
+        assert!(json.contains("Ball") && json.contains("SharedParametrization"), "{json}");
+        assert_eq!(serde_json::from_str::<PairParams>(&json).unwrap(), a);
+        let parsed: PairParams = serde_json::from_str(r#"{"contact_method": {"Ball": {"radius": 2.0}}}"#).unwrap();
+        assert_eq!(parsed.contact_method, ContactMethod::Ball { radius: 2.0 });
+        assert!(a.validate().is_ok());
+        for radius in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let err = PairParams::default().with_contact_method(ContactMethod::Ball { radius }).validate().unwrap_err();
+            assert!(err.to_string().contains("radius"), "{err}");
+        }
     }
 }

@@ -21,8 +21,9 @@
 //!   to the owner zone's direction; such vertices are counted.
 //! - Outside 𝒟, d is the normal (unused by the later stages).
 //!
-//! Method A's field (§5.2.1: tangent-space diffusion with parallel transport) is a later variant
-//! of [`DirectionFieldMethod`].
+//! Method A's field (§5.2.1: tangent-space diffusion with parallel transport) is
+//! [`DirectionFieldMethod::ParallelTransport`], computed by [`super::transport`]; with it the
+//! result's `mapping` holds the tangent parts B_i d̄_i and `boundary` the target directions at ∂𝒞.
 
 use glam::DVec3;
 
@@ -88,7 +89,10 @@ pub fn direction_field(
     DeformError::check_len("contact set (vertices)", n, contact.vertex_zone.len())?;
     DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
     DeformError::check_len("parametrization (𝒟)", n, parametrization.deformable.len())?;
-    let DirectionFieldMethod::Blended = params.method;
+    if params.method == DirectionFieldMethod::ParallelTransport {
+        return super::transport::transport_field(mesh, solver, contact, parametrization, normals)
+            .map(super::transport::TransportField::into_direction_field);
+    }
     let first_direction = contact.boundary.first().map_or(DVec3::ZERO, |b| contact.directions[b.zone as usize]);
     let diffused = contact.has_several_directions();
     let mapping = if diffused {

@@ -7,7 +7,8 @@
 //! 1. [`mod@parametrize`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
 //!    least-squares edge constraints, `u = φ/φ_max`, 𝒟 = {u < 1} outside 𝒞;
 //! 2. [`mod@direction_field`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones push
-//!    different ways) blended into the input normals;
+//!    different ways) blended into the input normals; or method A's parallel-transport field
+//!    ([`transport`], §5.2.1, [`DirectionFieldMethod::ParallelTransport`]);
 //! 3. [`guide`] (§5.3): signed amplitude a and slope s at ∂𝒞, diffused over 𝒟;
 //! 4. [`profile`] (§5.4.1), [`bulge`] (§5.5) and [`volume`] (§5.4.2, App. C): the per-vertex
 //!    B-spline profile, the bulge map η and the bulge height h_v that preserves the volume.
@@ -31,8 +32,11 @@ pub mod parametrize;
 mod params;
 pub mod profile;
 mod solver;
+pub mod transport;
 pub mod volume;
 
+#[cfg(test)]
+mod method_a_tests;
 #[cfg(test)]
 mod test_support;
 #[cfg(test)]

@@ -16,8 +16,11 @@ pub enum DirectionFieldMethod {
     /// blended with the input normals, `d = normalize(w(u)·d̄ + (1 − w(u))·n)`, `w = (1 − u²)⁶`.
     #[default]
     Blended,
-    // Method A's field (§5.2.1: tangent-space diffusion with parallel transport, complex
-    // Laplacian, arcsin remapping and u/u′ correction) goes here as a second variant.
+    /// Method A (§5.2.1): the directions' tangent parts, as angles (arcsin remapping), diffused
+    /// over 𝒟 with parallel transport (complex connection Laplacian) from the displacement
+    /// directions at ∂𝒞 to the normals at ∂𝒟, remapped to the uniform parametrization u (u/u′
+    /// correction). Costs two more factorizations per frame. See [`super::transport`].
+    ParallelTransport,
 }
 
 /// Parameters of [`super::deform_region`]. Public fields, `Default` = the thesis' defaults (except

@@ -44,6 +44,8 @@ pub struct RegionSolver {
     symbolic_analyses: usize,
     numeric_factorizations: usize,
     factorization_time: Duration,
+    /// The parallel-transport direction field's systems (method A, §5.2.1), built on first use.
+    pub(crate) transport: Option<Box<super::transport::TransportCache>>,
 }
 
 impl RegionSolver {
@@ -67,7 +69,20 @@ impl RegionSolver {
             symbolic_analyses: 1,
             numeric_factorizations: 0,
             factorization_time: Duration::ZERO,
+            transport: None,
         })
+    }
+
+    /// The region's pattern and real symbolic analysis (for the transport field's systems).
+    pub(crate) fn shared_analysis(&self) -> (&Arc<SparsePattern>, &Arc<SymbolicFactor>) {
+        (&self.pattern, &self.symbolic)
+    }
+
+    /// Counts factorizations run outside this type (the transport field's).
+    pub(crate) fn record_factorizations(&mut self, count: usize, time: Duration, symbolic_analyses: usize) {
+        self.numeric_factorizations += count;
+        self.factorization_time += time;
+        self.symbolic_analyses += symbolic_analyses;
     }
 
     /// Number of symbolic analyses run by this solver (1: the one of [`Self::new`]).
