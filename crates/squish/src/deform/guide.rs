@@ -42,6 +42,11 @@
 //!   `smoothstep(dist_j / h)` (h the mean edge length, dist_j = u_j·φ_max): a vertex a full edge
 //!   from ∂𝒞 keeps its own estimate, one on ∂𝒞 takes the mean. Both are continuous, so the field
 //!   stays continuous; the slope still matches 𝒮 along ∂𝒞 through the confident vertices.
+//!   The blend only ever *lowers* a slope (`min(s_j, blended)`): the spikes it exists for are too
+//!   steep, while raising a shallow estimate next to ∂𝒞 toward a steep mean folded faces when the
+//!   direction field tilts far from the normal (a capsule 0.4 deep in a sphere, transported field
+//!   38° off the normal: 2 faces flipped; see `method_a_tests`). Still continuous (min of two
+//!   continuous functions).
 //! - A boundary point whose 𝒮 normal is zero gets `s_ij = 0`.
 
 use glam::DVec3;
@@ -207,7 +212,7 @@ fn confident_slopes(
     }
     let mean = sum / total;
     for (c, &k) in constraints.iter_mut().zip(&confidence) {
-        c.value = k * c.value + (1.0 - k) * mean;
+        c.value = c.value.min(k * c.value + (1.0 - k) * mean);
     }
 }
 
