@@ -95,7 +95,7 @@ pub(super) fn hit_order(x: &Hit, y: &Hit) -> std::cmp::Ordering {
 
 impl TriangleBvh {
     #[inline]
-    fn make_hit(&self, leaf: usize, c: Crossing, t_scale: f64) -> Hit {
+    pub(super) fn make_hit(&self, leaf: usize, c: Crossing, t_scale: f64) -> Hit {
         Hit {
             face: self.faces[leaf],
             t: c.t * t_scale,
