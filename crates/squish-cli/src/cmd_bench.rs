@@ -88,36 +88,28 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let machine_before = MachineReport::now(available, threads, size);
 
     let mut scenes = Vec::new();
-    let mut shot_scene = None;
-    for entry in scene_list(size, &data) {
+    let entries = scene_list(size, &data);
+    for entry in &entries {
         let name = entry.name;
         if !args.scenes.is_empty() && !args.scenes.iter().any(|s| name.contains(s.as_str())) {
             continue;
         }
         progress(args, &format!("{name} …"));
-        let report = match entry.scene {
-            Ok(scene) => {
-                let report = measure_scene(&scene, &settings);
-                if name == args.shot {
-                    shot_scene = Some(scene);
-                }
-                report
-            }
+        memory::reset_peak();
+        let report = match (entry.build)() {
+            Ok(scene) => measure_scene(&scene, &settings),
             Err(reason) => SceneReport::skipped(name, entry.thesis.map(ThesisReport::from), reason),
         };
         progress(args, &report.one_line());
         scenes.push(report);
     }
-    if shot_scene.is_none() {
-        // The shot's scene may have been filtered out of the table: build it on its own.
-        shot_scene = scene_list(size, &data).into_iter().find(|e| e.name == args.shot).and_then(|e| e.scene.ok());
-    }
-    let shot = match &shot_scene {
-        Some(scene) => {
+    let shot = match entries.iter().find(|e| e.name == args.shot) {
+        Some(entry) => {
+            let scene = (entry.build)().map_err(CliError::input)?;
             progress(args, &format!("shot: {} frames of {} …", shot_frames, scene.name));
-            Some(measure_shot(scene, shot_frames, threads)?)
+            Some(measure_shot(&scene, shot_frames, threads)?)
         }
-        None => None,
+        None => return Err(CliError::input(format!("--shot {}: no such scene", args.shot))),
     };
     let report = BenchReport {
         command: std::env::args().collect::<Vec<_>>().join(" "),
@@ -166,14 +158,21 @@ fn data_directory(flag: Option<&Path>) -> PathBuf {
     }
 }
 
-/// A scene of the list: built, or the reason it cannot be.
+/// A scene of the list, built on demand (so that a scene's peak memory holds its own meshes
+/// only), or the reason it cannot be.
 struct SceneEntry {
     name: &'static str,
     thesis: Option<bench_scenes::ThesisRow>,
-    scene: Result<BenchScene, String>,
+    build: Box<dyn Fn() -> Result<BenchScene, String>>,
 }
 
-/// Every scene in table order; the two that need mesh files read them from `data/meshes`.
+impl SceneEntry {
+    fn procedural(name: &'static str, thesis: Option<bench_scenes::ThesisRow>, build: fn(BenchSize) -> BenchScene, size: BenchSize) -> Self {
+        Self { name, thesis, build: Box::new(move || Ok(build(size))) }
+    }
+}
+
+/// Every scene in table order; three read their mesh from `data/meshes`.
 fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
     let mesh = |file: &str| -> Result<squish::TriMesh, String> {
         let path = data.join("meshes").join(file);
@@ -182,30 +181,31 @@ fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
         }
         squish_io::read_mesh(&path).map_err(|e| format!("{}: {e}", path.display()))
     };
-    let built = |scene: BenchScene| SceneEntry { name: scene.name, thesis: scene.thesis, scene: Ok(scene) };
     // The quick run uses the small shared bunny.
-    let bunny_file = match size {
+    let bunny = mesh(match size {
         BenchSize::Full => "bunny_29834.obj",
         BenchSize::Quick => "bunny_3301.obj",
+    });
+    let hand = mesh("hand_7993.obj");
+    let with_mesh = |name: &'static str,
+                     thesis: bench_scenes::ThesisRow,
+                     mesh: &Result<squish::TriMesh, String>,
+                     build: fn(squish::TriMesh, BenchSize) -> BenchScene| {
+        let mesh = mesh.clone();
+        SceneEntry { name, thesis: Some(thesis), build: Box::new(move || mesh.clone().map(|m| build(m, size))) }
     };
+    use bench_scenes as b;
     vec![
-        built(bench_scenes::fingers_ball(size)),
-        built(bench_scenes::fingers_palm(size)),
-        built(bench_scenes::sphere_plane(size)),
-        built(bench_scenes::small_big_spheres(size)),
-        SceneEntry {
-            name: "bunny-jelly",
-            thesis: Some(bench_scenes::BUNNY_JELLY),
-            scene: mesh(bunny_file).map(|m| bench_scenes::bunny_jelly(m, size)),
-        },
-        built(bench_scenes::feet_plane(size)),
-        built(bench_scenes::hat_egg(size)),
-        SceneEntry {
-            name: "hand-pillow",
-            thesis: Some(bench_scenes::HAND_PILLOW),
-            scene: mesh("hand_7993.obj").map(|m| bench_scenes::hand_pillow(m, size)),
-        },
-        built(bench_scenes::stress_100k(size)),
+        SceneEntry::procedural("fingers-ball", Some(b::FINGERS_BALL), b::fingers_ball, size),
+        SceneEntry::procedural("fingers-palm", Some(b::FINGERS_PALM), b::fingers_palm, size),
+        SceneEntry::procedural("sphere-plane", Some(b::PLANE_SPHERE), b::sphere_plane, size),
+        SceneEntry::procedural("small-big-spheres", Some(b::SMALL_BIG_SPHERES), b::small_big_spheres, size),
+        with_mesh("bunny-jelly", b::BUNNY_JELLY, &bunny, b::bunny_jelly),
+        with_mesh("bunny-whole-jelly", b::BUNNY_JELLY, &bunny, b::bunny_whole_jelly),
+        SceneEntry::procedural("feet-plane", Some(b::WALK), b::feet_plane, size),
+        SceneEntry::procedural("hat-egg", Some(b::HAT_EGG), b::hat_egg, size),
+        with_mesh("hand-pillow", b::HAND_PILLOW, &hand, b::hand_pillow),
+        SceneEntry::procedural("stress-100k", None, b::stress_100k, size),
     ]
 }
 
@@ -270,8 +270,8 @@ fn pool(threads: usize) -> Result<rayon::ThreadPool, String> {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| format!("thread pool: {e}"))
 }
 
+/// Runs `scene` (the caller resets the memory peak before building it).
 fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
-    memory::reset_peak();
     let thesis = scene.thesis.map(ThesisReport::from);
     let objects: Vec<ObjectReport> = scene
         .rest
