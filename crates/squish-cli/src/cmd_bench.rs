@@ -87,8 +87,12 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let data = data_directory(args.data.as_deref());
     let machine_before = MachineReport::now(available, threads, size);
 
-    let mut scenes = Vec::new();
     let entries = scene_list(size, &data);
+    let Some(shot_entry) = entries.iter().find(|e| e.name == args.shot) else {
+        let names: Vec<&str> = entries.iter().map(|e| e.name).collect();
+        return Err(CliError::input(format!("--shot {}: no such scene (one of {})", args.shot, names.join(", "))));
+    };
+    let mut scenes = Vec::new();
     for entry in &entries {
         let name = entry.name;
         if !args.scenes.is_empty() && !args.scenes.iter().any(|s| name.contains(s.as_str())) {
@@ -103,14 +107,9 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         progress(args, &report.one_line());
         scenes.push(report);
     }
-    let shot = match entries.iter().find(|e| e.name == args.shot) {
-        Some(entry) => {
-            let scene = (entry.build)().map_err(CliError::input)?;
-            progress(args, &format!("shot: {} frames of {} …", shot_frames, scene.name));
-            Some(measure_shot(&scene, shot_frames, threads)?)
-        }
-        None => return Err(CliError::input(format!("--shot {}: no such scene", args.shot))),
-    };
+    let shot_scene = (shot_entry.build)().map_err(CliError::input)?;
+    progress(args, &format!("shot: {} frames of {} …", shot_frames, shot_scene.name));
+    let shot = Some(measure_shot(&shot_scene, shot_frames, threads)?);
     let report = BenchReport {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         data_directory: data.display().to_string(),
