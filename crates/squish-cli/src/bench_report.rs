@@ -108,7 +108,16 @@ pub struct Breakdown {
 
 impl Breakdown {
     fn new(total: Duration, t: &StageTimes) -> Self {
-        let stages = [t.setup, t.intersection, t.mapping, t.contact_zone, t.parametrization, t.directions, t.guide, t.deformation];
+        let stages = [
+            t.setup,
+            t.intersection,
+            t.mapping,
+            t.contact_zone,
+            t.parametrization,
+            t.directions,
+            t.guide,
+            t.deformation,
+        ];
         let named: f64 = stages.iter().map(|d| ms(*d)).sum();
         Self {
             setup: ms(t.setup),
@@ -363,9 +372,22 @@ pub fn print_table(report: &BenchReport) {
     println!();
     println!(
         "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
-        "scene", "W ours", "D ours", "W thesis", "D thesis", "1 thread", "N threads", "thesis", "÷ thesis", "factor.", "÷ factor."
+        "scene",
+        "W ours",
+        "D ours",
+        "W thesis",
+        "D thesis",
+        "1 thread",
+        "N threads",
+        "thesis",
+        "÷ thesis",
+        "factor.",
+        "÷ factor."
     );
-    println!("{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}", "", "", "", "", "", "ms", "ms", "ms", "", "ms", "");
+    println!(
+        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+        "", "", "", "", "", "ms", "ms", "ms", "", "ms", ""
+    );
     for scene in &report.scenes {
         let thesis = scene.thesis.as_ref();
         if let Some(reason) = scene.skipped.as_ref().or(scene.error.as_ref()) {
@@ -388,7 +410,9 @@ pub fn print_table(report: &BenchReport) {
         );
     }
     println!();
-    println!("single-thread breakdown of the median frame, % (the thesis' columns; s. = factorizations, part of p./di./g.)");
+    println!(
+        "single-thread breakdown of the median frame, % (the thesis' columns; s. = factorizations, part of p./di./g.)"
+    );
     println!(
         "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9}",
         "scene", "setup", "i.", "m.", "c.", "p.", "di.", "g.", "de.", "other", "s.", "fact.", "symbolic", "peak MB"
@@ -414,7 +438,9 @@ pub fn print_table(report: &BenchReport) {
             opt(scene.peak_memory_mb, 0),
         );
     }
-    println!("(fact. = numeric factorizations per frame; symbolic = analyses in the warm-up frame + in all timed frames)");
+    println!(
+        "(fact. = numeric factorizations per frame; symbolic = analyses in the warm-up frame + in all timed frames)"
+    );
     if let Some(shot) = &report.shot {
         println!();
         println!(

@@ -130,11 +130,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         print_table(&report);
     }
     let failed: Vec<&str> = report.scenes.iter().filter(|s| s.error.is_some()).map(|s| s.name.as_str()).collect();
-    if failed.is_empty() {
-        Ok(())
-    } else {
-        Err(CliError::failure(format!("scenes failed: {}", failed.join(", "))))
-    }
+    if failed.is_empty() { Ok(()) } else { Err(CliError::failure(format!("scenes failed: {}", failed.join(", ")))) }
 }
 
 fn progress(args: &BenchArgs, message: &str) {
@@ -166,7 +162,12 @@ struct SceneEntry {
 }
 
 impl SceneEntry {
-    fn procedural(name: &'static str, thesis: Option<bench_scenes::ThesisRow>, build: fn(BenchSize) -> BenchScene, size: BenchSize) -> Self {
+    fn procedural(
+        name: &'static str,
+        thesis: Option<bench_scenes::ThesisRow>,
+        build: fn(BenchSize) -> BenchScene,
+        size: BenchSize,
+    ) -> Self {
         Self { name, thesis, build: Box::new(move || Ok(build(size))) }
     }
 }

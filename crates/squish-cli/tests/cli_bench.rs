@@ -71,7 +71,16 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
         let single = &scene["single"];
         let total = number(&single["median_ms"], "median_ms");
         let b = &single["breakdown_ms"];
-        let stages = ["setup", "intersection", "mapping", "contact_zone", "parametrization", "directions", "guide", "deformation"];
+        let stages = [
+            "setup",
+            "intersection",
+            "mapping",
+            "contact_zone",
+            "parametrization",
+            "directions",
+            "guide",
+            "deformation",
+        ];
         let named: f64 = stages.iter().map(|k| number(&b[*k], k)).sum();
         assert!(stages.iter().all(|k| number(&b[*k], k) >= 0.0), "{name}: {b}");
         assert!(named <= total * 1.001 + 1e-6, "{name}: stages {named} ms > frame {total} ms");
@@ -120,7 +129,8 @@ fn missing_data_skips_the_file_scenes_with_a_note_and_the_table_prints() {
 
 #[test]
 fn bad_arguments_are_usage_errors() {
-    for args in [&["bench", "--frames", "0"][..], &["bench", "--threads", "0"], &["bench", "--quick", "--shot", "nope"]] {
+    for args in [&["bench", "--frames", "0"][..], &["bench", "--threads", "0"], &["bench", "--quick", "--shot", "nope"]]
+    {
         let output = Command::new(env!("CARGO_BIN_EXE_squish")).args(args).output().expect("run squish bench");
         assert_eq!(output.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
     }

@@ -57,7 +57,10 @@ fn pair_at(scene: &BenchScene, t: f64) -> (Side, Side, PairParams) {
     (a, b, pair.params)
 }
 
-fn group_settings<'a>(c: &'a mut Criterion, name: &str) -> criterion::BenchmarkGroup<'a, criterion::measurement::WallTime> {
+fn group_settings<'a>(
+    c: &'a mut Criterion,
+    name: &str,
+) -> criterion::BenchmarkGroup<'a, criterion::measurement::WallTime> {
     let mut group = c.benchmark_group(name);
     group.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
     group
@@ -73,7 +76,9 @@ fn contact_stages(c: &mut Criterion, group_name: &str, scene: &BenchScene) {
     group.bench_function("mapping", |bench| {
         bench.iter(|| black_box(map_regions([&sa, &sb], [&inter.regions[0], &inter.regions[1]], contact.direction)))
     });
-    group.bench_function("contact pair", |bench| bench.iter(|| black_box(contact_pair(&sa, &sb, &params).expect("contact"))));
+    group.bench_function("contact pair", |bench| {
+        bench.iter(|| black_box(contact_pair(&sa, &sb, &params).expect("contact")))
+    });
     group.finish();
 }
 
@@ -92,8 +97,10 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
         heat_time_factor: deform_params.heat_time_factor,
         constraint_weight_factor: deform_params.constraint_weight_factor,
     };
-    let direction_params =
-        DirectionParams { method: deform_params.direction_method, normalize_diffused: deform_params.normalize_diffused };
+    let direction_params = DirectionParams {
+        method: deform_params.direction_method,
+        normalize_diffused: deform_params.normalize_diffused,
+    };
     let guide_params = GuideParams { constraint_weight_factor: deform_params.constraint_weight_factor };
 
     let mut group = group_settings(c, "deformation 10k");
@@ -126,7 +133,8 @@ fn full_frame(c: &mut Criterion, scene: &BenchScene) {
     let mut deformer = Deformer::new();
     deformer.deform(&frame).expect("first frame");
     let mut group = group_settings(c, "frame 10k");
-    group.bench_function("deformer (reused)", |bench| bench.iter(|| black_box(deformer.deform(&frame).expect("frame"))));
+    group
+        .bench_function("deformer (reused)", |bench| bench.iter(|| black_box(deformer.deform(&frame).expect("frame"))));
     group.finish();
 }
 

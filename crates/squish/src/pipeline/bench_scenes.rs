@@ -209,10 +209,7 @@ pub fn fingers_ball(size: BenchSize) -> BenchScene {
         let depth = 0.06 + 0.02 * i as f64;
         b.moves(f, DVec3::new(0.0, 0.0, -0.5 * depth), DVec3::new(0.0, 0.0, -depth));
     }
-    b.finish(
-        "fingers-ball",
-        Some(FINGERS_BALL),
-    )
+    b.finish("fingers-ball", Some(FINGERS_BALL))
 }
 
 /// Table 7.2 "fingers – palm" (method B, 9 ms; 𝒲 2664 + 2184, 𝒟 616 + 1202): four tilted soft
@@ -239,10 +236,7 @@ pub fn fingers_palm(size: BenchSize) -> BenchScene {
         let depth = 0.07 + 0.015 * i as f64;
         b.moves(f, DVec3::new(0.0, 0.0, -0.4 * depth), DVec3::new(0.0, 0.0, -depth));
     }
-    b.finish(
-        "fingers-palm",
-        Some(FINGERS_PALM),
-    )
+    b.finish("fingers-palm", Some(FINGERS_PALM))
 }
 
 /// Table 7.1 "plane – sphere" (method A, 9.93 ms; 𝒲 1521 + 639, 𝒟 568): a soft icosphere (642
@@ -264,13 +258,11 @@ pub fn small_big_spheres(size: BenchSize) -> BenchScene {
     let mut b = Builder::new("small sphere – big sphere");
     let (small_subdivisions, big_subdivisions) = size.pick((3, 5), (2, 4));
     let small = b.object("small sphere", shapes::icosphere(0.35, small_subdivisions), ObjectParams::rigid());
-    let big = b.object("big sphere", shapes::icosphere(1.0, big_subdivisions), ObjectParams::default().with_extent(2.6));
+    let big =
+        b.object("big sphere", shapes::icosphere(1.0, big_subdivisions), ObjectParams::default().with_extent(2.6));
     b.pair(small, big);
     b.moves(small, DVec3::new(0.25, 0.0, 1.35 - 0.08), DVec3::new(-0.15, 0.0, 1.35 - 0.25));
-    b.finish(
-        "small-big-spheres",
-        Some(SMALL_BIG_SPHERES),
-    )
+    b.finish("small-big-spheres", Some(SMALL_BIG_SPHERES))
 }
 
 /// The working region of table 7.3's bunny: the `count` lowest vertices of `bunny` (z up), as an
@@ -329,7 +321,12 @@ pub fn feet_plane(size: BenchSize) -> BenchScene {
     let plane = b.object("plane", shapes::grid(6.0, 6.0, cells, cells), ObjectParams::default().with_extent(4.0));
     let foot_cells = size.pick(8, 4);
     let foot = |x: f64| {
-        transformed(shapes::cuboid(DVec3::new(0.5, 1.2, 0.4), foot_cells), DQuat::IDENTITY, DVec3::ONE, DVec3::new(x, 0.0, 0.2))
+        transformed(
+            shapes::cuboid(DVec3::new(0.5, 1.2, 0.4), foot_cells),
+            DQuat::IDENTITY,
+            DVec3::ONE,
+            DVec3::new(x, 0.0, 0.2),
+        )
     };
     let left = b.object("left foot", foot(-0.6), ObjectParams::rigid());
     let right = b.object("right foot", foot(0.6), ObjectParams::rigid());
@@ -370,12 +367,8 @@ pub fn hat_egg(size: BenchSize) -> BenchScene {
     let mut b = Builder::new("hat – egg");
     let (segments, rings) = size.pick((110, 111), (55, 56));
     let hat = b.object("hat", hat(1.1, 0.9, segments, rings), ObjectParams::default().with_extent(2.8));
-    let egg_mesh = transformed(
-        shapes::icosphere(1.0, size.pick(5, 4)),
-        DQuat::IDENTITY,
-        DVec3::new(0.8, 0.8, 1.0),
-        DVec3::ZERO,
-    );
+    let egg_mesh =
+        transformed(shapes::icosphere(1.0, size.pick(5, 4)), DQuat::IDENTITY, DVec3::new(0.8, 0.8, 1.0), DVec3::ZERO);
     let egg = b.object("egg", egg_mesh, ObjectParams::rigid());
     b.pair(hat, egg);
     // The egg's top (z = 1) goes 0.04 to 0.12 into the shell's inside (radius 0.9, thickness 0.2).
@@ -389,12 +382,8 @@ pub fn hat_egg(size: BenchSize) -> BenchScene {
 pub fn hand_pillow(hand: TriMesh, size: BenchSize) -> BenchScene {
     let mut b = Builder::new("hand – pillow");
     let (segments, rings) = size.pick((162, 162), (81, 81));
-    let pillow = transformed(
-        shapes::uv_sphere(1.0, segments, rings),
-        DQuat::IDENTITY,
-        DVec3::new(1.0, 0.8, 0.3),
-        DVec3::ZERO,
-    );
+    let pillow =
+        transformed(shapes::uv_sphere(1.0, segments, rings), DQuat::IDENTITY, DVec3::new(1.0, 0.8, 0.3), DVec3::ZERO);
     let lowest = hand.positions.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     let centre = hand.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / hand.positions.len().max(1) as f64;
     let hand = transformed(hand, DQuat::IDENTITY, DVec3::ONE, DVec3::new(-centre.x, -centre.y, -lowest));
@@ -402,10 +391,7 @@ pub fn hand_pillow(hand: TriMesh, size: BenchSize) -> BenchScene {
     let hand = b.object("hand", hand, ObjectParams::rigid());
     b.pair(hand, pillow);
     b.moves(hand, DVec3::new(0.0, 0.0, 0.3 - 0.06), DVec3::new(0.0, 0.05, 0.3 - 0.12));
-    b.finish(
-        "hand-pillow",
-        Some(HAND_PILLOW),
-    )
+    b.finish("hand-pillow", Some(HAND_PILLOW))
 }
 
 /// Stress case, no thesis counterpart: two soft UV spheres of ≈ 50k vertices each (≈ 25k in
@@ -423,7 +409,15 @@ pub fn stress_100k(size: BenchSize) -> BenchScene {
 
 /// The procedural scenes (every scene but the two that need a mesh file), in table order.
 pub fn procedural_scenes(size: BenchSize) -> Vec<BenchScene> {
-    vec![fingers_ball(size), fingers_palm(size), sphere_plane(size), small_big_spheres(size), feet_plane(size), hat_egg(size), stress_100k(size)]
+    vec![
+        fingers_ball(size),
+        fingers_palm(size),
+        sphere_plane(size),
+        small_big_spheres(size),
+        feet_plane(size),
+        hat_egg(size),
+        stress_100k(size),
+    ]
 }
 
 #[cfg(test)]

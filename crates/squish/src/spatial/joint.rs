@@ -19,10 +19,10 @@ use glam::DVec3;
 use parry3d_f64::partitioning::BvhNode;
 use rayon::prelude::*;
 
+use super::batch::BatchHits;
 use super::bvh::TriangleBvh;
 use super::exact::segment_triangle;
 use super::queries::{Hit, hit_order};
-use super::batch::BatchHits;
 use crate::mesh::{NO_FACE, Topology};
 
 /// One mesh of [`mutual_edge_crossings`]: its triangle tree, vertex positions and connectivity.
@@ -43,6 +43,9 @@ pub struct EdgeCrossings {
     pub hits: BatchHits,
 }
 
+/// Crossings found, as (edge id, crossing) pairs.
+type Found = Vec<(u32, Hit)>;
+
 /// Marks "no owned edge" in a leaf's list.
 const NO_EDGE: u32 = u32::MAX;
 
@@ -61,7 +64,11 @@ fn owned_edges(source: &EdgeSource) -> (Vec<[u32; 3]>, Vec<u32>) {
         }
     }
     let owner = |e: u32| -> u32 {
-        topology.edge_faces(e).into_iter().find(|&f| f != NO_FACE && in_tree.get(f as usize) == Some(&true)).unwrap_or(NO_FACE)
+        topology
+            .edge_faces(e)
+            .into_iter()
+            .find(|&f| f != NO_FACE && in_tree.get(f as usize) == Some(&true))
+            .unwrap_or(NO_FACE)
     };
     // A face listed twice in the tree owns its edges at its first leaf only.
     let mut claimed = vec![false; num_faces];
@@ -88,7 +95,7 @@ fn segment(source: &EdgeSource, e: u32) -> Option<(DVec3, DVec3)> {
 /// Sorts `(edge, hit)` pairs by edge then along the edge and groups them. (Each pair of leaves is
 /// visited once and each edge tested from one leaf, so there is nothing to deduplicate; a face
 /// listed twice in a tree is reported twice, as by [`TriangleBvh::segment_hits`].)
-fn group(mut found: Vec<(u32, Hit)>) -> EdgeCrossings {
+fn group(mut found: Found) -> EdgeCrossings {
     found.sort_unstable_by(|x, y| x.0.cmp(&y.0).then_with(|| hit_order(&x.1, &y.1)));
     let mut edges = Vec::new();
     let mut offsets = vec![0];
@@ -114,7 +121,7 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
     let ((owned_a, orphans_a), (owned_b, orphans_b)) = (owned_edges(&a), owned_edges(&b));
     let pairs: Vec<(u32, u32)> =
         a.tree.bvh.leaf_pairs(&b.tree.bvh, |n1: &BvhNode, n2: &BvhNode| n1.intersects(n2)).collect();
-    let test = |edge_side: &EdgeSource, owned: &[u32; 3], face_side: &EdgeSource, leaf: u32, out: &mut Vec<(u32, Hit)>| {
+    let test = |edge_side: &EdgeSource, owned: &[u32; 3], face_side: &EdgeSource, leaf: u32, out: &mut Found| {
         let corners = &face_side.tree.corners[leaf as usize];
         for &e in owned.iter().filter(|&&e| e != NO_EDGE) {
             if let Some((p, q)) = segment(edge_side, e)
@@ -124,7 +131,7 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
             }
         }
     };
-    let chunks: Vec<(Vec<(u32, Hit)>, Vec<(u32, Hit)>)> = pairs
+    let chunks: Vec<(Found, Found)> = pairs
         .par_chunks(CHUNK)
         .map(|chunk| {
             let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
@@ -144,7 +151,9 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
     }
     // Edges no leaf owns: one query each (only for trees over a subset of the faces).
     let mut scratch = Vec::new();
-    for (edge_side, orphans, face_side, found) in [(&a, &orphans_a, &b, &mut found_a), (&b, &orphans_b, &a, &mut found_b)] {
+    for (edge_side, orphans, face_side, found) in
+        [(&a, &orphans_a, &b, &mut found_a), (&b, &orphans_b, &a, &mut found_b)]
+    {
         for &e in orphans {
             if let Some((p, q)) = segment(edge_side, e) {
                 face_side.tree.segment_hits(p, q, &mut scratch);
