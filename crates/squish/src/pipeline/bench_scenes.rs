@@ -286,8 +286,8 @@ fn bunny_on_jelly(bunny: TriMesh, bunny_params: ObjectParams, size: BenchSize) -
     let base = bunny.positions.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     let cells = size.pick(29, 14);
     let jelly = transformed(shapes::cube(1.8, cells), DQuat::IDENTITY, DVec3::ONE, DVec3::new(0.0, 0.0, -0.9));
-    let bunny = b.object("bunny", bunny, bunny_params.with_extent(0.45));
-    let jelly = b.object("jelly", jelly, ObjectParams::default().with_stiffness(0.5).with_extent(1.5));
+    let bunny = b.object("bunny", bunny, bunny_params.with_extent(0.25));
+    let jelly = b.object("jelly", jelly, ObjectParams::default().with_stiffness(0.5).with_extent(3.0));
     b.pair(bunny, jelly);
     b.moves(bunny, DVec3::new(0.0, 0.0, -base - 0.03), DVec3::new(0.05, 0.0, -base - 0.12));
     b
