@@ -258,6 +258,8 @@ pub struct SceneReport {
     pub factorization: Option<FactorizationReport>,
     /// Single-thread median frame / one numeric factorization of the largest region.
     pub frame_over_factorization: Option<f64>,
+    /// The same for the multi-threaded median frame.
+    pub frame_over_factorization_all_threads: Option<f64>,
     /// Single-thread median frame / the thesis' time.
     pub thesis_ratio: Option<f64>,
     /// Peak resident memory while the scene ran (see `memory_method`), MB.
@@ -280,6 +282,7 @@ impl SceneReport {
             speedup: None,
             factorization: None,
             frame_over_factorization: None,
+            frame_over_factorization_all_threads: None,
             thesis_ratio: None,
             peak_memory_mb: None,
         }
@@ -299,10 +302,13 @@ impl SceneReport {
         if let (Some(single), Some(multi)) = (&self.single, &self.multi) {
             self.speedup = Some(single.median_ms / multi.median_ms);
         }
+        let factorization_ms = self.factorization.as_ref().map(|f| f.numeric_ms).filter(|&ms| ms > 0.0);
         if let Some(single) = &self.single {
             self.thesis_ratio = self.thesis.as_ref().map(|t| single.median_ms / t.ms);
-            self.frame_over_factorization =
-                self.factorization.as_ref().filter(|f| f.numeric_ms > 0.0).map(|f| single.median_ms / f.numeric_ms);
+            self.frame_over_factorization = factorization_ms.map(|f| single.median_ms / f);
+        }
+        if let Some(multi) = &self.multi {
+            self.frame_over_factorization_all_threads = factorization_ms.map(|f| multi.median_ms / f);
         }
     }
 
