@@ -1,12 +1,366 @@
-//! `squish bench`: being built (see the issue tracker); this placeholder only reports that.
+//! `squish bench`: times the whole pipeline on reproducible animated scenes at the sizes of the
+//! thesis' performance tables (ch. 7 §5, tables 7.1–7.3) and compares with the C++ prototype.
+//!
+//! For every scene of [`squish::pipeline::bench_scenes`] (two of them read `bunny_29834.obj` and
+//! `hand_7993.obj` from the data directory and are skipped with a note when it is absent):
+//! - one [`Deformer`] runs a warm-up frame (it builds the caches: topology, trees, symbolic
+//!   analyses) and then `--frames` frames of the animation, reused as an animation would, inside a
+//!   local rayon pool of one thread, then again (fresh deformer) in a pool of `--threads`;
+//! - the median frame time of each run, and the stage breakdown of the single-thread median frame
+//!   (the thesis' columns i., m., c., p., di., g., de., s.);
+//! - one numeric sparse Cholesky of the largest deformable object's Laplacian (the heat operator
+//!   on its pattern, [`time_laplacian_factorization`]), measured in the same run, and the ratio
+//!   frame time / factorization time;
+//! - the peak resident memory of the scene (see [`memory`]).
+//!
+//! Then a shot of `--shot-frames` frames of one scene is processed with frames in parallel (one
+//! deformer per worker, contiguous chunks) with all threads and with one thread: frames per second.
+//!
+//! Performance targets are read in the output; nothing here asserts them.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use clap::Args;
+use rayon::prelude::*;
+use squish::Topology;
+use squish::linalg::time_laplacian_factorization;
+use squish::pipeline::bench_scenes::{self, BenchScene, BenchSize};
+use squish::pipeline::{Deformer, FrameStats};
 
+use crate::bench_report::{
+    BenchReport, FactorizationReport, MachineReport, ObjectReport, RunFigures, RunReport, SceneReport, ShotReport,
+    ThesisReport, print_table,
+};
 use crate::error::CliError;
 
 #[derive(Args, Debug)]
-pub struct BenchArgs {}
+pub struct BenchArgs {
+    /// Print the results as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the JSON results to this file.
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Smaller scenes (≈ ¼ of the vertices) and fewer frames: a smoke run of well under a minute.
+    #[arg(long)]
+    pub quick: bool,
+    /// Threads of the multi-threaded runs (default: every available core).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Timed frames per scene and run (default 9; 3 with --quick).
+    #[arg(long, value_name = "K")]
+    pub frames: Option<usize>,
+    /// Frames of the parallel shot (default 48; 8 with --quick).
+    #[arg(long, value_name = "K")]
+    pub shot_frames: Option<usize>,
+    /// Scene of the parallel shot.
+    #[arg(long, value_name = "SCENE", default_value = "small-big-spheres")]
+    pub shot: String,
+    /// Data directory holding `meshes/` (default: $SQUISH_DATA, else ../shared/data).
+    #[arg(long, value_name = "DIR")]
+    pub data: Option<PathBuf>,
+    /// Only the scenes whose name contains one of these words (comma-separated).
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub scenes: Vec<String>,
+}
 
-pub fn run(_args: &BenchArgs) -> Result<(), CliError> {
-    Err(CliError::failure("`squish bench` is not available in this build yet"))
+/// Everything a run needs besides the scenes.
+struct Settings {
+    frames: usize,
+    threads: usize,
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), CliError> {
+    let size = if args.quick { BenchSize::Quick } else { BenchSize::Full };
+    let frames = args.frames.unwrap_or(if args.quick { 3 } else { 9 });
+    let shot_frames = args.shot_frames.unwrap_or(if args.quick { 8 } else { 48 });
+    if frames == 0 || shot_frames == 0 {
+        return Err(CliError::input("--frames and --shot-frames must be at least 1"));
+    }
+    let available = std::thread::available_parallelism().map_or(1, usize::from);
+    let threads = args.threads.unwrap_or(available);
+    if threads == 0 {
+        return Err(CliError::input("--threads must be at least 1"));
+    }
+    let settings = Settings { frames, threads };
+    let data = data_directory(args.data.as_deref());
+    let machine_before = MachineReport::now(available, threads, size);
+
+    let entries = scene_list(size, &data);
+    let Some(shot_entry) = entries.iter().find(|e| e.name == args.shot) else {
+        let names: Vec<&str> = entries.iter().map(|e| e.name).collect();
+        return Err(CliError::input(format!("--shot {}: no such scene (one of {})", args.shot, names.join(", "))));
+    };
+    let mut scenes = Vec::new();
+    for entry in &entries {
+        let name = entry.name;
+        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| name.contains(s.as_str())) {
+            continue;
+        }
+        progress(args, &format!("{name} …"));
+        memory::reset_peak();
+        let report = match (entry.build)() {
+            Ok(scene) => measure_scene(&scene, &settings),
+            Err(reason) => SceneReport::skipped(name, entry.thesis.map(ThesisReport::from), reason),
+        };
+        progress(args, &report.one_line());
+        scenes.push(report);
+    }
+    let shot_scene = (shot_entry.build)().map_err(CliError::input)?;
+    progress(args, &format!("shot: {} frames of {} …", shot_frames, shot_scene.name));
+    let shot = Some(measure_shot(&shot_scene, shot_frames, threads)?);
+    let report = BenchReport {
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        data_directory: data.display().to_string(),
+        frames,
+        memory_method: memory::METHOD.to_string(),
+        machine_before,
+        machine_after: MachineReport::now(available, threads, size),
+        scenes,
+        shot,
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    if let Some(path) = &args.output {
+        crate::input::write_text(path, &json)?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print_table(&report);
+    }
+    let failed: Vec<&str> = report.scenes.iter().filter(|s| s.error.is_some()).map(|s| s.name.as_str()).collect();
+    if failed.is_empty() { Ok(()) } else { Err(CliError::failure(format!("scenes failed: {}", failed.join(", ")))) }
+}
+
+fn progress(args: &BenchArgs, message: &str) {
+    if args.json {
+        eprintln!("{message}");
+    } else {
+        eprintln!("  {message}");
+    }
+}
+
+/// `--data`, else `$SQUISH_DATA`, else `../shared/data` (relative to the working directory,
+/// i.e. beside the repository when run from its root).
+fn data_directory(flag: Option<&Path>) -> PathBuf {
+    if let Some(dir) = flag {
+        return dir.to_path_buf();
+    }
+    match std::env::var_os("SQUISH_DATA") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => PathBuf::from("../shared/data"),
+    }
+}
+
+/// A scene of the list, built on demand (so that a scene's peak memory holds its own meshes
+/// only), or the reason it cannot be.
+struct SceneEntry {
+    name: &'static str,
+    thesis: Option<bench_scenes::ThesisRow>,
+    build: Box<dyn Fn() -> Result<BenchScene, String>>,
+}
+
+impl SceneEntry {
+    fn procedural(
+        name: &'static str,
+        thesis: Option<bench_scenes::ThesisRow>,
+        build: fn(BenchSize) -> BenchScene,
+        size: BenchSize,
+    ) -> Self {
+        Self { name, thesis, build: Box::new(move || Ok(build(size))) }
+    }
+}
+
+/// Every scene in table order; three read their mesh from `data/meshes`.
+fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
+    let mesh = |file: &str| -> Result<squish::TriMesh, String> {
+        let path = data.join("meshes").join(file);
+        if !path.is_file() {
+            return Err(format!("{} not found (set --data or SQUISH_DATA)", path.display()));
+        }
+        squish_io::read_mesh(&path).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    // The quick run uses the small shared bunny.
+    let bunny = mesh(match size {
+        BenchSize::Full => "bunny_29834.obj",
+        BenchSize::Quick => "bunny_3301.obj",
+    });
+    let hand = mesh("hand_7993.obj");
+    let with_mesh = |name: &'static str,
+                     thesis: bench_scenes::ThesisRow,
+                     mesh: &Result<squish::TriMesh, String>,
+                     build: fn(squish::TriMesh, BenchSize) -> BenchScene| {
+        let mesh = mesh.clone();
+        SceneEntry { name, thesis: Some(thesis), build: Box::new(move || mesh.clone().map(|m| build(m, size))) }
+    };
+    use bench_scenes as b;
+    vec![
+        SceneEntry::procedural("fingers-ball", Some(b::FINGERS_BALL), b::fingers_ball, size),
+        SceneEntry::procedural("fingers-palm", Some(b::FINGERS_PALM), b::fingers_palm, size),
+        SceneEntry::procedural("sphere-plane", Some(b::PLANE_SPHERE), b::sphere_plane, size),
+        SceneEntry::procedural("small-big-spheres", Some(b::SMALL_BIG_SPHERES), b::small_big_spheres, size),
+        with_mesh("bunny-jelly", b::BUNNY_JELLY, &bunny, b::bunny_jelly),
+        with_mesh("bunny-whole-jelly", b::BUNNY_JELLY, &bunny, b::bunny_whole_jelly),
+        SceneEntry::procedural("feet-plane", Some(b::WALK), b::feet_plane, size),
+        SceneEntry::procedural("hat-egg", Some(b::HAT_EGG), b::hat_egg, size),
+        with_mesh("hand-pillow", b::HAND_PILLOW, &hand, b::hand_pillow),
+        SceneEntry::procedural("stress-100k", None, b::stress_100k, size),
+    ]
+}
+
+/// One run of the animation on a fresh deformer: warm-up frame, then the timed frames.
+struct Run {
+    first_frame: Duration,
+    stats: Vec<FrameStats>,
+    /// Numeric factorizations per timed frame (summed over objects).
+    numeric_factorizations: Vec<usize>,
+    /// Symbolic analyses over the timed frames (0 when the caches are reused).
+    symbolic_analyses_timed: usize,
+    symbolic_analyses_warm_up: usize,
+}
+
+fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
+    let mut deformer = Deformer::new();
+    let warm_up = scene.pose(0.0);
+    let start = Instant::now();
+    deformer.deform(&warm_up.frame()).map_err(|e| format!("warm-up frame: {e}"))?;
+    let first_frame = start.elapsed();
+    drop(warm_up);
+    let symbolic_analyses_warm_up = deformer.symbolic_analyses();
+    let mut run = Run {
+        first_frame,
+        stats: Vec::with_capacity(frames),
+        numeric_factorizations: Vec::with_capacity(frames),
+        symbolic_analyses_timed: 0,
+        symbolic_analyses_warm_up,
+    };
+    for k in 0..frames {
+        let pose = scene.pose(BenchScene::frame_time(k, frames));
+        let result = deformer.deform(&pose.frame()).map_err(|e| format!("frame {k}: {e}"))?;
+        run.numeric_factorizations
+            .push(result.deformations.iter().flatten().map(|d| d.stats.numeric_factorizations).sum());
+        run.stats.push(result.stats);
+    }
+    run.symbolic_analyses_timed = deformer.symbolic_analyses() - symbolic_analyses_warm_up;
+    Ok(run)
+}
+
+impl Run {
+    fn figures(&self, threads: usize) -> RunFigures<'_> {
+        RunFigures {
+            threads,
+            stats: &self.stats,
+            first_frame: self.first_frame,
+            numeric_factorizations: &self.numeric_factorizations,
+            symbolic_analyses_first_frame: self.symbolic_analyses_warm_up,
+            symbolic_analyses_timed_frames: self.symbolic_analyses_timed,
+        }
+    }
+}
+
+/// Index of the median frame time (the lower median for an even count).
+fn median_index(stats: &[FrameStats]) -> usize {
+    let mut order: Vec<usize> = (0..stats.len()).collect();
+    order.sort_by_key(|&i| stats[i].total);
+    order[(order.len() - 1) / 2]
+}
+
+fn pool(threads: usize) -> Result<rayon::ThreadPool, String> {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| format!("thread pool: {e}"))
+}
+
+/// Runs `scene` (the caller resets the memory peak before building it).
+fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
+    let thesis = scene.thesis.map(ThesisReport::from);
+    let objects: Vec<ObjectReport> = scene
+        .rest
+        .objects
+        .iter()
+        .map(|o| ObjectReport {
+            name: o.name.clone(),
+            vertices: o.mesh.num_vertices(),
+            rigid: o.params.rigid,
+            deformable_vertices: 0,
+            contact_vertices: 0,
+        })
+        .collect();
+    let mut report = SceneReport::new(scene.name, thesis, objects, settings.frames);
+    let outcome = (|| -> Result<(), String> {
+        let single = pool(1)?.install(|| run_animation(scene, settings.frames))?;
+        let median = median_index(&single.stats);
+        for (object, stats) in report.objects.iter_mut().zip(&single.stats[median].objects) {
+            object.deformable_vertices = stats.deformable_vertices;
+            object.contact_vertices = stats.contact_vertices;
+        }
+        report.single = Some(RunReport::new(&single.figures(1), median));
+        drop(single);
+        let multi = pool(settings.threads)?.install(|| run_animation(scene, settings.frames))?;
+        report.multi = Some(RunReport::new(&multi.figures(settings.threads), median_index(&multi.stats)));
+        drop(multi);
+        if let Some(largest) = scene.largest_deformable() {
+            let topology = Topology::new(&largest.mesh);
+            let timing = pool(1)?
+                .install(|| time_laplacian_factorization(&largest.mesh, &topology, 5))
+                .map_err(|e| format!("factorization timing: {e}"))?;
+            report.factorization = Some(FactorizationReport::new(&largest.name, &timing));
+        }
+        Ok(())
+    })();
+    if let Err(error) = outcome {
+        report.error = Some(error);
+    }
+    report.peak_memory_mb = memory::peak_mb();
+    report.finish(&scene.sides());
+    report
+}
+
+/// `frames` frames of `scene` with frames in parallel: the frames are cut into one contiguous
+/// chunk per worker, each with its own deformer (caches reused within the chunk).
+fn measure_shot(scene: &BenchScene, frames: usize, threads: usize) -> Result<ShotReport, CliError> {
+    let shot = |workers: usize| -> Result<Duration, String> {
+        let chunk = frames.div_ceil(workers);
+        let chunks: Vec<std::ops::Range<usize>> =
+            (0..frames).step_by(chunk.max(1)).map(|s| s..(s + chunk).min(frames)).collect();
+        pool(workers)?.install(|| {
+            let start = Instant::now();
+            chunks
+                .par_iter()
+                .map(|range| {
+                    let mut deformer = Deformer::new();
+                    for k in range.clone() {
+                        let pose = scene.pose(BenchScene::frame_time(k, frames));
+                        deformer.deform(&pose.frame()).map_err(|e| format!("shot frame {k}: {e}"))?;
+                    }
+                    Ok(())
+                })
+                .collect::<Result<(), String>>()?;
+            Ok(start.elapsed())
+        })
+    };
+    let single = shot(1).map_err(CliError::failure)?;
+    let multi = shot(threads).map_err(CliError::failure)?;
+    Ok(ShotReport::new(scene.name, frames, threads, single, multi))
+}
+
+/// Peak resident memory per scene, from Linux's `/proc/self/status`.
+pub mod memory {
+    /// How the peak is measured (copied into the report).
+    pub const METHOD: &str = "VmHWM of /proc/self/status (peak resident set size of the process), \
+        reset before each scene by writing 5 to /proc/self/clear_refs; where the reset is refused, \
+        the process' peak so far";
+
+    /// Resets the process' peak resident set size to its current size (Linux ≥ 4.0).
+    pub fn reset_peak() {
+        // A refused reset only makes the figure an upper bound (the process' peak so far).
+        let _ = std::fs::write("/proc/self/clear_refs", "5");
+    }
+
+    /// The peak resident set size in MB since the last reset, if the system reports it.
+    pub fn peak_mb() -> Option<f64> {
+        let status = std::fs::read_to_string("/proc/self/status").ok()?;
+        let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+        let kb: f64 = line.trim_start_matches("VmHWM:").trim().trim_end_matches("kB").trim().parse().ok()?;
+        Some(kb / 1024.0)
+    }
 }

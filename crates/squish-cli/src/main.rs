@@ -4,6 +4,7 @@
 //! arguments, reads files, calls the library and writes results atomically. Parameters are the
 //! library's own structures; the command line never re-declares them.
 
+mod bench_report;
 mod cmd_bench;
 mod cmd_contact;
 mod cmd_deform;

@@ -1,9 +1,8 @@
 //! Collision detection and intersection regions ℐ_a, ℐ_b (thesis §4.1).
 //!
 //! Every edge of each working region is intersected with the faces of the other one, both ways
-//! ([`TriangleBvh::segment_hits_batch`](crate::spatial::TriangleBvh::segment_hits_batch), after
-//! culling the edges whose box misses the other mesh's box; exact, symbolically perturbed
-//! crossings, in parallel, results in edge order). Every crossing is kept as an
+//! ([`mutual_edge_crossings`]: one joint traversal of the two triangle trees, the same exact,
+//! symbolically perturbed crossings as querying each edge, in parallel, results in edge order). Every crossing is kept as an
 //! [`IntersectionPoint`]: its location on the crossed edge (edge id and parameter t) and on the
 //! crossed face (face id and barycentric coordinates), i.e. "pairs of barycentric coordinates on
 //! both surfaces".
@@ -42,8 +41,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{ContactError, ContactSide, EdgeRegion};
-use crate::mesh::Aabb3;
-use crate::spatial::{BatchHits, Hit};
+use crate::spatial::{BatchHits, EdgeCrossings, EdgeSource, Hit, mutual_edge_crossings};
 
 /// One crossing of an edge of one working region with a face of the other.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -103,9 +101,13 @@ enum Tag {
 /// Returns an empty [`Intersection`] (no point, empty regions) when they do not intersect.
 /// Errors: [`ContactError::IntersectionReachesBorder`] when a region reaches a flagged border.
 pub fn intersect(a: &ContactSide, b: &ContactSide) -> Result<Intersection, ContactError> {
-    // Both directions are independent: run them in parallel (each batch is itself parallel).
-    let (hits_a, hits_b) = rayon::join(|| EdgeHits::new(a, b), || EdgeHits::new(b, a));
-    let hits = [hits_a, hits_b];
+    // Both directions in one joint traversal of the two trees (bit-identical to querying every
+    // edge of each side against the other's tree).
+    let [crossings_a, crossings_b] = mutual_edge_crossings(
+        EdgeSource { tree: a.bvh, positions: &a.mesh.positions, topology: a.topology },
+        EdgeSource { tree: b.bvh, positions: &b.mesh.positions, topology: b.topology },
+    );
+    let hits = [EdgeHits::new(a.topology.num_edges(), crossings_a), EdgeHits::new(b.topology.num_edges(), crossings_b)];
     let mut result = Intersection::default();
     for (l, edge_hits) in hits.iter().enumerate() {
         for (&e, list) in edge_hits.tested.iter().zip(edge_hits.batch.iter()) {
@@ -134,39 +136,29 @@ pub fn intersect(a: &ContactSide, b: &ContactSide) -> Result<Intersection, Conta
     Ok(result)
 }
 
-/// Marks an edge that was not tested (its box misses the other mesh's box).
+/// Marks an edge without crossing in [`EdgeHits::slot`].
 const UNTESTED: u32 = u32::MAX;
 
 /// The crossings of the edges of one side with the faces of the other.
 struct EdgeHits {
     /// Per edge: its index in `tested`, or [`UNTESTED`].
     slot: Vec<u32>,
-    /// The edges whose box overlaps the other mesh's box, increasing.
+    /// The edges with at least one crossing, increasing.
     tested: Vec<u32>,
     /// Their crossings, sorted along each edge.
     batch: BatchHits,
 }
 
 impl EdgeHits {
-    /// Crossings of `side`'s edges with `other`'s faces. Edges whose box misses the other mesh's
-    /// box cannot cross it and are not queried (a cheap cull: most of a working region is away
-    /// from the contact).
-    fn new(side: &ContactSide, other: &ContactSide) -> Self {
-        let bounds = other.bvh.bounds();
-        let positions = &side.mesh.positions;
-        let edges = side.topology.edges();
-        let mut slot = vec![UNTESTED; edges.len()];
-        let mut tested = Vec::new();
-        let mut segments = Vec::new();
-        for (e, &[i, j]) in edges.iter().enumerate() {
-            let (p, q) = (positions[i as usize], positions[j as usize]);
-            if Aabb3::from_points([p, q]).intersects(&bounds) {
-                slot[e] = tested.len() as u32;
-                tested.push(e as u32);
-                segments.push([p, q]);
+    /// Indexes the crossings of a side with `num_edges` edges.
+    fn new(num_edges: usize, crossings: EdgeCrossings) -> Self {
+        let mut slot = vec![UNTESTED; num_edges];
+        for (k, &e) in crossings.edges.iter().enumerate() {
+            if let Some(s) = slot.get_mut(e as usize) {
+                *s = k as u32;
             }
         }
-        Self { slot, tested, batch: other.bvh.segment_hits_batch(&segments) }
+        Self { slot, tested: crossings.edges, batch: crossings.hits }
     }
 
     /// The crossings of edge `e`, sorted along it.

@@ -138,7 +138,7 @@ pub struct MappingStats {
 /// True if a part of `side`'s own mesh lies beyond `x` along `away` (x is then hidden from the
 /// other object). The segment starts a hair beyond x so that x's own faces do not count.
 fn is_occluded(side: &ContactSide, x: DVec3, away: DVec3, offset: f64, length: f64) -> bool {
-    side.bvh.segment_nearest(x + away * offset, x + away * length).is_some()
+    side.bvh.segment_crosses(x + away * offset, x + away * length)
 }
 
 /// The part of a mapping region that the other object can reach (thesis §4.5, Fig. 4.12 and its

@@ -45,6 +45,7 @@ mod tests;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 pub use contact_set::ContactSet;
 pub use error::DeformError;
@@ -241,19 +242,29 @@ pub fn deform_region(
     let mut displacement = AffineDisplacement::none(n);
     let mut fixed_heights = vec![0.0; n];
     let mut bulge_weights = vec![0.0; n];
+    // The profile samples (an inversion of f₁ per vertex of 𝒟, the costliest part of this stage)
+    // are independent: computed in parallel, used in vertex order.
+    let samples: Vec<Option<profile::ProfileSample>> = (0..n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|v| {
+            (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v]).then(|| {
+                profile::sample(
+                    &params.profile,
+                    &params.wrinkles,
+                    guide.amplitude[v],
+                    guide.slope[v],
+                    parametrization.u[v],
+                )
+            })
+        })
+        .collect();
     for v in 0..n {
         let zone = contact.vertex_zone[v];
         if zone != contact_set::NO_ZONE {
             displacement.moved[v] = true;
             displacement.constant[v] = zones[zone as usize].targets[v] - mesh.positions[v];
-        } else if parametrization.deformable[v] {
-            let sample = profile::sample(
-                &params.profile,
-                &params.wrinkles,
-                guide.amplitude[v],
-                guide.slope[v],
-                parametrization.u[v],
-            );
+        } else if let Some(sample) = samples[v] {
             let d = field.directions[v];
             displacement.moved[v] = true;
             displacement.linear[v] = d * (eta.weights[v] * sample.bulge_weight);

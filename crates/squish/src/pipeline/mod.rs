@@ -20,6 +20,7 @@
 //! masks come with the many-contact pipeline).
 
 mod params;
+pub mod bench_scenes;
 pub mod scenes;
 
 use std::time::{Duration, Instant};
@@ -223,6 +224,9 @@ struct Prepared {
 #[derive(Default)]
 pub struct Deformer {
     caches: Vec<Option<ObjectCache>>,
+    /// Symbolic factorizations run since creation (one per deformed object unless its
+    /// connectivity changes): lets benchmarks check that frames reuse them.
+    symbolic_analyses: usize,
 }
 
 /// The automatic extent φ_max of an object (used when [`ObjectParams::extent`] is `None`):
@@ -257,6 +261,12 @@ impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Number of symbolic Cholesky analyses run by this deformer since it was created: one per
+    /// deformed object on its first frame (and again only if its connectivity changes).
+    pub fn symbolic_analyses(&self) -> usize {
+        self.symbolic_analyses
     }
 
     /// Deforms one frame. See the module doc.
@@ -358,6 +368,7 @@ impl Deformer {
         }
 
         // Chapter 5, every object with zones in parallel.
+        let solvers_before = self.caches.iter().flatten().filter(|c| c.solver.is_some()).count();
         let deformations: Vec<Option<(RegionDeformation, f64)>> = self
             .caches
             .par_iter_mut()
@@ -383,6 +394,9 @@ impl Deformer {
                 Ok(Some((deformation, extent)))
             })
             .collect::<Result<_, _>>()?;
+        // A solver is only ever created (one symbolic analysis each), never replaced in place.
+        let solvers_after = self.caches.iter().flatten().filter(|c| c.solver.is_some()).count();
+        self.symbolic_analyses += solvers_after.saturating_sub(solvers_before);
 
         // Results and statistics.
         let mut stages = StageTimes { setup, ..StageTimes::default() };

@@ -69,6 +69,15 @@ impl<T> Batch<T> {
 
 }
 
+impl<T> Batch<T> {
+    /// A batch from its flat parts: the results of query `i` are `hits[offsets[i]..offsets[i + 1]]`
+    /// (`offsets` starts at 0, is non-decreasing and ends at `hits.len()`).
+    pub(crate) fn from_parts(offsets: Vec<usize>, hits: Vec<T>) -> Self {
+        debug_assert!(offsets.first().is_none_or(|&o| o == 0) && offsets.last().is_none_or(|&o| o == hits.len()));
+        Self { offsets, hits }
+    }
+}
+
 impl<T: Clone + Send> Batch<T> {
     /// Runs `run(query, out)` (which must clear `out` and fill it) on every query in parallel.
     pub(crate) fn gather<Q: Sync>(queries: &[Q], run: impl Fn(&Q, &mut Vec<T>) + Sync) -> Self {

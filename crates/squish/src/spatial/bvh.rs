@@ -76,13 +76,23 @@ impl TriangleBvh {
             return Err(SpatialError::PositionCount { expected: self.num_vertices, got: positions.len() });
         }
         check_finite(positions)?;
+        // Only the leaves whose triangle moved (bit for bit) get a new box, and a tree none of
+        // whose triangles moved since the last frame (a static ground, a prop at rest) is left
+        // as is: the boxes are the same either way.
+        let mut moved = false;
         for (leaf, (tri, corners)) in self.indices.iter().zip(self.corners.iter_mut()).enumerate() {
-            *corners = tri.map(|i| positions[i as usize]);
-            let _ = self.bvh.update_partially_if_present(triangle_aabb(corners), leaf as u32, 0.0);
+            let new = tri.map(|i| positions[i as usize]);
+            if !same_bits(&new, corners) {
+                *corners = new;
+                moved = true;
+                let _ = self.bvh.update_partially_if_present(triangle_aabb(corners), leaf as u32, 0.0);
+            }
         }
-        // Recomputes inner boxes bottom-up without reordering nodes: the traversal order is kept.
-        self.bvh.refit_without_opt();
-        self.bounds = bounds_of(&self.corners);
+        if moved {
+            // Recomputes inner boxes bottom-up without reordering nodes: the traversal order is kept.
+            self.bvh.refit_without_opt();
+            self.bounds = bounds_of(&self.corners);
+        }
         Ok(())
     }
 
@@ -129,6 +139,11 @@ impl TriangleBvh {
     pub fn raw(&self) -> &Bvh {
         &self.bvh
     }
+}
+
+/// True if the two triangles have bit-identical corners (so `-0.0` and `0.0` differ).
+fn same_bits(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    a.iter().zip(b).all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits))
 }
 
 fn check_finite(positions: &[DVec3]) -> Result<(), SpatialError> {
@@ -234,6 +249,35 @@ mod tests {
             for p in c {
                 assert!(p.cmpge(node.mins()).all() && p.cmple(node.maxs()).all());
             }
+        }
+    }
+
+    #[test]
+    fn refitting_moves_exactly_the_leaves_whose_triangles_moved() {
+        let mesh = shapes::icosphere(1.0, 3);
+        let mut tree = TriangleBvh::new(&mesh).unwrap();
+        // Unchanged positions: nothing to do, same tree.
+        let before = tree.clone();
+        tree.refit(&mesh.positions).unwrap();
+        assert_eq!(tree.corners, before.corners);
+        // A few vertices move: every leaf box is its triangle's box.
+        let mut moved = mesh.positions.clone();
+        moved[7] += DVec3::new(0.0, 0.0, 0.3);
+        moved[100] *= 1.2;
+        moved[0].x = -moved[0].x;
+        tree.refit(&moved).unwrap();
+        for leaf in 0..tree.len() {
+            let corners = tree.indices[leaf].map(|i| moved[i as usize]);
+            assert_eq!(tree.corners[leaf], corners);
+            let node = tree.bvh.leaf_node(leaf as u32).unwrap();
+            let expected = triangle_aabb(&corners);
+            assert_eq!((node.mins(), node.maxs()), (expected.mins, expected.maxs));
+        }
+        assert_eq!(tree.bounds(), Aabb3::from_points(moved.iter().copied()));
+        let probe = TriangleBvh::new(&TriMesh { positions: moved, triangles: mesh.triangles.clone() }).unwrap();
+        for k in 0..50 {
+            let a = DVec3::new(2.0, 0.05 * k as f64 - 1.2, 0.3);
+            assert_eq!(tree.segment_crossing_count(a, -a), probe.segment_crossing_count(a, -a));
         }
     }
 

@@ -27,6 +27,7 @@ mod batch;
 mod bvh;
 mod closest;
 mod exact;
+mod joint;
 mod queries;
 mod self_intersection;
 #[cfg(test)]
@@ -38,6 +39,7 @@ pub use aabb_tree::{AabbTree, PointTree, ProjectionPlane, Segment2Hit, SegmentTr
 pub use batch::{Batch, BatchHits};
 pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
+pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, Hit, Ray};
 pub use self_intersection::{mesh_intersections, self_intersections, SelfIntersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};

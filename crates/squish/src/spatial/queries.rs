@@ -14,10 +14,12 @@
 //! inline small vector), so single queries do not allocate unless they return a `Vec`.
 //!
 //! Determinism: hit lists are sorted by (parameter, face id); nearest/farthest/closest results
-//! break ties by the smallest face id. Nearest, farthest and closest are found in two passes: a
-//! best-first search (parry's `find_best`) bounds the answer, then a pruned traversal collects all
-//! candidates up to that bound and picks the minimum by (value, face id), so the answer does not
-//! depend on the shape of the tree.
+//! break ties by the smallest face id. The closest point is found in two passes: a best-first
+//! search (parry's `find_best`) bounds the answer, then a pruned traversal collects all
+//! candidates up to that bound and picks the minimum by (value, face id). Nearest and farthest
+//! crossings take one depth-first pass that keeps the best (t, face id) so far and prunes the
+//! boxes beyond it (half the work of two passes for the mapping's line casts). Either way the
+//! answer does not depend on the shape of the tree.
 
 use glam::DVec3;
 use parry3d_f64::partitioning::{BvhNode, TraversalAction};
@@ -93,7 +95,7 @@ pub(super) fn hit_order(x: &Hit, y: &Hit) -> std::cmp::Ordering {
 
 impl TriangleBvh {
     #[inline]
-    fn make_hit(&self, leaf: usize, c: Crossing, t_scale: f64) -> Hit {
+    pub(super) fn make_hit(&self, leaf: usize, c: Crossing, t_scale: f64) -> Hit {
         Hit {
             face: self.faces[leaf],
             t: c.t * t_scale,
@@ -207,32 +209,22 @@ impl TriangleBvh {
     }
 
     /// Nearest (or farthest) crossing of `[a, b]`, ties to the smallest face id.
+    ///
+    /// One depth-first pass that keeps the best crossing so far and prunes the boxes lying
+    /// entirely beyond it (before it, for the farthest). The best crossing is unique under the
+    /// total order (t, face id), and the clipped box intervals are conservative, so the box of
+    /// the answer is never pruned: the result does not depend on the tree's shape or on the
+    /// order of the visit.
     fn extreme_crossing(&self, a: DVec3, b: DVec3, farthest: bool) -> Option<(usize, Crossing)> {
         let probe = SegmentProbe::new(a, b);
-        // Pass 1, best first: costs are t (nearest) or −t (farthest), boxes give lower bounds.
-        let sign = if farthest { -1.0 } else { 1.0 };
-        let (_, (cost, _)) = self.bvh.find_best(
-            f64::MAX,
-            |node: &BvhNode, _| match probe.clip(node.mins(), node.maxs()) {
-                Some((lo, hi)) => {
-                    if farthest {
-                        -hi
-                    } else {
-                        lo
-                    }
-                }
-                None => f64::MAX,
-            },
-            |leaf, _| segment_triangle(a, b, &self.corners[leaf as usize]).map(|c| (sign * c.t, c)),
-        )?;
-        let bound = sign * cost;
-        // Pass 2: every crossing at least as extreme as the bound; keep the best by (t, face).
         let mut best: Option<(usize, Crossing)> = None;
         self.bvh.traverse(|node: &BvhNode| {
             let Some((lo, hi)) = probe.clip(node.mins(), node.maxs()) else {
                 return TraversalAction::Prune;
             };
-            if (!farthest && lo > bound) || (farthest && hi < bound) {
+            if let Some((_, bc)) = &best
+                && ((!farthest && lo > bc.t) || (farthest && hi < bc.t))
+            {
                 return TraversalAction::Prune;
             }
             if let Some(leaf) = node.leaf_data() {
@@ -253,6 +245,26 @@ impl TriangleBvh {
             TraversalAction::Continue
         });
         best
+    }
+
+    /// True if the segment `[a, b]` crosses the mesh at least once (same rule as
+    /// [`Self::segment_hits`]); stops at the first crossing found.
+    pub fn segment_crosses(&self, a: DVec3, b: DVec3) -> bool {
+        let probe = SegmentProbe::new(a, b);
+        let mut found = false;
+        self.bvh.traverse(|node: &BvhNode| {
+            if probe.clip(node.mins(), node.maxs()).is_none() {
+                return TraversalAction::Prune;
+            }
+            if let Some(leaf) = node.leaf_data()
+                && segment_triangle(a, b, &self.corners[leaf as usize]).is_some()
+            {
+                found = true;
+                return TraversalAction::EarlyExit;
+            }
+            TraversalAction::Continue
+        });
+        found
     }
 
     /// Calls `f` with the face id of every triangle whose bounding box overlaps `query` (touching
@@ -450,6 +462,31 @@ mod tests {
         for t in &mesh.triangles {
             let m = 0.5 * (mesh.positions[t[0] as usize] + mesh.positions[t[1] as usize]);
             assert_eq!(tree.segment_crossing_count(3.0 * m, DVec3::ZERO), 1);
+        }
+    }
+
+    #[test]
+    fn nearest_farthest_and_any_crossing_agree_with_the_sorted_hit_list() {
+        // Segments through a bumpy closed surface (many crossings, some through shared vertices
+        // and edges of the grid-like capsule): the one-pass nearest/farthest searches must return
+        // exactly the first/last of the sorted list, and `segment_crosses` its non-emptiness.
+        let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
+        mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
+        let tree = TriangleBvh::new(&mesh).unwrap();
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
+        };
+        let mut hits = Vec::new();
+        let mut vertex_segments: Vec<(DVec3, DVec3)> =
+            mesh.positions.iter().step_by(7).map(|&v| (2.0 * v, -1.5 * v + DVec3::new(0.0, 0.0, 0.3))).collect();
+        vertex_segments.extend((0..400).map(|_| (DVec3::new(next(), next(), next()), DVec3::new(next(), next(), next()))));
+        for (a, b) in vertex_segments {
+            tree.segment_hits(a, b, &mut hits);
+            assert_eq!(tree.segment_nearest(a, b), hits.first().copied());
+            assert_eq!(tree.segment_farthest(a, b), hits.last().copied());
+            assert_eq!(tree.segment_crosses(a, b), !hits.is_empty());
         }
     }
 

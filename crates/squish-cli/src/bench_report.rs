@@ -1,0 +1,457 @@
+//! The results of `squish bench` (see [`crate::cmd_bench`]): serializable records, derived
+//! figures (medians, shares, ratios to the thesis) and the text table.
+
+use std::time::Duration;
+
+use serde::Serialize;
+use squish::linalg::FactorizationTiming;
+use squish::pipeline::bench_scenes::{BenchSize, ThesisRow};
+use squish::pipeline::{FrameStats, StageTimes};
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// The whole report.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub command: String,
+    pub data_directory: String,
+    /// Timed frames per scene and run.
+    pub frames: usize,
+    pub memory_method: String,
+    /// The machine when the run started and when it ended (load averages tell whether other
+    /// work competed for the cores).
+    pub machine_before: MachineReport,
+    pub machine_after: MachineReport,
+    pub scenes: Vec<SceneReport>,
+    pub shot: Option<ShotReport>,
+}
+
+/// Cores, load and build.
+#[derive(Clone, Debug, Serialize)]
+pub struct MachineReport {
+    /// Cores available to the process.
+    pub cores: usize,
+    /// Threads of the multi-threaded runs.
+    pub threads: usize,
+    /// 1, 5 and 15-minute load averages (`/proc/loadavg`), when the system reports them.
+    pub load_average: Option<[f64; 3]>,
+    pub quick: bool,
+    /// False for a debug build, whose times mean little.
+    pub optimized_build: bool,
+}
+
+impl MachineReport {
+    pub fn now(cores: usize, threads: usize, size: BenchSize) -> Self {
+        let load_average = std::fs::read_to_string("/proc/loadavg").ok().and_then(|text| {
+            let values: Vec<f64> = text.split_whitespace().take(3).filter_map(|v| v.parse().ok()).collect();
+            <[f64; 3]>::try_from(values).ok()
+        });
+        Self { cores, threads, load_average, quick: size == BenchSize::Quick, optimized_build: !cfg!(debug_assertions) }
+    }
+}
+
+/// The thesis row a scene is compared with.
+#[derive(Clone, Debug, Serialize)]
+pub struct ThesisReport {
+    pub table: String,
+    pub scene: String,
+    /// |𝒲| per side (table 7.3).
+    pub working: [usize; 2],
+    /// |𝒟| per side.
+    pub deformable: [usize; 2],
+    /// Average ms per frame of the C++ prototype, one core of an i7-4790K.
+    pub ms: f64,
+}
+
+impl From<ThesisRow> for ThesisReport {
+    fn from(row: ThesisRow) -> Self {
+        Self {
+            table: row.table.to_string(),
+            scene: row.scene.to_string(),
+            working: row.working,
+            deformable: row.deformable,
+            ms: row.ms,
+        }
+    }
+}
+
+/// One object of a scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct ObjectReport {
+    pub name: String,
+    pub vertices: usize,
+    pub rigid: bool,
+    /// |𝒟| and |𝒞| in the single-thread median frame.
+    pub deformable_vertices: usize,
+    pub contact_vertices: usize,
+}
+
+/// Stage times in milliseconds, the thesis' columns plus our setup and the remainder.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Breakdown {
+    pub setup: f64,
+    pub intersection: f64,
+    pub mapping: f64,
+    pub contact_zone: f64,
+    pub parametrization: f64,
+    pub directions: f64,
+    pub guide: f64,
+    pub deformation: f64,
+    /// The frame minus the stages above (gathering zones, statistics, copies). Negative in a
+    /// multi-threaded run, whose stage times add up the work of concurrent pairs and objects.
+    pub other: f64,
+    /// Of parametrization, directions and guide: numeric factorizations (the thesis' s.).
+    pub factorization: f64,
+}
+
+impl Breakdown {
+    fn new(total: Duration, t: &StageTimes) -> Self {
+        let stages = [
+            t.setup,
+            t.intersection,
+            t.mapping,
+            t.contact_zone,
+            t.parametrization,
+            t.directions,
+            t.guide,
+            t.deformation,
+        ];
+        let named: f64 = stages.iter().map(|d| ms(*d)).sum();
+        Self {
+            setup: ms(t.setup),
+            intersection: ms(t.intersection),
+            mapping: ms(t.mapping),
+            contact_zone: ms(t.contact_zone),
+            parametrization: ms(t.parametrization),
+            directions: ms(t.directions),
+            guide: ms(t.guide),
+            deformation: ms(t.deformation),
+            other: ms(total) - named,
+            factorization: ms(t.factorization),
+        }
+    }
+
+    /// Every field as a percentage of `total_ms`.
+    fn percent_of(&self, total_ms: f64) -> Self {
+        let p = |x: f64| if total_ms > 0.0 { 100.0 * x / total_ms } else { 0.0 };
+        Self {
+            setup: p(self.setup),
+            intersection: p(self.intersection),
+            mapping: p(self.mapping),
+            contact_zone: p(self.contact_zone),
+            parametrization: p(self.parametrization),
+            directions: p(self.directions),
+            guide: p(self.guide),
+            deformation: p(self.deformation),
+            other: p(self.other),
+            factorization: p(self.factorization),
+        }
+    }
+}
+
+/// One run of a scene's animation (one thread or several).
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    pub threads: usize,
+    pub median_ms: f64,
+    pub min_ms: f64,
+    pub max_ms: f64,
+    /// The warm-up frame (builds topology, trees and symbolic analyses; not in the median).
+    pub first_frame_ms: f64,
+    /// Every timed frame, in animation order.
+    pub frame_ms: Vec<f64>,
+    /// Index of the median frame in `frame_ms`.
+    pub median_frame: usize,
+    /// Stages of the median frame.
+    pub breakdown_ms: Breakdown,
+    /// The same in % of the median frame (the fields but `factorization` sum to 100).
+    pub breakdown_percent: Breakdown,
+    /// Numeric factorizations in the median frame (3 per deformed object: heat, Poisson, guide).
+    pub numeric_factorizations_per_frame: usize,
+    /// Symbolic analyses in the warm-up frame and in all timed frames (0: reused).
+    pub symbolic_analyses_first_frame: usize,
+    pub symbolic_analyses_timed_frames: usize,
+}
+
+/// What a run measured, for [`RunReport::new`].
+pub struct RunFigures<'a> {
+    pub threads: usize,
+    pub stats: &'a [FrameStats],
+    pub first_frame: Duration,
+    pub numeric_factorizations: &'a [usize],
+    pub symbolic_analyses_first_frame: usize,
+    pub symbolic_analyses_timed_frames: usize,
+}
+
+impl RunReport {
+    /// `median` is the index of the median frame of `figures.stats` (non-empty).
+    pub fn new(figures: &RunFigures, median: usize) -> Self {
+        let frame_ms: Vec<f64> = figures.stats.iter().map(|s| ms(s.total)).collect();
+        let median_stats = &figures.stats[median];
+        let breakdown_ms = Breakdown::new(median_stats.total, &median_stats.stages);
+        let median_ms = frame_ms[median];
+        Self {
+            threads: figures.threads,
+            median_ms,
+            min_ms: frame_ms.iter().copied().fold(f64::INFINITY, f64::min),
+            max_ms: frame_ms.iter().copied().fold(0.0, f64::max),
+            first_frame_ms: ms(figures.first_frame),
+            breakdown_percent: breakdown_ms.percent_of(median_ms),
+            breakdown_ms,
+            frame_ms,
+            median_frame: median,
+            numeric_factorizations_per_frame: figures.numeric_factorizations.get(median).copied().unwrap_or(0),
+            symbolic_analyses_first_frame: figures.symbolic_analyses_first_frame,
+            symbolic_analyses_timed_frames: figures.symbolic_analyses_timed_frames,
+        }
+    }
+}
+
+/// One numeric factorization of the largest deformable object's heat operator `M + tK`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FactorizationReport {
+    pub object: String,
+    pub vertices: usize,
+    pub matrix_nonzeros: usize,
+    pub factor_nonzeros: usize,
+    pub supernodal: bool,
+    /// The symbolic analysis (once per region).
+    pub symbolic_ms: f64,
+    /// The fastest of 5 in-place numeric refactorizations: what a frame pays per system.
+    pub numeric_ms: f64,
+}
+
+impl FactorizationReport {
+    pub fn new(object: &str, t: &FactorizationTiming) -> Self {
+        Self {
+            object: object.to_string(),
+            vertices: t.vertices,
+            matrix_nonzeros: t.matrix_nonzeros,
+            factor_nonzeros: t.factor_nonzeros,
+            supernodal: t.supernodal,
+            symbolic_ms: ms(t.symbolic),
+            numeric_ms: ms(t.refactorization),
+        }
+    }
+}
+
+/// One scene's row.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneReport {
+    pub name: String,
+    pub thesis: Option<ThesisReport>,
+    /// Why the scene was not run (e.g. a missing mesh file).
+    pub skipped: Option<String>,
+    /// Why the scene failed.
+    pub error: Option<String>,
+    pub objects: Vec<ObjectReport>,
+    /// |𝒲| and |𝒟| per side (objects first in a pair, the others), like the thesis rows.
+    pub working: [usize; 2],
+    pub deformable: [usize; 2],
+    pub frames: usize,
+    pub single: Option<RunReport>,
+    pub multi: Option<RunReport>,
+    /// Single-thread median / multi-thread median.
+    pub speedup: Option<f64>,
+    pub factorization: Option<FactorizationReport>,
+    /// Single-thread median frame / one numeric factorization of the largest region.
+    pub frame_over_factorization: Option<f64>,
+    /// The same for the multi-threaded median frame.
+    pub frame_over_factorization_all_threads: Option<f64>,
+    /// Single-thread median frame / the thesis' time.
+    pub thesis_ratio: Option<f64>,
+    /// Peak resident memory while the scene ran (see `memory_method`), MB.
+    pub peak_memory_mb: Option<f64>,
+}
+
+impl SceneReport {
+    pub fn new(name: &str, thesis: Option<ThesisReport>, objects: Vec<ObjectReport>, frames: usize) -> Self {
+        Self {
+            name: name.to_string(),
+            thesis,
+            skipped: None,
+            error: None,
+            objects,
+            working: [0; 2],
+            deformable: [0; 2],
+            frames,
+            single: None,
+            multi: None,
+            speedup: None,
+            factorization: None,
+            frame_over_factorization: None,
+            frame_over_factorization_all_threads: None,
+            thesis_ratio: None,
+            peak_memory_mb: None,
+        }
+    }
+
+    pub fn skipped(name: &str, thesis: Option<ThesisReport>, reason: String) -> Self {
+        Self { skipped: Some(reason), ..Self::new(name, thesis, Vec::new(), 0) }
+    }
+
+    /// Sums per side and derives the ratios once the runs are in.
+    pub fn finish(&mut self, sides: &[Vec<usize>; 2]) {
+        for (s, side) in sides.iter().enumerate() {
+            let objects = side.iter().filter_map(|&i| self.objects.get(i));
+            self.working[s] = objects.clone().map(|o| o.vertices).sum();
+            self.deformable[s] = objects.map(|o| o.deformable_vertices).sum();
+        }
+        if let (Some(single), Some(multi)) = (&self.single, &self.multi) {
+            self.speedup = Some(single.median_ms / multi.median_ms);
+        }
+        let factorization_ms = self.factorization.as_ref().map(|f| f.numeric_ms).filter(|&ms| ms > 0.0);
+        if let Some(single) = &self.single {
+            self.thesis_ratio = self.thesis.as_ref().map(|t| single.median_ms / t.ms);
+            self.frame_over_factorization = factorization_ms.map(|f| single.median_ms / f);
+        }
+        if let Some(multi) = &self.multi {
+            self.frame_over_factorization_all_threads = factorization_ms.map(|f| multi.median_ms / f);
+        }
+    }
+
+    /// A progress line.
+    pub fn one_line(&self) -> String {
+        if let Some(reason) = self.skipped.as_ref().or(self.error.as_ref()) {
+            return format!("{}: {reason}", self.name);
+        }
+        let median = |r: &Option<RunReport>| r.as_ref().map_or(f64::NAN, |r| r.median_ms);
+        format!("{}: {:.2} ms (1 thread), {:.2} ms (all threads)", self.name, median(&self.single), median(&self.multi))
+    }
+}
+
+/// The parallel shot.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShotReport {
+    pub scene: String,
+    pub frames: usize,
+    pub threads: usize,
+    pub single_seconds: f64,
+    pub multi_seconds: f64,
+    pub single_fps: f64,
+    pub multi_fps: f64,
+    /// multi_fps / single_fps.
+    pub speedup: f64,
+}
+
+impl ShotReport {
+    pub fn new(scene: &str, frames: usize, threads: usize, single: Duration, multi: Duration) -> Self {
+        let (s, m) = (single.as_secs_f64(), multi.as_secs_f64());
+        let fps = |seconds: f64| if seconds > 0.0 { frames as f64 / seconds } else { 0.0 };
+        Self {
+            scene: scene.to_string(),
+            frames,
+            threads,
+            single_seconds: s,
+            multi_seconds: m,
+            single_fps: fps(s),
+            multi_fps: fps(m),
+            speedup: if m > 0.0 { s / m } else { 0.0 },
+        }
+    }
+}
+
+fn opt(value: Option<f64>, precision: usize) -> String {
+    value.map_or_else(|| "–".to_string(), |v| format!("{v:.precision$}"))
+}
+
+fn sides(values: [usize; 2]) -> String {
+    format!("{}+{}", values[0], values[1])
+}
+
+/// Prints the report as text tables.
+pub fn print_table(report: &BenchReport) {
+    let machine = &report.machine_before;
+    let load = |m: &MachineReport| m.load_average.map_or_else(|| "unknown".to_string(), |l| format!("{:.2}", l[0]));
+    println!(
+        "squish bench{}: {} timed frames per scene, 1 thread and {} threads ({} cores); load {} → {}{}",
+        if machine.quick { " --quick" } else { "" },
+        report.frames,
+        machine.threads,
+        machine.cores,
+        load(&report.machine_before),
+        load(&report.machine_after),
+        if machine.optimized_build { "" } else { "; DEBUG BUILD, times are not meaningful" },
+    );
+    println!();
+    println!(
+        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+        "scene",
+        "W ours",
+        "D ours",
+        "W thesis",
+        "D thesis",
+        "1 thread",
+        "N threads",
+        "thesis",
+        "÷ thesis",
+        "factor.",
+        "÷ factor."
+    );
+    println!(
+        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+        "", "", "", "", "", "ms", "ms", "ms", "", "ms", ""
+    );
+    for scene in &report.scenes {
+        let thesis = scene.thesis.as_ref();
+        if let Some(reason) = scene.skipped.as_ref().or(scene.error.as_ref()) {
+            println!("{:<18} {}", scene.name, reason);
+            continue;
+        }
+        println!(
+            "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+            scene.name,
+            sides(scene.working),
+            sides(scene.deformable),
+            thesis.map_or_else(|| "–".into(), |t| sides(t.working)),
+            thesis.map_or_else(|| "–".into(), |t| sides(t.deformable)),
+            opt(scene.single.as_ref().map(|r| r.median_ms), 2),
+            opt(scene.multi.as_ref().map(|r| r.median_ms), 2),
+            opt(thesis.map(|t| t.ms), 1),
+            opt(scene.thesis_ratio, 3),
+            opt(scene.factorization.as_ref().map(|f| f.numeric_ms), 2),
+            opt(scene.frame_over_factorization, 2),
+        );
+    }
+    println!();
+    println!(
+        "single-thread breakdown of the median frame, % (the thesis' columns; s. = factorizations, part of p./di./g.)"
+    );
+    println!(
+        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9}",
+        "scene", "setup", "i.", "m.", "c.", "p.", "di.", "g.", "de.", "other", "s.", "fact.", "symbolic", "peak MB"
+    );
+    for scene in &report.scenes {
+        let Some(single) = &scene.single else { continue };
+        let b = &single.breakdown_percent;
+        println!(
+            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>9} {:>9}",
+            scene.name,
+            b.setup,
+            b.intersection,
+            b.mapping,
+            b.contact_zone,
+            b.parametrization,
+            b.directions,
+            b.guide,
+            b.deformation,
+            b.other,
+            b.factorization,
+            single.numeric_factorizations_per_frame,
+            format!("{}+{}", single.symbolic_analyses_first_frame, single.symbolic_analyses_timed_frames),
+            opt(scene.peak_memory_mb, 0),
+        );
+    }
+    println!(
+        "(fact. = numeric factorizations per frame; symbolic = analyses in the warm-up frame + in all timed frames)"
+    );
+    if let Some(shot) = &report.shot {
+        println!();
+        println!(
+            "shot: {} frames of {}, frames in parallel: 1 thread {:.2} fps, {} threads {:.2} fps (×{:.2})",
+            shot.frames, shot.scene, shot.single_fps, shot.threads, shot.multi_fps, shot.speedup
+        );
+    }
+}

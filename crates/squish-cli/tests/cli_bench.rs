@@ -1,0 +1,137 @@
+//! `squish bench --quick --json` end to end: it runs and its JSON is complete and consistent.
+//! Performance targets are read in the bench output, never asserted here.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use serde_json::Value;
+
+/// Every row of the table, in order.
+const SCENES: [&str; 10] = [
+    "fingers-ball",
+    "fingers-palm",
+    "sphere-plane",
+    "small-big-spheres",
+    "bunny-jelly",
+    "bunny-whole-jelly",
+    "feet-plane",
+    "hat-egg",
+    "hand-pillow",
+    "stress-100k",
+];
+
+fn shared_data() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
+}
+
+fn bench_json(extra: &[&str]) -> Value {
+    let output = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["bench", "--quick", "--json", "--frames", "2", "--shot-frames", "4", "--threads", "2"])
+        .arg("--data")
+        .arg(shared_data())
+        .args(extra)
+        .output()
+        .expect("run squish bench");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).expect("valid JSON on stdout")
+}
+
+fn number(value: &Value, what: &str) -> f64 {
+    value.as_f64().unwrap_or_else(|| panic!("{what} is not a number: {value}"))
+}
+
+#[test]
+fn quick_bench_reports_every_scene_with_consistent_figures() {
+    let report = bench_json(&[]);
+    let scenes = report["scenes"].as_array().expect("scenes");
+    let names: Vec<&str> = scenes.iter().map(|s| s["name"].as_str().expect("name")).collect();
+    assert_eq!(names, SCENES);
+    let data_present = shared_data().join("meshes/bunny_3301.obj").is_file();
+    for scene in scenes {
+        let name = scene["name"].as_str().unwrap_or_default();
+        assert!(scene["error"].is_null(), "{name}: {}", scene["error"]);
+        if !scene["skipped"].is_null() {
+            assert!(!data_present, "{name} skipped although the shared data is present: {}", scene["skipped"]);
+            assert!(scene["skipped"].as_str().is_some_and(|s| s.contains("not found")), "{name}");
+            continue;
+        }
+        for run in ["single", "multi"] {
+            let r = &scene[run];
+            let median = number(&r["median_ms"], "median_ms");
+            assert!(median > 0.0, "{name} {run}: median {median}");
+            assert!(number(&r["min_ms"], "min_ms") <= median && median <= number(&r["max_ms"], "max_ms"));
+            assert_eq!(r["frame_ms"].as_array().map(Vec::len), Some(2), "{name} {run}");
+            assert!(number(&r["numeric_factorizations_per_frame"], "factorizations") >= 3.0, "{name} {run}");
+            // Caches are reused: the timed frames run no symbolic analysis.
+            assert_eq!(r["symbolic_analyses_timed_frames"], 0, "{name} {run}");
+        }
+        // The single-thread breakdown adds up to the frame: stages are disjoint in time, so the
+        // named stages cannot exceed the total, and what they miss (zone gathering, statistics)
+        // is small.
+        let single = &scene["single"];
+        let total = number(&single["median_ms"], "median_ms");
+        let b = &single["breakdown_ms"];
+        let stages = [
+            "setup",
+            "intersection",
+            "mapping",
+            "contact_zone",
+            "parametrization",
+            "directions",
+            "guide",
+            "deformation",
+        ];
+        let named: f64 = stages.iter().map(|k| number(&b[*k], k)).sum();
+        assert!(stages.iter().all(|k| number(&b[*k], k) >= 0.0), "{name}: {b}");
+        assert!(named <= total * 1.001 + 1e-6, "{name}: stages {named} ms > frame {total} ms");
+        assert!(named >= 0.7 * total, "{name}: stages {named} ms explain too little of {total} ms");
+        assert!((named + number(&b["other"], "other") - total).abs() <= 1e-6 * total.max(1.0), "{name}");
+        let percent = &single["breakdown_percent"];
+        let shares: f64 = stages.iter().chain(&["other"]).map(|k| number(&percent[*k], k)).sum();
+        assert!((shares - 100.0).abs() < 1e-6, "{name}: shares sum to {shares}");
+        let factorization_share = number(&percent["factorization"], "factorization share");
+        assert!(factorization_share > 0.0 && factorization_share <= 100.0, "{name}: {factorization_share}");
+        // The reference factorization and the ratios.
+        let f = &scene["factorization"];
+        assert!(number(&f["numeric_ms"], "numeric_ms") > 0.0, "{name}");
+        assert!(number(&f["factor_nonzeros"], "factor_nonzeros") >= number(&f["matrix_nonzeros"], "matrix_nonzeros"));
+        assert!(number(&scene["frame_over_factorization"], "ratio") > 0.0, "{name}");
+        if !scene["thesis"].is_null() {
+            assert!(number(&scene["thesis_ratio"], "thesis ratio") > 0.0, "{name}");
+        }
+        let working = scene["working"].as_array().expect("working");
+        assert!(working.iter().all(|w| w.as_u64().is_some()), "{name}");
+        if let Some(peak) = scene["peak_memory_mb"].as_f64() {
+            assert!(peak > 0.0, "{name}");
+        }
+    }
+    let shot = &report["shot"];
+    assert_eq!(shot["frames"], 4);
+    assert!(number(&shot["single_fps"], "single fps") > 0.0 && number(&shot["multi_fps"], "multi fps") > 0.0);
+    assert_eq!(report["machine_before"]["threads"], 2);
+}
+
+#[test]
+fn missing_data_skips_the_file_scenes_with_a_note_and_the_table_prints() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let output = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["bench", "--quick", "--frames", "1", "--shot-frames", "1", "--scenes", "bunny,sphere-plane"])
+        .arg("--data")
+        .arg(dir.path())
+        .output()
+        .expect("run squish bench");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let table = String::from_utf8_lossy(&output.stdout);
+    assert!(table.contains("sphere-plane"), "{table}");
+    assert!(table.contains("bunny-jelly") && table.contains("not found"), "{table}");
+    assert!(table.contains("shot: 1 frames of small-big-spheres"), "{table}");
+}
+
+#[test]
+fn bad_arguments_are_usage_errors() {
+    for args in [&["bench", "--frames", "0"][..], &["bench", "--threads", "0"], &["bench", "--quick", "--shot", "nope"]]
+    {
+        let output = Command::new(env!("CARGO_BIN_EXE_squish")).args(args).output().expect("run squish bench");
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
+    }
+}
