@@ -73,20 +73,16 @@ fn selected_fans(topology: &Topology, selected: &[bool], v: u32) -> usize {
 /// Adds to `selected` every face around a vertex where the selected faces form two fans or more
 /// (a pinch: the sub-mesh would be non-manifold there), until no pinch is left. Returns the
 /// number of faces added. The parent must be edge-manifold (checked by the pipeline first).
-pub fn close_pinches(topology: &Topology, selected: &mut [bool]) -> usize {
-    let mut added = 0;
-    let mut queue: Vec<u32> = Vec::new();
-    for (f, &s) in selected.iter().enumerate() {
-        if s {
-            let f = f as u32;
-            for e in topology.face_edges(f) {
-                queue.extend(topology.edge(e));
-            }
+pub fn close_pinches(mesh: &TriMesh, topology: &Topology, selected: &mut [bool]) -> usize {
+    // Only a vertex with both selected and unselected faces can be a pinch.
+    let mut seen = vec![0u8; mesh.num_vertices()];
+    for (t, &s) in mesh.triangles.iter().zip(selected.iter()) {
+        for &v in t {
+            seen[v as usize] |= if s { 1 } else { 2 };
         }
     }
-    queue.sort_unstable();
-    queue.dedup();
-    queue.reverse();
+    let mut queue: Vec<u32> = (0..mesh.num_vertices() as u32).filter(|&v| seen[v as usize] == 3).rev().collect();
+    let mut added = 0;
     while let Some(v) = queue.pop() {
         if selected_fans(topology, selected, v) < 2 {
             continue;
@@ -95,9 +91,7 @@ pub fn close_pinches(topology: &Topology, selected: &mut [bool]) -> usize {
             if !selected[f as usize] {
                 selected[f as usize] = true;
                 added += 1;
-                for e in topology.face_edges(f) {
-                    queue.extend(topology.edge(e));
-                }
+                queue.extend(mesh.triangles[f as usize]);
             }
         }
     }
@@ -225,7 +219,7 @@ mod tests {
         assert_eq!(selected_fans(&topology, &selected, centre), 2);
         let before = SubMesh::from_faces(&mesh, [f0, f1]);
         assert!(!Topology::new(&before.mesh).is_manifold(&before.mesh));
-        let added = close_pinches(&topology, &mut selected);
+        let added = close_pinches(&mesh, &topology, &mut selected);
         assert_eq!(added, fans.len() - 2);
         let faces = (0..mesh.num_triangles() as u32).filter(|&f| selected[f as usize]);
         let sub = SubMesh::from_faces(&mesh, faces);

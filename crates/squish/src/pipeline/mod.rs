@@ -41,7 +41,9 @@ pub use regions::WorkingRegion;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
-use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, vertex_areas, vertex_normals};
+use crate::mesh::{
+    Aabb3, MeshError, Topology, TriMesh, mean_edge_length, signed_volume, vertex_areas, vertex_normals,
+};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
@@ -338,6 +340,17 @@ impl ObjectCache {
         Some(side.with_name(name).with_stiffness(object.params.contact_stiffness()))
     }
 
+    /// For a cut region `r` and a partner region that is a whole closed object: the first vertex
+    /// of `r` (object id) if it lies inside the partner.
+    fn inside_whole_closed(&self, r: usize, other: &ObjectCache, other_r: usize) -> Option<u32> {
+        let sub = self.regions.get(r)?.sub.as_deref()?;
+        if !other.closed || other.regions.get(other_r)?.sub.is_some() {
+            return None;
+        }
+        let p = *sub.sub.mesh.positions.first()?;
+        other.bvh.contains(p).then(|| sub.sub.parent_vertex[0])
+    }
+
     fn region_bounds(&self, r: usize) -> Aabb3 {
         match self.regions[r].sub.as_deref() {
             None => self.bvh.bounds(),
@@ -492,7 +505,7 @@ impl Deformer {
                     }
                     _ => cache.insert(ObjectCache::new(object.name, object.mesh)?),
                 };
-                Ok(Prepared { figures: ComponentFigures::new(object.mesh, &cache.components) })
+                Ok(Prepared { figures: ComponentFigures::new(object.mesh, &cache.topology, &cache.components) })
             })
             .collect::<Result<_, _>>()?;
         let setup = setup_start.elapsed();
@@ -594,11 +607,28 @@ impl Deformer {
                     .side(ra, oa, normals[ia].as_deref(), &names[ia][ra])
                     .zip(caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb]));
                 let Some((side_a, side_b)) = sides else { return Ok(None) };
-                contact_pair(&side_a, &side_b, &pair.params).map(Some).map_err(|source| PipelineError::Contact {
-                    a: names[ia][ra].clone(),
-                    b: names[ib][rb].clone(),
-                    source,
-                })
+                let contact =
+                    contact_pair(&side_a, &side_b, &pair.params).map_err(|source| PipelineError::Contact {
+                        a: names[ia][ra].clone(),
+                        b: names[ib][rb].clone(),
+                        source,
+                    })?;
+                if contact.intersection_points.is_empty() {
+                    // No crossing: a cut region lying wholly inside a closed object would go unseen.
+                    for (o, r, other, other_r) in [(ia, ra, ib, rb), (ib, rb, ia, ra)] {
+                        if let Some(v) = caches[o].inside_whole_closed(r, caches[other], other_r) {
+                            return Err(PipelineError::RegionTooSmall {
+                                object: frame.objects[o].name.to_string(),
+                                region: r,
+                                reason: format!(
+                                    "it lies wholly inside \"{}\" (its vertex {v} is inside, and no edge crosses)",
+                                    frame.objects[other].name
+                                ),
+                            });
+                        }
+                    }
+                }
+                Ok(Some(contact))
             })
             .collect::<Result<_, _>>()?;
 
@@ -656,7 +686,8 @@ impl Deformer {
                         let extent = object.params.extent.unwrap_or_else(|| {
                             automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r])
                         });
-                        deform_one(object, topology, closed, region, r, zones, extent).map(Some)
+                        let scale = Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
+                        deform_one(object, topology, closed, region, r, zones, scale).map(Some)
                     })
                     .collect()
             })
@@ -808,6 +839,14 @@ impl Deformer {
 /// Fraction of the smallest φ on a region's cut border that a clamped extent keeps.
 const CLAMP_FRACTION: f64 = 0.95;
 
+/// The scales of a region's deformation: φ_max and the mean edge length h of the components it
+/// touches.
+#[derive(Clone, Copy, Debug)]
+struct Scale {
+    extent: f64,
+    edge_length: f64,
+}
+
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see
 /// [`regions`](self::regions)).
 fn deform_one(
@@ -817,8 +856,9 @@ fn deform_one(
     region: &mut RegionCache,
     index: usize,
     zones: &[ContactZone],
-    extent: f64,
+    scale: Scale,
 ) -> Result<RegionOutcome, PipelineError> {
+    let Scale { extent, edge_length: object_edge_length } = scale;
     let start = Instant::now();
     let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
     let too_small = |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
@@ -841,6 +881,15 @@ fn deform_one(
         }
         let gathered = sub.sub.gather(map);
         params.bulge_map = Some(gathered);
+    }
+    if border.is_some() {
+        // The heat step's time t = factor·h² uses the object's h (of the components the region
+        // touches), not the region's: the parametrization must not depend on where the cut falls,
+        // which automatic regions move from frame to frame.
+        let region_edge_length = mean_edge_length(mesh, topology);
+        if region_edge_length > 0.0 && object_edge_length > 0.0 {
+            params.heat_time_factor *= (object_edge_length / region_edge_length).powi(2);
+        }
     }
     let mut deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
     let mut clamped = false;

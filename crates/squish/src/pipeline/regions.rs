@@ -54,6 +54,14 @@
 //!
 //! With these, the volume of a closed object deformed on a region is preserved exactly.
 //!
+//! # Regions versus the whole object
+//! The heat step of a cut region uses the time t = 10h² of the whole object (h: the mean edge
+//! length of the components the region touches), not of the region, so the only differences
+//! with processing the whole object are the Dirichlet condition on the cut, the constraint
+//! weights' scale and round-off: far from 𝒟, they change the result by a small fraction of the
+//! displacement (measured in the tests). A region that covers the whole object *is* the whole
+//! object (bit-identical results).
+//!
 //! # Cost (thesis §7.5)
 //! The larger a region, the closer the heat-method parametrization gets to a geodesic distance and
 //! the less the cut influences it — and the more the intersection and parametrization cost: the
@@ -172,11 +180,14 @@ pub(super) struct ComponentFigures {
     centroid: Vec<DVec3>,
     spread: Vec<f64>,
     boxes: Vec<Aabb3>,
+    /// Sum of the edge lengths and number of edges.
+    edge_length: Vec<f64>,
+    edges: Vec<usize>,
     object_size: f64,
 }
 
 impl ComponentFigures {
-    pub fn new(mesh: &TriMesh, components: &Components) -> Self {
+    pub fn new(mesh: &TriMesh, topology: &Topology, components: &Components) -> Self {
         let areas = vertex_areas(mesh);
         let object_size = size_from_areas(mesh, &areas);
         let n = components.count;
@@ -198,7 +209,21 @@ impl ComponentFigures {
                 spread[c as usize] += a * (*p - centroid[c as usize]).length_squared();
             }
         }
-        Self { area, centroid, spread, boxes, object_size }
+        let mut edge_length = vec![0.0; n];
+        let mut edges = vec![0; n];
+        for &[a, b] in topology.edges() {
+            let c = components.vertex[a as usize] as usize;
+            edge_length[c] += (mesh.positions[a as usize] - mesh.positions[b as usize]).length();
+            edges[c] += 1;
+        }
+        Self { area, centroid, spread, boxes, edge_length, edges, object_size }
+    }
+
+    /// Mean edge length of the union of `components` (the `h` of the heat step, §5.1).
+    pub fn mean_edge_length(&self, components: &[u32]) -> f64 {
+        let total: f64 = components.iter().map(|&c| self.edge_length[c as usize]).sum();
+        let count: usize = components.iter().map(|&c| self.edges[c as usize]).sum();
+        if count == 0 { 0.0 } else { total / count as f64 }
     }
 
     /// Area-weighted RMS radius of the union of `components` (see [`super::object_size`]); the
@@ -296,7 +321,7 @@ pub(super) fn select(
 fn mask_pieces(mesh: &TriMesh, topology: &Topology, mask: &[bool]) -> Vec<Vec<u32>> {
     let mut selected: Vec<bool> =
         mesh.triangles.iter().map(|t| t.iter().all(|&v| mask.get(v as usize).copied().unwrap_or(false))).collect();
-    close_pinches(topology, &mut selected);
+    close_pinches(mesh, topology, &mut selected);
     face_set_pieces(mesh, topology, &selected)
 }
 
@@ -407,7 +432,7 @@ fn distance_pieces(
             selected[f as usize] = true;
         }
     }
-    close_pinches(topology, &mut selected);
+    close_pinches(mesh, topology, &mut selected);
     face_set_pieces(mesh, topology, &selected)
 }
 
