@@ -1,7 +1,7 @@
 //! Face sets of a mesh as working regions (thesis §4, §4.5, §7.5): the helpers the pipeline
 //! uses to turn a selection of faces into well-formed [`super::SubMesh`]es.
 //!
-//! - [`face_set_pieces`]: the connected pieces of a face set (faces sharing a vertex), each of
+//! - [`face_set_pieces`]: the connected pieces of a face set (faces sharing an edge), each of
 //!   which becomes its own working region;
 //! - [`close_pinches`]: adds the faces around every vertex where the selection pinches (its
 //!   selected faces form several fans), so that every piece is a manifold mesh;
@@ -21,24 +21,26 @@ use glam::DVec3;
 use super::{NO_FACE, Topology, TriMesh, face_normal_unnormalized};
 
 /// The connected pieces of the selected faces (`selected[f]`), two faces being connected when
-/// they share a vertex (as [`Topology::face_components`]). Each piece is sorted; pieces are in the
-/// order of their smallest face id.
+/// they share an edge. Each piece is sorted; pieces are in the order of their smallest face id.
+/// After [`close_pinches`], faces sharing a vertex share a chain of edges too, so these are also
+/// the pieces connected through vertices.
 pub fn face_set_pieces(mesh: &TriMesh, topology: &Topology, selected: &[bool]) -> Vec<Vec<u32>> {
+    let is_selected = |f: u32| f != NO_FACE && selected.get(f as usize).copied().unwrap_or(false);
     let mut label = vec![u32::MAX; mesh.num_triangles()];
     let mut pieces = Vec::new();
     let mut stack = Vec::new();
-    for seed in 0..mesh.num_triangles() {
-        if !selected.get(seed).copied().unwrap_or(false) || label[seed] != u32::MAX {
+    for seed in 0..mesh.num_triangles() as u32 {
+        if !is_selected(seed) || label[seed as usize] != u32::MAX {
             continue;
         }
         let id = pieces.len() as u32;
-        let mut piece = vec![seed as u32];
-        label[seed] = id;
-        stack.push(seed as u32);
+        let mut piece = vec![seed];
+        label[seed as usize] = id;
+        stack.push(seed);
         while let Some(f) = stack.pop() {
-            for &v in &mesh.triangles[f as usize] {
-                for &g in topology.vertex_faces(v) {
-                    if selected.get(g as usize).copied().unwrap_or(false) && label[g as usize] == u32::MAX {
+            for e in topology.face_edges(f) {
+                for g in topology.edge_faces(e) {
+                    if is_selected(g) && label[g as usize] == u32::MAX {
                         label[g as usize] = id;
                         piece.push(g);
                         stack.push(g);
@@ -187,9 +189,8 @@ mod tests {
     fn pieces_of_two_caps_are_two_regions() {
         let mesh = shapes::icosphere(1.0, 3);
         let topology = Topology::new(&mesh);
-        let selected: Vec<bool> = (0..mesh.num_triangles())
-            .map(|f| mesh.corners(f).iter().all(|p| p.z.abs() > 0.6))
-            .collect();
+        let selected: Vec<bool> =
+            (0..mesh.num_triangles()).map(|f| mesh.corners(f).iter().all(|p| p.z.abs() > 0.6)).collect();
         let pieces = face_set_pieces(&mesh, &topology, &selected);
         assert_eq!(pieces.len(), 2);
         let total: usize = pieces.iter().map(Vec::len).sum();
@@ -210,9 +211,7 @@ mod tests {
         let (f0, f1) = fans
             .iter()
             .flat_map(|&a| fans.iter().map(move |&b| (a, b)))
-            .find(|&(a, b)| {
-                a < b && topology.face_edges(a).iter().all(|e| !topology.face_edges(b).contains(e))
-            })
+            .find(|&(a, b)| a < b && topology.face_edges(a).iter().all(|e| !topology.face_edges(b).contains(e)))
             .unwrap();
         selected[f0 as usize] = true;
         selected[f1 as usize] = true;

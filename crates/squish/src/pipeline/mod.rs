@@ -41,9 +41,7 @@ pub use regions::WorkingRegion;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
-use crate::mesh::{
-    Aabb3, MeshError, Topology, TriMesh, mean_edge_length, signed_volume, vertex_areas, vertex_normals,
-};
+use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, mean_edge_length, signed_volume, vertex_areas, vertex_normals};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
@@ -313,7 +311,8 @@ impl ObjectCache {
     fn new(name: &str, mesh: &TriMesh) -> Result<Self, PipelineError> {
         let topology =
             mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
-        let bvh = TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
+        let bvh =
+            TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
         let components = Components::new(mesh, &topology);
         Ok(Self {
             triangles: mesh.triangles.clone(),
@@ -330,7 +329,13 @@ impl ObjectCache {
     }
 
     /// The contact side of region `r`.
-    fn side<'a>(&'a self, r: usize, object: &'a FrameObject, normals: Option<&'a [DVec3]>, name: &'a str) -> Option<ContactSide<'a>> {
+    fn side<'a>(
+        &'a self,
+        r: usize,
+        object: &'a FrameObject,
+        normals: Option<&'a [DVec3]>,
+        name: &'a str,
+    ) -> Option<ContactSide<'a>> {
         let region = self.regions.get(r)?;
         let side = match region.sub.as_deref() {
             None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
@@ -469,7 +474,10 @@ impl Deformer {
                     return Err(PipelineError::InvalidParameter { object: object.name.to_string(), what, value });
                 }
             }
-            params.region.validate(object.mesh.num_vertices()).map_err(|reason| regions::invalid(object.name, reason))?;
+            params
+                .region
+                .validate(object.mesh.num_vertices())
+                .map_err(|reason| regions::invalid(object.name, reason))?;
         }
         // The whole-object tree is needed by `Whole` regions and by the partners of automatic ones.
         let needs_tree: Vec<bool> = (0..count)
@@ -496,10 +504,9 @@ impl Deformer {
                 let cache = match cache {
                     Some(c) if c.matches(object.mesh) => {
                         if needs_tree {
-                            c.bvh.refit(&object.mesh.positions).map_err(|source| PipelineError::Spatial {
-                                object: object.name.to_string(),
-                                source,
-                            })?;
+                            c.bvh
+                                .refit(&object.mesh.positions)
+                                .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
                         }
                         c
                     }
@@ -545,10 +552,10 @@ impl Deformer {
                 let Some(cache) = cache.as_mut() else { return Ok(()) };
                 // A selection may be the whole object without `WorkingRegion::Whole`.
                 if matches!(selection, Selection::Whole) && !refitted {
-                    cache.bvh.refit(&object.mesh.positions).map_err(|source| PipelineError::Spatial {
-                        object: object.name.to_string(),
-                        source,
-                    })?;
+                    cache
+                        .bvh
+                        .refit(&object.mesh.positions)
+                        .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
                 }
                 let ObjectCache { regions, topology, components, .. } = cache;
                 regions::update_regions(regions, selection, object.mesh, topology, components)
@@ -568,7 +575,11 @@ impl Deformer {
             .iter()
             .zip(&frame.objects)
             .map(|(c, o)| {
-                c.regions.iter().enumerate().map(|(r, region)| region_name(o.name, region, r, c.regions.len())).collect()
+                c.regions
+                    .iter()
+                    .enumerate()
+                    .map(|(r, region)| region_name(o.name, region, r, c.regions.len()))
+                    .collect()
             })
             .collect();
         let sizes: Vec<Vec<f64>> = caches
@@ -603,16 +614,16 @@ impl Deformer {
                 let pair = &frame.pairs[rp.pair];
                 let [ia, ib] = pair.objects;
                 let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
-                let sides = caches[ia]
-                    .side(ra, oa, normals[ia].as_deref(), &names[ia][ra])
-                    .zip(caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb]));
+                let sides = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra]).zip(caches[ib].side(
+                    rb,
+                    ob,
+                    normals[ib].as_deref(),
+                    &names[ib][rb],
+                ));
                 let Some((side_a, side_b)) = sides else { return Ok(None) };
-                let contact =
-                    contact_pair(&side_a, &side_b, &pair.params).map_err(|source| PipelineError::Contact {
-                        a: names[ia][ra].clone(),
-                        b: names[ib][rb].clone(),
-                        source,
-                    })?;
+                let contact = contact_pair(&side_a, &side_b, &pair.params).map_err(|source| {
+                    PipelineError::Contact { a: names[ia][ra].clone(), b: names[ib][rb].clone(), source }
+                })?;
                 if contact.intersection_points.is_empty() {
                     // No crossing: a cut region lying wholly inside a closed object would go unseen.
                     for (o, r, other, other_r) in [(ia, ra, ib, rb), (ib, rb, ia, ra)] {
@@ -665,33 +676,34 @@ impl Deformer {
         drop(caches);
 
         // Chapter 5, every region with zones in parallel.
-        let outcomes: Vec<Vec<Option<RegionOutcome>>> = self
-            .caches
-            .par_iter_mut()
-            .zip(&frame.objects)
-            .zip(&zones)
-            .enumerate()
-            .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
-                let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
-                let ObjectCache { regions, topology, closed, .. } = cache;
-                let (topology, closed) = (&*topology, *closed);
-                regions
-                    .par_iter_mut()
-                    .zip(zones)
-                    .enumerate()
-                    .map(|(r, (region, zones))| {
-                        if zones.is_empty() {
-                            return Ok(None);
-                        }
-                        let extent = object.params.extent.unwrap_or_else(|| {
-                            automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r])
-                        });
-                        let scale = Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
-                        deform_one(object, topology, closed, region, r, zones, scale).map(Some)
-                    })
-                    .collect()
-            })
-            .collect::<Result<_, _>>()?;
+        let outcomes: Vec<Vec<Option<RegionOutcome>>> =
+            self.caches
+                .par_iter_mut()
+                .zip(&frame.objects)
+                .zip(&zones)
+                .enumerate()
+                .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
+                    let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
+                    let ObjectCache { regions, topology, closed, .. } = cache;
+                    let (topology, closed) = (&*topology, *closed);
+                    regions
+                        .par_iter_mut()
+                        .zip(zones)
+                        .enumerate()
+                        .map(|(r, (region, zones))| {
+                            if zones.is_empty() {
+                                return Ok(None);
+                            }
+                            let extent = object.params.extent.unwrap_or_else(|| {
+                                automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r])
+                            });
+                            let scale =
+                                Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
+                            deform_one(object, topology, closed, region, r, zones, scale).map(Some)
+                        })
+                        .collect()
+                })
+                .collect::<Result<_, _>>()?;
 
         // Results and statistics.
         let mut stages = StageTimes { setup, regions: regions_time, ..StageTimes::default() };
@@ -795,7 +807,9 @@ impl Deformer {
                     faces: region.faces.clone().unwrap_or_default(),
                     vertices: sub.map(|s| s.sub.parent_vertex.clone()).unwrap_or_default(),
                     cut_border: sub
-                        .map(|s| s.sub.parent_vertex.iter().zip(&s.border).filter(|(_, b)| **b).map(|(v, _)| *v).collect())
+                        .map(|s| {
+                            s.sub.parent_vertex.iter().zip(&s.border).filter(|(_, b)| **b).map(|(v, _)| *v).collect()
+                        })
                         .unwrap_or_default(),
                 });
             }
@@ -861,7 +875,8 @@ fn deform_one(
     let Scale { extent, edge_length: object_edge_length } = scale;
     let start = Instant::now();
     let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
-    let too_small = |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
+    let too_small =
+        |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
     let (mesh, topology, border) = match region.sub.as_deref() {
         None => (object.mesh, topology, None),
         Some(sub) => (&sub.sub.mesh, &sub.topology, (sub.border_count > 0).then_some(sub.border.as_slice())),
@@ -910,7 +925,9 @@ fn deform_one(
             params.extent = fitted;
             deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
             clamped = true;
-            if let Some(v) = (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v])) {
+            if let Some(v) =
+                (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v]))
+            {
                 return Err(too_small(format!("vertex {v} on the cut border still moves after clamping the extent")));
             }
         }
@@ -919,7 +936,11 @@ fn deform_one(
 }
 
 /// Writes the regions' deformations into one object-sized deformation (`None` if none).
-fn combine(input: &[DVec3], regions: &[RegionCache], outcomes: Vec<Option<RegionOutcome>>) -> Option<RegionDeformation> {
+fn combine(
+    input: &[DVec3],
+    regions: &[RegionCache],
+    outcomes: Vec<Option<RegionOutcome>>,
+) -> Option<RegionDeformation> {
     let deformed = outcomes.iter().filter(|o| o.is_some()).count();
     if deformed == 0 {
         return None;
@@ -981,6 +1002,6 @@ fn combine(input: &[DVec3], regions: &[RegionCache], outcomes: Vec<Option<Region
 }
 
 #[cfg(test)]
-mod tests;
-#[cfg(test)]
 mod region_tests;
+#[cfg(test)]
+mod tests;

@@ -68,9 +68,9 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
         }
         let deformation = result.deformations[i].as_ref().unwrap();
         let mut outside = 0;
-        for v in 0..output.num_vertices() {
-            if !in_region[v] || (!deformation.deformable[v] && !deformation.contact[v]) {
-                outside += usize::from(!in_region[v]);
+        for (v, &inside) in in_region.iter().enumerate() {
+            if !inside || (!deformation.deformable[v] && !deformation.contact[v]) {
+                outside += usize::from(!inside);
                 assert_eq!(
                     bits(&output.positions[v..=v]),
                     bits(&object.mesh.positions[v..=v]),
@@ -113,6 +113,29 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
     Checked { result, contacts }
 }
 
+/// Prints the wall-clock time of a frame deformed again by a deformer that has seen it (caches
+/// built: numeric work only), with its stage breakdown.
+fn print_steady_timing(scene: &ProceduralScene) {
+    let mut deformer = Deformer::new();
+    deformer.deform(&scene.frame()).unwrap();
+    let start = Instant::now();
+    let result = deformer.deform(&scene.frame()).unwrap();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let s = &result.stats.stages;
+    println!(
+        "{}, reused deformer: {:.1} ms (setup {:.1}, regions {:.1}, contact {:.1}, deformation {:.1} of which \
+         factorizations {:.1}); {} regions in parallel",
+        scene.name,
+        ms(start.elapsed()),
+        ms(s.setup),
+        ms(s.regions),
+        ms(s.intersection + s.mapping + s.contact_zone),
+        ms(s.parametrization + s.directions + s.guide + s.deformation),
+        ms(s.factorization),
+        result.stats.regions.len()
+    );
+}
+
 /// Number of fingers of a hand scene whose tip intersects the other object.
 fn intersecting_fingers(scene: &ProceduralScene) -> usize {
     let hand = &scene.objects[0].mesh;
@@ -136,6 +159,7 @@ fn each_finger_pressing_a_ball_gets_its_own_contact() {
     for region in stats.regions.iter().filter(|r| r.object == 0) {
         assert_eq!((region.zones, region.touching.as_slice()), (1, &[[1, 0]][..]), "{region:?}");
     }
+    print_steady_timing(&scene);
     let ball: Vec<&RegionStats> = stats.regions.iter().filter(|r| r.object == 1).collect();
     assert_eq!(ball.len(), 1);
     assert_eq!(ball[0].zones, 5);
@@ -156,6 +180,7 @@ fn each_finger_pressing_a_slab_gets_its_own_contact() {
     let checked = check_regions(&scene, 0.02);
     assert_eq!(checked.contacts, fingers, "one contact per intersecting finger");
     let stats = &checked.result.stats;
+    print_steady_timing(&scene);
     let slab: Vec<&RegionStats> = stats.regions.iter().filter(|r| r.object == 1).collect();
     assert_eq!(slab.iter().map(|r| r.zones).sum::<usize>(), 5);
     assert!(slab.iter().all(|r| !r.whole && r.cut_border_vertices > 0), "the slab is processed on a band");
@@ -414,7 +439,8 @@ fn fingers_pressing_their_own_palm_are_regions_of_one_object() {
     let split = |m: &TriMesh| {
         let faces = result.regions[0].faces.iter().copied();
         let palm = crate::mesh::SubMesh::from_faces(m, faces).mesh;
-        let rest: Vec<u32> = (0..m.num_triangles() as u32).filter(|f| result.regions[0].faces.binary_search(f).is_err()).collect();
+        let rest: Vec<u32> =
+            (0..m.num_triangles() as u32).filter(|f| result.regions[0].faces.binary_search(f).is_err()).collect();
         (palm, crate::mesh::SubMesh::from_faces(m, rest).mesh)
     };
     let (palm_before, fingers_before) = split(mesh);

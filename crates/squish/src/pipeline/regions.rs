@@ -236,12 +236,15 @@ impl ComponentFigures {
         if total.is_nan() || total <= 0.0 {
             return 0.0;
         }
-        let centre = components.iter().map(|&c| self.centroid[c as usize] * self.area[c as usize]).sum::<DVec3>() / total;
+        let centre =
+            components.iter().map(|&c| self.centroid[c as usize] * self.area[c as usize]).sum::<DVec3>() / total;
         // Parallel-axis theorem: each component's spread about its centroid plus its area times
         // the squared offset of its centroid.
         let spread: f64 = components
             .iter()
-            .map(|&c| self.spread[c as usize] + self.area[c as usize] * (self.centroid[c as usize] - centre).length_squared())
+            .map(|&c| {
+                self.spread[c as usize] + self.area[c as usize] * (self.centroid[c as usize] - centre).length_squared()
+            })
             .sum();
         (spread / total).sqrt()
     }
@@ -465,13 +468,7 @@ pub(super) struct RegionCache {
 
 impl RegionCache {
     fn whole(components: &Components) -> Self {
-        Self {
-            faces: None,
-            sub: None,
-            components: (0..components.count as u32).collect(),
-            solver: None,
-            rebuilt: true,
-        }
+        Self { faces: None, sub: None, components: (0..components.count as u32).collect(), solver: None, rebuilt: true }
     }
 
     fn cut(parent: &TriMesh, topology: &Topology, components: &Components, faces: Vec<u32>) -> Result<Self, String> {

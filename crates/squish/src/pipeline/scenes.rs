@@ -129,10 +129,13 @@ pub fn crossed_capsules(depth: f64, segments: u32) -> ProceduralScene {
 /// Radius of the fingers of [`fingers_on_ball`] and [`fingers_on_slab`].
 pub const FINGER_RADIUS: f64 = 0.12;
 
-/// Where the fingers of the hand-like scenes touch, in the plane (x, y), their lengths, their
-/// penetration depths relative to `depth`, and their leans (radians about y, then about x): every
-/// finger presses at its own angle, and neighbours lean apart so that fingers never touch.
-const FINGERS: [((f64, f64), f64, f64, (f64, f64)); 5] = [
+/// A finger of the hand-like scenes: where it touches, in the plane (x, y); its length; its
+/// penetration depth relative to `depth`; its leans (radians about y, then about x).
+type Finger = ((f64, f64), f64, f64, (f64, f64));
+
+/// The five fingers: every finger presses at its own angle, and neighbours lean apart so that
+/// fingers never touch.
+const FINGERS: [Finger; 5] = [
     ((-0.45, 0.1), 0.55, 1.0, (-0.45, -0.15)),
     ((-0.15, 0.22), 0.75, 1.2, (-0.15, -0.3)),
     ((0.15, 0.22), 0.85, 0.9, (0.1, -0.25)),
