@@ -4,7 +4,7 @@
 //! A [`Frame`] lists objects (meshes with [`ObjectParams`]) and the pairs of objects that may
 //! touch (with [`PairParams`]). Every object is divided into **working regions** 𝒲
 //! ([`ObjectParams::region`], [`WorkingRegion`]; default: the whole object — see
-//! [`regions`](self::regions) for the choices, the automatic rule and the cost trade-off of §7.5).
+//! [`regions`] for the choices, the automatic rule and the cost trade-off of §7.5).
 //! [`Deformer::deform`] then
 //! 1. expands every [`FramePair`] into the pairs of its objects' regions whose boxes overlap
 //!    (a hand of five finger regions against a ball is one `FramePair`; a pair of one object with
@@ -862,7 +862,7 @@ struct Scale {
 }
 
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see
-/// [`regions`](self::regions)).
+/// [`regions`]).
 fn deform_one(
     object: &FrameObject,
     topology: &Topology,
