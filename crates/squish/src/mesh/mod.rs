@@ -10,6 +10,7 @@
 //! - edge `k` of a triangle `[a, b, c]` joins corners `k` and `k + 1 (mod 3)`.
 
 mod geometry;
+mod region;
 mod submesh;
 mod topology;
 
@@ -18,6 +19,9 @@ pub mod shapes;
 pub use geometry::{
     bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length,
     signed_volume, triangle_area, vertex_areas, vertex_normals, Aabb3,
+};
+pub use region::{
+    close_pinches, cut_border, edge_path_distances, face_set_pieces, region_vertex_normals,
 };
 pub use submesh::{SubMesh, NOT_IN_SUBMESH};
 pub use topology::{Topology, NO_FACE};

@@ -2,25 +2,33 @@
 //! (thesis ch. 3's pipeline, figure 3.1, method B).
 //!
 //! A [`Frame`] lists objects (meshes with [`ObjectParams`]) and the pairs of objects that may
-//! touch (with [`PairParams`]). [`Deformer::deform`] then
-//! 1. runs the contact definition of chapter 4 on every pair (in parallel): intersection regions,
-//!    mapping direction, mapping regions, potential contact surface, contact zones;
-//! 2. gathers, for every non-rigid object, the zones of all its pairs and runs the deformation of
-//!    chapter 5 on it (objects in parallel): parametrization, direction field, guide fields,
-//!    profile curves and the volume cubic;
-//! 3. reports per-stage timings and quality figures.
+//! touch (with [`PairParams`]). Every object is divided into **working regions** 𝒲
+//! ([`ObjectParams::region`], [`WorkingRegion`]; default: the whole object — see
+//! [`regions`] for the choices, the automatic rule and the cost trade-off of §7.5).
+//! [`Deformer::deform`] then
+//! 1. expands every [`FramePair`] into the pairs of its objects' regions whose boxes overlap
+//!    (a hand of five finger regions against a ball is one `FramePair`; a pair of one object with
+//!    itself pairs its distinct regions: fingers on their own palm);
+//! 2. runs the contact definition of chapter 4 on every region pair (in parallel): intersection
+//!    regions, mapping direction, mapping regions, potential contact surface, contact zones — each
+//!    region pair with its own d̂ and ε_c;
+//! 3. gathers, for every region of a non-rigid object, the zones of all its region pairs and runs
+//!    the deformation of chapter 5 on it (regions in parallel; several zones are diffused into one
+//!    direction field, §5.2.2, and the anisotropic bulge map sums over them, Eq. 5.6);
+//! 4. writes the regions' results back into each object's positions (vertices outside every
+//!    region are returned bit for bit) and reports per-stage timings and quality figures, per
+//!    object, per region and per region pair.
 //!
 //! Every frame is computed from scratch: the result never depends on the frames processed before.
 //! What the [`Deformer`] keeps between frames is only what does not depend on positions — each
-//! object's topology, triangle tree (refitted) and sparse-matrix pattern with its symbolic
-//! factorization — so a frame costs numeric work only. The same input gives bit-identical output
-//! with a fresh or a reused deformer, whatever the thread count.
-//!
-//! The working region of every object is the whole object (method A's automatic regions and
-//! masks come with the many-contact pipeline).
+//! object's topology, each region's sub-mesh, topology, triangle tree (refitted) and sparse-matrix
+//! pattern with its symbolic factorization — so a frame costs numeric work only (plus a rebuild
+//! for a region whose face set changed). The same input gives bit-identical output with a fresh or
+//! a reused deformer, whatever the thread count.
 
 mod params;
 pub mod bench_scenes;
+pub mod regions;
 pub mod scenes;
 
 use std::time::{Duration, Instant};
@@ -30,11 +38,13 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use params::ObjectParams;
+pub use regions::WorkingRegion;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
-use crate::deform::{DeformError, RegionDeformation, RegionSolver, deform_region};
-use crate::mesh::{MeshError, Topology, TriMesh, signed_volume, vertex_areas, vertex_normals};
+use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
+use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, mean_edge_length, signed_volume, vertex_areas, vertex_normals};
 use crate::spatial::{SpatialError, TriangleBvh};
+use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
 /// One object of a frame.
 #[derive(Clone, Copy, Debug)]
@@ -44,17 +54,19 @@ pub struct FrameObject<'a> {
     /// The mesh at this frame. Its triangles must stay the same from frame to frame for the
     /// deformer's caches to be reused (they are rebuilt otherwise).
     pub mesh: &'a TriMesh,
-    /// Its parameters at this frame.
+    /// Its parameters at this frame (including its working regions).
     pub params: &'a ObjectParams,
 }
 
-/// A pair of objects that may be in contact.
+/// A pair of objects that may be in contact. It stands for every pair of their working regions
+/// whose boxes overlap (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FramePair {
     /// Indices of the two objects in [`Frame::objects`]. The mapping direction is oriented along
-    /// the second object's normals.
+    /// the second object's normals. Both indices may be the same object when it has several
+    /// explicit regions ([`WorkingRegion::allows_self_contact`]): its distinct regions are paired.
     pub objects: [usize; 2],
-    /// Contact parameters (τ, direction, safeguard angle).
+    /// Contact parameters (τ, direction, safeguard angle), shared by its region pairs.
     pub params: PairParams,
 }
 
@@ -78,13 +90,23 @@ pub enum PipelineError {
     Deform { object: String, source: DeformError },
     #[error("pair {pair} refers to object {index}, but the frame has {count} objects")]
     PairIndex { pair: usize, index: usize, count: usize },
-    #[error("pair {pair} pairs object \"{object}\" with itself; self-contact needs two working regions")]
+    #[error(
+        "pair {pair} pairs object \"{object}\" with itself; self-contact needs several explicit working regions \
+         (region = components, a mask or masks)"
+    )]
     SelfPair { pair: usize, object: String },
     #[error("object \"{object}\": {what} must be finite and positive (got {value})")]
     InvalidParameter { object: String, what: &'static str, value: f64 },
+    #[error("object \"{object}\": working region: {reason}")]
+    InvalidRegion { object: String, reason: String },
+    #[error(
+        "object \"{object}\", working region {region}: {reason}; use a larger working region (a wider mask or \
+         distance) or a smaller extent"
+    )]
+    RegionTooSmall { object: String, region: usize, reason: String },
 }
 
-/// Wall-clock time spent in each stage, summed over pairs (ch. 4 stages) and objects (ch. 5
+/// Wall-clock time spent in each stage, summed over pairs (ch. 4 stages) and regions (ch. 5
 /// stages); the breakdown of the thesis' tables 7.1–7.2.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StageTimes {
@@ -106,9 +128,14 @@ pub struct StageTimes {
     pub deformation: Duration,
     /// Of the ch. 5 stages: time in numeric factorizations.
     pub factorization: Duration,
+    /// Choosing the working regions and updating their caches (wall clock).
+    #[serde(default)]
+    pub regions: Duration,
 }
 
-/// Figures of one object for one frame.
+/// Figures of one object for one frame. For an object of several regions, the per-region
+/// figures are in [`FrameStats::regions`]; here counts are summed over its regions and
+/// `extent`, `bulge_height` and `applied_bulge_height` are those of its first deformed region.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ObjectStats {
     pub name: String,
@@ -135,9 +162,19 @@ pub struct ObjectStats {
     pub max_displacement: f64,
     /// Numeric fallbacks taken by the deformation stage (see `deform::FallbackCounters`).
     pub fallbacks: usize,
+    /// Number of working regions this frame.
+    #[serde(default)]
+    pub regions: usize,
+    /// Number of non-empty contact zones over its regions.
+    #[serde(default)]
+    pub zones: usize,
+    /// True if the extent of one of its regions was clamped to fit the region.
+    #[serde(default)]
+    pub extent_clamped: bool,
 }
 
-/// Figures of one pair for one frame.
+/// Figures of one region pair for one frame (one entry per pair of overlapping regions of a
+/// [`FramePair`], or one entry with `regions: None` when none overlap).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PairStats {
     pub objects: [String; 2],
@@ -156,6 +193,46 @@ pub struct PairStats {
     pub zone_vertices: [usize; 2],
     /// Numeric fallbacks taken by the contact stage.
     pub fallbacks: usize,
+    /// Index of the [`FramePair`] this region pair comes from.
+    #[serde(default)]
+    pub pair: usize,
+    /// The two regions (indices among each object's regions, see [`FrameStats::regions`]);
+    /// `None` when no region of one object overlaps a region of the other.
+    #[serde(default)]
+    pub regions: Option<[usize; 2]>,
+}
+
+/// Figures of one working region for one frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegionStats {
+    /// Index and name of its object.
+    pub object: usize,
+    pub name: String,
+    /// Index among the object's regions.
+    pub region: usize,
+    /// True if the region is the whole object.
+    pub whole: bool,
+    pub vertices: usize,
+    pub faces: usize,
+    /// Vertices on the border where it was cut out of its object.
+    pub cut_border_vertices: usize,
+    /// True if its caches were built at this frame (new or changed face set).
+    pub rebuilt: bool,
+    /// The regions it is in contact with, as `[object, region]`.
+    pub touching: Vec<[usize; 2]>,
+    /// Non-empty contact zones (one per region pair in contact, when the object is not rigid).
+    pub zones: usize,
+    pub deformed: bool,
+    /// φ_max used (after clamping).
+    pub extent: f64,
+    /// True if φ_max was clamped so that 𝒟 stays inside the region.
+    pub extent_clamped: bool,
+    pub bulge_height: f64,
+    pub applied_bulge_height: f64,
+    pub contact_vertices: usize,
+    pub deformable_vertices: usize,
+    /// Wall-clock time of its deformation (ch. 5).
+    pub time: Duration,
 }
 
 /// Timings and quality figures of one frame.
@@ -163,10 +240,31 @@ pub struct PairStats {
 pub struct FrameStats {
     /// Wall-clock time of the whole frame.
     pub total: Duration,
-    /// Per-stage times (summed over pairs and objects).
+    /// Per-stage times (summed over pairs and regions).
     pub stages: StageTimes,
     pub objects: Vec<ObjectStats>,
+    /// One entry per region pair (see [`PairStats`]); for objects of one region each, one entry
+    /// per [`FramePair`] in order.
     pub pairs: Vec<PairStats>,
+    /// Every working region, object by object.
+    #[serde(default)]
+    pub regions: Vec<RegionStats>,
+}
+
+/// Which part of its object a working region is (same order as [`FrameStats::regions`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegionSummary {
+    pub object: usize,
+    pub region: usize,
+    /// True when the region is the whole object (the lists below are then empty).
+    pub whole: bool,
+    /// Its faces (object face ids, increasing).
+    pub faces: Vec<u32>,
+    /// Its vertices (object vertex ids, increasing): region vertex `i` is object vertex
+    /// `vertices[i]` — the numbering of the region pairs' [`PairContact`]s.
+    pub vertices: Vec<u32>,
+    /// Its vertices on the cut border (object vertex ids).
+    pub cut_border: Vec<u32>,
 }
 
 /// The result of one frame.
@@ -175,10 +273,17 @@ pub struct FrameResult {
     /// Deformed positions per object (same order and count as the input; vertices outside the
     /// deformed regions are bit-identical to the input).
     pub positions: Vec<Vec<DVec3>>,
-    /// The contact definition of each pair (`None` for a pair whose objects' boxes are apart).
+    /// The contact definition of each region pair, in the order of [`FrameStats::pairs`] (`None`
+    /// for region pairs whose boxes are apart). Vertex and face ids are those of the regions
+    /// (see [`RegionSummary::vertices`]); for objects of one region each, one entry per
+    /// [`FramePair`] in object ids.
     pub contacts: Vec<Option<PairContact>>,
-    /// The deformation of each object (`None` when it was not deformed).
+    /// The deformation of each object (`None` when it was not deformed), per object vertex: for
+    /// an object of several regions, the regions' results written into object-sized arrays
+    /// (outside the regions: u = +∞, zero direction and height, η = 1; stats summed).
     pub deformations: Vec<Option<RegionDeformation>>,
+    /// The working regions, in the order of [`FrameStats::regions`].
+    pub regions: Vec<RegionSummary>,
     /// Timings and quality figures.
     pub stats: FrameStats,
 }
@@ -196,8 +301,11 @@ struct ObjectCache {
     triangles: Vec<[u32; 3]>,
     topology: Topology,
     closed: bool,
+    /// Tree over the whole object; refitted at the frames where it is used (`Whole` regions,
+    /// partners of automatic regions).
     bvh: TriangleBvh,
-    solver: Option<RegionSolver>,
+    components: Components,
+    regions: Vec<RegionCache>,
 }
 
 impl ObjectCache {
@@ -206,26 +314,85 @@ impl ObjectCache {
             mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
         let bvh =
             TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
-        Ok(Self { triangles: mesh.triangles.clone(), closed: topology.is_closed(), topology, bvh, solver: None })
+        let components = Components::new(mesh, &topology);
+        Ok(Self {
+            triangles: mesh.triangles.clone(),
+            closed: topology.is_closed(),
+            topology,
+            bvh,
+            components,
+            regions: Vec::new(),
+        })
     }
 
     fn matches(&self, mesh: &TriMesh) -> bool {
         self.triangles == mesh.triangles && self.topology.num_vertices() == mesh.num_vertices()
     }
+
+    /// The contact side of region `r`.
+    fn side<'a>(
+        &'a self,
+        r: usize,
+        object: &'a FrameObject,
+        normals: Option<&'a [DVec3]>,
+        name: &'a str,
+    ) -> Option<ContactSide<'a>> {
+        let region = self.regions.get(r)?;
+        let side = match region.sub.as_deref() {
+            None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
+            Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
+                .with_border((sub.border_count > 0).then_some(sub.border.as_slice())),
+        };
+        Some(side.with_name(name).with_stiffness(object.params.contact_stiffness()))
+    }
+
+    /// For a cut region `r` and a partner region that is a whole closed object: the first vertex
+    /// of `r` (object id) if it lies inside the partner.
+    fn inside_whole_closed(&self, r: usize, other: &ObjectCache, other_r: usize) -> Option<u32> {
+        let sub = self.regions.get(r)?.sub.as_deref()?;
+        if !other.closed || other.regions.get(other_r)?.sub.is_some() {
+            return None;
+        }
+        let p = *sub.sub.mesh.positions.first()?;
+        other.bvh.contains(p).then(|| sub.sub.parent_vertex[0])
+    }
+
+    fn region_bounds(&self, r: usize) -> Aabb3 {
+        match self.regions[r].sub.as_deref() {
+            None => self.bvh.bounds(),
+            Some(sub) => sub.bvh.bounds(),
+        }
+    }
 }
 
 /// Per-object data computed at the start of a frame.
 struct Prepared {
-    normals: Vec<DVec3>,
-    size: f64,
+    figures: ComponentFigures,
+}
+
+/// A region pair of this frame.
+#[derive(Clone, Copy, Debug)]
+struct RegionPair {
+    pair: usize,
+    regions: Option<[usize; 2]>,
+}
+
+/// The deformation of one region.
+struct RegionOutcome {
+    deformation: RegionDeformation,
+    extent: f64,
+    clamped: bool,
+    time: Duration,
+    /// Whether this frame built the region's solver (one symbolic analysis).
+    new_solver: bool,
 }
 
 /// Runs the pipeline frame after frame, keeping connectivity-only caches (see the module doc).
 #[derive(Default)]
 pub struct Deformer {
     caches: Vec<Option<ObjectCache>>,
-    /// Symbolic factorizations run since creation (one per deformed object unless its
-    /// connectivity changes): lets benchmarks check that frames reuse them.
+    /// Symbolic factorizations run since creation (one per deformed region unless its face set
+    /// or connectivity changes): lets benchmarks check that frames reuse them.
     symbolic_analyses: usize,
 }
 
@@ -241,20 +408,35 @@ pub struct Deformer {
 /// size of what presses it). The contact term keeps the bulge from being squeezed into a band
 /// narrower than the contact, which folds the surface for deep contacts. Every term is continuous
 /// over an animation, so the automatic extent is too.
+///
+/// With working regions, each region gets its own extent: r is the size of the connected
+/// components of its object that it touches (the object's size for a one-piece object; a finger's
+/// size when the fingers are separate components), r_partner the smallest such size among the
+/// regions it is paired with, A the largest contact area of its region pairs.
 pub fn automatic_extent(size: f64, partner_size: f64, contact_area: f64) -> f64 {
     (1.2 * size).min(3.0 * partner_size).max(1.5 * (contact_area.max(0.0) / std::f64::consts::PI).sqrt())
 }
 
 /// Area-weighted RMS distance of a mesh to its area-weighted centroid.
 pub fn object_size(mesh: &TriMesh) -> f64 {
-    let areas = vertex_areas(mesh);
+    size_from_areas(mesh, &vertex_areas(mesh))
+}
+
+/// [`object_size`] with the lumped vertex areas given.
+fn size_from_areas(mesh: &TriMesh, areas: &[f64]) -> f64 {
     let total: f64 = areas.iter().sum();
     if total.is_nan() || total <= 0.0 {
         return 0.0;
     }
-    let centroid = mesh.positions.iter().zip(&areas).map(|(p, a)| *p * *a).sum::<DVec3>() / total;
-    let spread: f64 = mesh.positions.iter().zip(&areas).map(|(p, a)| a * (*p - centroid).length_squared()).sum();
+    let centroid = mesh.positions.iter().zip(areas).map(|(p, a)| *p * *a).sum::<DVec3>() / total;
+    let spread: f64 = mesh.positions.iter().zip(areas).map(|(p, a)| a * (*p - centroid).length_squared()).sum();
     (spread / total).sqrt()
+}
+
+/// Display name of a region for messages: the object's name, qualified when it has several
+/// regions or is cut.
+fn region_name(object: &str, cache: &RegionCache, index: usize, count: usize) -> String {
+    if cache.sub.is_none() && count == 1 { object.to_string() } else { format!("{object} (region {index})") }
 }
 
 impl Deformer {
@@ -264,7 +446,8 @@ impl Deformer {
     }
 
     /// Number of symbolic Cholesky analyses run by this deformer since it was created: one per
-    /// deformed object on its first frame (and again only if its connectivity changes).
+    /// deformed region on its first frame (and again only if its face set or connectivity
+    /// changes).
     pub fn symbolic_analyses(&self) -> usize {
         self.symbolic_analyses
     }
@@ -273,18 +456,26 @@ impl Deformer {
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
         let count = frame.objects.len();
+        let mut partners: Vec<Vec<usize>> = vec![Vec::new(); count];
         for (p, pair) in frame.pairs.iter().enumerate() {
             for &index in &pair.objects {
                 if index >= count {
                     return Err(PipelineError::PairIndex { pair: p, index, count });
                 }
             }
-            if pair.objects[0] == pair.objects[1] {
-                return Err(PipelineError::SelfPair {
-                    pair: p,
-                    object: frame.objects[pair.objects[0]].name.to_string(),
-                });
+            let [a, b] = pair.objects;
+            if a == b {
+                if !frame.objects[a].params.region.allows_self_contact() {
+                    return Err(PipelineError::SelfPair { pair: p, object: frame.objects[a].name.to_string() });
+                }
+            } else {
+                partners[a].push(b);
+                partners[b].push(a);
             }
+        }
+        for list in &mut partners {
+            list.sort_unstable();
+            list.dedup();
         }
         for object in &frame.objects {
             let params = object.params;
@@ -296,9 +487,20 @@ impl Deformer {
                     return Err(PipelineError::InvalidParameter { object: object.name.to_string(), what, value });
                 }
             }
+            params
+                .region
+                .validate(object.mesh.num_vertices())
+                .map_err(|reason| regions::invalid(object.name, reason))?;
         }
+        // The whole-object tree is needed by `Whole` regions and by the partners of automatic ones.
+        let needs_tree: Vec<bool> = (0..count)
+            .map(|i| {
+                matches!(frame.objects[i].params.region, WorkingRegion::Whole)
+                    || partners[i].iter().any(|&j| frame.objects[j].params.region.is_automatic())
+            })
+            .collect();
 
-        // Setup: caches (rebuilt when the connectivity changes), refitted trees, normals.
+        // Setup: caches (rebuilt when the connectivity changes), refitted trees, normals, sizes.
         let setup_start = Instant::now();
         self.caches.resize_with(count, || None);
         self.caches.truncate(count);
@@ -306,105 +508,225 @@ impl Deformer {
             .caches
             .par_iter_mut()
             .zip(&frame.objects)
-            .map(|(cache, object)| -> Result<Prepared, PipelineError> {
+            .zip(&needs_tree)
+            .map(|((cache, object), &needs_tree)| -> Result<Prepared, PipelineError> {
                 object
                     .mesh
                     .check_structure()
                     .map_err(|source| PipelineError::Mesh { object: object.name.to_string(), source })?;
-                if !cache.as_ref().is_some_and(|c| c.matches(object.mesh)) {
-                    *cache = Some(ObjectCache::new(object.name, object.mesh)?);
-                } else if let Some(c) = cache.as_mut() {
-                    c.bvh
-                        .refit(&object.mesh.positions)
-                        .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
-                }
-                Ok(Prepared { normals: vertex_normals(object.mesh), size: object_size(object.mesh) })
+                let cache = match cache {
+                    Some(c) if c.matches(object.mesh) => {
+                        if needs_tree {
+                            c.bvh
+                                .refit(&object.mesh.positions)
+                                .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
+                        }
+                        c
+                    }
+                    _ => cache.insert(ObjectCache::new(object.name, object.mesh)?),
+                };
+                Ok(Prepared { figures: ComponentFigures::new(object.mesh, &cache.topology, &cache.components) })
             })
             .collect::<Result<_, _>>()?;
         let setup = setup_start.elapsed();
-        let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
-        let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
 
-        // Chapter 4, every pair in parallel.
-        let contacts: Vec<Option<PairContact>> = frame
-            .pairs
-            .par_iter()
-            .map(|pair| -> Result<Option<PairContact>, PipelineError> {
-                let [ia, ib] = pair.objects;
-                let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
-                if !caches[ia].bvh.bounds().intersects(&caches[ib].bvh.bounds()) {
-                    return Ok(None);
-                }
-                let side_a = ContactSide::new(oa.mesh, &caches[ia].topology, &prepared[ia].normals, &caches[ia].bvh)
-                    .with_name(oa.name)
-                    .with_stiffness(oa.params.contact_stiffness());
-                let side_b = ContactSide::new(ob.mesh, &caches[ib].topology, &prepared[ib].normals, &caches[ib].bvh)
-                    .with_name(ob.name)
-                    .with_stiffness(ob.params.contact_stiffness());
-                contact_pair(&side_a, &side_b, &pair.params).map(Some).map_err(|source| PipelineError::Contact {
-                    a: oa.name.to_string(),
-                    b: ob.name.to_string(),
-                    source,
+        // Working regions: choose them, then update their caches.
+        let regions_start = Instant::now();
+        let selections: Vec<Selection> = {
+            let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
+            (0..count)
+                .into_par_iter()
+                .map(|i| {
+                    let object = &frame.objects[i];
+                    let others: Vec<Partner> = partners[i]
+                        .iter()
+                        .map(|&j| Partner {
+                            mesh: frame.objects[j].mesh,
+                            bvh: &caches[j].bvh,
+                            closed: caches[j].closed,
+                            figures: &prepared[j].figures,
+                        })
+                        .collect();
+                    let cache = caches[i];
+                    regions::select(
+                        object.mesh,
+                        &cache.topology,
+                        &cache.components,
+                        &prepared[i].figures,
+                        object.params,
+                        &others,
+                    )
+                    .map_err(|reason| regions::invalid(object.name, reason))
                 })
-            })
-            .collect::<Result<_, _>>()?;
-
-        // Zones, partners and contact areas per object.
-        let mut zones: Vec<Vec<ContactZone>> = vec![Vec::new(); count];
-        let mut partner_size = vec![f64::INFINITY; count];
-        let mut contact_area = vec![0.0f64; count];
-        for (pair, contact) in frame.pairs.iter().zip(&contacts) {
-            let [ia, ib] = pair.objects;
-            partner_size[ia] = partner_size[ia].min(prepared[ib].size);
-            partner_size[ib] = partner_size[ib].min(prepared[ia].size);
-            let Some(contact) = contact else { continue };
-            for (side, &object) in pair.objects.iter().enumerate() {
-                contact_area[object] = contact_area[object].max(contact.contact_area);
-                let zone = &contact.sides[side].zone;
-                if !zone.is_empty() && !frame.objects[object].params.rigid {
-                    zones[object].push(zone.clone());
+                .collect::<Result<_, _>>()?
+        };
+        self.caches.par_iter_mut().zip(selections).zip(&frame.objects).zip(&needs_tree).try_for_each(
+            |(((cache, selection), object), &refitted)| -> Result<(), PipelineError> {
+                let Some(cache) = cache.as_mut() else { return Ok(()) };
+                // A selection may be the whole object without `WorkingRegion::Whole`.
+                if matches!(selection, Selection::Whole) && !refitted {
+                    cache
+                        .bvh
+                        .refit(&object.mesh.positions)
+                        .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
                 }
+                let ObjectCache { regions, topology, components, .. } = cache;
+                regions::update_regions(regions, selection, object.mesh, topology, components)
+                    .map_err(|reason| regions::invalid(object.name, reason))
+            },
+        )?;
+        let regions_time = regions_start.elapsed();
+        let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
+        // Vertex normals of the objects processed whole (cut regions have their own).
+        let normals: Vec<Option<Vec<DVec3>>> = caches
+            .par_iter()
+            .zip(&frame.objects)
+            .map(|(c, o)| c.regions.iter().any(|r| r.sub.is_none()).then(|| vertex_normals(o.mesh)))
+            .collect();
+        let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
+        let names: Vec<Vec<String>> = caches
+            .iter()
+            .zip(&frame.objects)
+            .map(|(c, o)| {
+                c.regions
+                    .iter()
+                    .enumerate()
+                    .map(|(r, region)| region_name(o.name, region, r, c.regions.len()))
+                    .collect()
+            })
+            .collect();
+        let sizes: Vec<Vec<f64>> = caches
+            .iter()
+            .zip(&prepared)
+            .map(|(c, p)| c.regions.iter().map(|r| p.figures.size_of(&r.components)).collect())
+            .collect();
+
+        // Region pairs: every pair of regions of a frame pair whose boxes overlap.
+        let mut region_pairs = Vec::new();
+        for (p, pair) in frame.pairs.iter().enumerate() {
+            let [a, b] = pair.objects;
+            let before = region_pairs.len();
+            for ra in 0..caches[a].regions.len() {
+                let first = if a == b { ra + 1 } else { 0 };
+                for rb in first..caches[b].regions.len() {
+                    if caches[a].region_bounds(ra).intersects(&caches[b].region_bounds(rb)) {
+                        region_pairs.push(RegionPair { pair: p, regions: Some([ra, rb]) });
+                    }
+                }
+            }
+            if region_pairs.len() == before {
+                region_pairs.push(RegionPair { pair: p, regions: None });
             }
         }
 
-        // Chapter 5, every object with zones in parallel.
-        let solvers_before = self.caches.iter().flatten().filter(|c| c.solver.is_some()).count();
-        let deformations: Vec<Option<(RegionDeformation, f64)>> = self
-            .caches
-            .par_iter_mut()
-            .zip(&frame.objects)
-            .zip(&zones)
-            .enumerate()
-            .map(|(i, ((cache, object), zones))| -> Result<Option<(RegionDeformation, f64)>, PipelineError> {
-                let Some(cache) = cache.as_mut() else { return Ok(None) };
-                if zones.is_empty() {
-                    return Ok(None);
+        // Chapter 4, every region pair in parallel.
+        let contacts: Vec<Option<PairContact>> = region_pairs
+            .par_iter()
+            .map(|rp| -> Result<Option<PairContact>, PipelineError> {
+                let Some([ra, rb]) = rp.regions else { return Ok(None) };
+                let pair = &frame.pairs[rp.pair];
+                let [ia, ib] = pair.objects;
+                let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
+                let sides = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra]).zip(caches[ib].side(
+                    rb,
+                    ob,
+                    normals[ib].as_deref(),
+                    &names[ib][rb],
+                ));
+                let Some((side_a, side_b)) = sides else { return Ok(None) };
+                let contact = contact_pair(&side_a, &side_b, &pair.params).map_err(|source| {
+                    PipelineError::Contact { a: names[ia][ra].clone(), b: names[ib][rb].clone(), source }
+                })?;
+                if contact.intersection_points.is_empty() {
+                    // No crossing: a cut region lying wholly inside a closed object would go unseen.
+                    for (o, r, other, other_r) in [(ia, ra, ib, rb), (ib, rb, ia, ra)] {
+                        if let Some(v) = caches[o].inside_whole_closed(r, caches[other], other_r) {
+                            return Err(PipelineError::RegionTooSmall {
+                                object: frame.objects[o].name.to_string(),
+                                region: r,
+                                reason: format!(
+                                    "it lies wholly inside \"{}\" (its vertex {v} is inside, and no edge crosses)",
+                                    frame.objects[other].name
+                                ),
+                            });
+                        }
+                    }
                 }
-                let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
-                let extent = object
-                    .params
-                    .extent
-                    .unwrap_or_else(|| automatic_extent(prepared[i].size, partner_size[i], contact_area[i]));
-                if cache.solver.is_none() {
-                    cache.solver = Some(RegionSolver::new(object.mesh, &cache.topology).map_err(err)?);
-                }
-                let Some(solver) = cache.solver.as_mut() else { return Ok(None) };
-                let params = object.params.deform_params(extent, cache.closed);
-                let deformation = deform_region(object.mesh, &cache.topology, solver, zones, &params).map_err(err)?;
-                Ok(Some((deformation, extent)))
+                Ok(Some(contact))
             })
             .collect::<Result<_, _>>()?;
-        // A solver is only ever created (one symbolic analysis each), never replaced in place.
-        let solvers_after = self.caches.iter().flatten().filter(|c| c.solver.is_some()).count();
-        self.symbolic_analyses += solvers_after.saturating_sub(solvers_before);
+
+        // Zones, partners, contact areas and touching regions per region.
+        let per_region = |fill: f64| -> Vec<Vec<f64>> { caches.iter().map(|c| vec![fill; c.regions.len()]).collect() };
+        let mut zones: Vec<Vec<Vec<ContactZone>>> =
+            caches.iter().map(|c| (0..c.regions.len()).map(|_| Vec::new()).collect()).collect();
+        let mut touching: Vec<Vec<Vec<[usize; 2]>>> =
+            caches.iter().map(|c| vec![Vec::new(); c.regions.len()]).collect();
+        let mut partner_size = per_region(f64::INFINITY);
+        let mut contact_area = per_region(0.0);
+        for (rp, contact) in region_pairs.iter().zip(&contacts) {
+            let Some(regions) = rp.regions else { continue };
+            let objects = frame.pairs[rp.pair].objects;
+            for side in 0..2 {
+                let (o, r) = (objects[side], regions[side]);
+                let (other_o, other_r) = (objects[1 - side], regions[1 - side]);
+                partner_size[o][r] = partner_size[o][r].min(sizes[other_o][other_r]);
+            }
+            let Some(contact) = contact else { continue };
+            if contact.is_empty() {
+                continue;
+            }
+            for side in 0..2 {
+                let (o, r) = (objects[side], regions[side]);
+                touching[o][r].push([objects[1 - side], regions[1 - side]]);
+                contact_area[o][r] = contact_area[o][r].max(contact.contact_area);
+                let zone = &contact.sides[side].zone;
+                if !zone.is_empty() && !frame.objects[o].params.rigid {
+                    zones[o][r].push(zone.clone());
+                }
+            }
+        }
+        drop(caches);
+
+        // Chapter 5, every region with zones in parallel.
+        let outcomes: Vec<Vec<Option<RegionOutcome>>> =
+            self.caches
+                .par_iter_mut()
+                .zip(&frame.objects)
+                .zip(&zones)
+                .enumerate()
+                .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
+                    let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
+                    let ObjectCache { regions, topology, closed, .. } = cache;
+                    let (topology, closed) = (&*topology, *closed);
+                    regions
+                        .par_iter_mut()
+                        .zip(zones)
+                        .enumerate()
+                        .map(|(r, (region, zones))| {
+                            if zones.is_empty() {
+                                return Ok(None);
+                            }
+                            let extent = object.params.extent.unwrap_or_else(|| {
+                                automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r])
+                            });
+                            let scale =
+                                Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
+                            deform_one(object, topology, closed, region, r, zones, scale).map(Some)
+                        })
+                        .collect()
+                })
+                .collect::<Result<_, _>>()?;
+        self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
 
         // Results and statistics.
-        let mut stages = StageTimes { setup, ..StageTimes::default() };
-        let mut pair_stats = Vec::with_capacity(frame.pairs.len());
-        for (pair, contact) in frame.pairs.iter().zip(&contacts) {
-            let names = pair.objects.map(|i| frame.objects[i].name.to_string());
+        let mut stages = StageTimes { setup, regions: regions_time, ..StageTimes::default() };
+        let mut pair_stats = Vec::with_capacity(region_pairs.len());
+        for (rp, contact) in region_pairs.iter().zip(&contacts) {
+            let names = frame.pairs[rp.pair].objects.map(|i| frame.objects[i].name.to_string());
+            let base = PairStats { objects: names, pair: rp.pair, regions: rp.regions, ..PairStats::default() };
             let Some(contact) = contact else {
-                pair_stats.push(PairStats { objects: names, ..PairStats::default() });
+                pair_stats.push(base);
                 continue;
             };
             let t = &contact.stats.timings;
@@ -413,7 +735,6 @@ impl Deformer {
             stages.contact_zone += t.surface + t.zone;
             let counts = &contact.stats.counts;
             pair_stats.push(PairStats {
-                objects: names,
                 in_contact: !contact.is_empty(),
                 direction: contact.direction.to_array(),
                 direction_automatic: matches!(contact.direction_source, crate::contact::DirectionSource::Automatic),
@@ -424,12 +745,17 @@ impl Deformer {
                 intersection_points: counts.intersection_points,
                 zone_vertices: counts.zone_vertices,
                 fallbacks: contact.stats.fallbacks.numerical(),
+                ..base
             });
         }
+
         let mut positions = Vec::with_capacity(count);
         let mut object_stats = Vec::with_capacity(count);
         let mut kept = Vec::with_capacity(count);
-        for (i, (object, result)) in frame.objects.iter().zip(deformations).enumerate() {
+        let mut region_stats = Vec::new();
+        let mut summaries = Vec::new();
+        for (i, (object, outcomes)) in frame.objects.iter().zip(outcomes).enumerate() {
+            let Some(cache) = self.caches[i].as_ref() else { continue };
             let input = &object.mesh.positions;
             let volume_before = signed_volume(object.mesh);
             let mut stats = ObjectStats {
@@ -439,29 +765,74 @@ impl Deformer {
                 volume_before,
                 volume_after: volume_before,
                 preserve_volume: object.params.preserve_volume.unwrap_or(closed[i]),
+                regions: cache.regions.len(),
+                zones: zones[i].iter().map(Vec::len).sum(),
                 ..ObjectStats::default()
             };
-            match result {
-                Some((deformation, extent)) => {
-                    let s = &deformation.stats;
+            for (r, (region, outcome)) in cache.regions.iter().zip(&outcomes).enumerate() {
+                let sub = region.sub.as_deref();
+                let mut rs = RegionStats {
+                    object: i,
+                    name: object.name.to_string(),
+                    region: r,
+                    whole: sub.is_none(),
+                    vertices: sub.map_or(input.len(), |s| s.sub.num_vertices()),
+                    faces: region.num_faces(object.mesh),
+                    cut_border_vertices: sub.map_or(0, |s| s.border_count),
+                    rebuilt: region.rebuilt,
+                    touching: touching[i][r].clone(),
+                    zones: zones[i][r].len(),
+                    ..RegionStats::default()
+                };
+                if let Some(outcome) = outcome {
+                    let s = &outcome.deformation.stats;
                     stages.parametrization += s.timings.parametrization;
                     stages.directions += s.timings.directions;
                     stages.guide += s.timings.guide;
                     stages.deformation += s.timings.deformation;
                     stages.factorization += s.timings.factorization;
-                    let after =
-                        TriMesh { positions: deformation.positions.clone(), triangles: object.mesh.triangles.clone() };
+                    rs.deformed = true;
+                    rs.extent = outcome.extent;
+                    rs.extent_clamped = outcome.clamped;
+                    rs.bulge_height = s.bulge_height;
+                    rs.applied_bulge_height = s.applied_bulge_height;
+                    rs.contact_vertices = s.num_contact;
+                    rs.deformable_vertices = s.num_deformable;
+                    rs.time = outcome.time;
+                    if !stats.deformed {
+                        stats.extent = outcome.extent;
+                        stats.bulge_height = s.bulge_height;
+                        stats.applied_bulge_height = s.applied_bulge_height;
+                    }
                     stats.deformed = true;
-                    stats.volume_after = signed_volume(&after);
-                    stats.extent = extent;
-                    stats.bulge_height = s.bulge_height;
-                    stats.applied_bulge_height = s.applied_bulge_height;
-                    stats.contact_vertices = s.num_contact;
-                    stats.deformable_vertices = s.num_deformable;
-                    stats.fallbacks = s.fallbacks.direction_blend
+                    stats.extent_clamped |= outcome.clamped;
+                    stats.contact_vertices += s.num_contact;
+                    stats.deformable_vertices += s.num_deformable;
+                    stats.fallbacks += s.fallbacks.direction_blend
                         + s.fallbacks.bulge_map
                         + s.fallbacks.volume_without_root
                         + s.fallbacks.clamped_slopes;
+                }
+                region_stats.push(rs);
+                summaries.push(RegionSummary {
+                    object: i,
+                    region: r,
+                    whole: sub.is_none(),
+                    faces: region.faces.clone().unwrap_or_default(),
+                    vertices: sub.map(|s| s.sub.parent_vertex.clone()).unwrap_or_default(),
+                    cut_border: sub
+                        .map(|s| {
+                            s.sub.parent_vertex.iter().zip(&s.border).filter(|(_, b)| **b).map(|(v, _)| *v).collect()
+                        })
+                        .unwrap_or_default(),
+                });
+            }
+            let combined = combine(input, &cache.regions, outcomes);
+            match combined {
+                Some(deformation) => {
+                    let after =
+                        TriMesh { positions: deformation.positions.clone(), triangles: object.mesh.triangles.clone() };
+                    stats.volume_after = signed_volume(&after);
                     stats.max_displacement =
                         input.iter().zip(&deformation.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
                     positions.push(after.positions);
@@ -481,10 +852,175 @@ impl Deformer {
             positions,
             contacts,
             deformations: kept,
-            stats: FrameStats { total: start.elapsed(), stages, objects: object_stats, pairs: pair_stats },
+            regions: summaries,
+            stats: FrameStats {
+                total: start.elapsed(),
+                stages,
+                objects: object_stats,
+                pairs: pair_stats,
+                regions: region_stats,
+            },
         })
     }
 }
 
+/// Fraction of the smallest φ on a region's cut border that a clamped extent keeps.
+const CLAMP_FRACTION: f64 = 0.95;
+
+/// The scales of a region's deformation: φ_max and the mean edge length h of the components it
+/// touches.
+#[derive(Clone, Copy, Debug)]
+struct Scale {
+    extent: f64,
+    edge_length: f64,
+}
+
+/// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see
+/// [`regions`]).
+fn deform_one(
+    object: &FrameObject,
+    topology: &Topology,
+    closed: bool,
+    region: &mut RegionCache,
+    index: usize,
+    zones: &[ContactZone],
+    scale: Scale,
+) -> Result<RegionOutcome, PipelineError> {
+    let Scale { extent, edge_length: object_edge_length } = scale;
+    let start = Instant::now();
+    let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
+    let too_small =
+        |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
+    let (mesh, topology, border) = match region.sub.as_deref() {
+        None => (object.mesh, topology, None),
+        Some(sub) => (&sub.sub.mesh, &sub.topology, (sub.border_count > 0).then_some(sub.border.as_slice())),
+    };
+    let new_solver = region.solver.is_none();
+    if new_solver {
+        region.solver = Some(RegionSolver::new(mesh, topology).map_err(err)?);
+    }
+    let Some(solver) = region.solver.as_mut() else {
+        return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
+    };
+    let mut params = object.params.deform_params(extent, closed);
+    if let Some(sub) = region.sub.as_deref()
+        && let Some(map) = params.bulge_map.as_ref()
+    {
+        if map.len() != object.mesh.num_vertices() {
+            return Err(err(DeformError::BulgeMapLength { expected: object.mesh.num_vertices(), actual: map.len() }));
+        }
+        let gathered = sub.sub.gather(map);
+        params.bulge_map = Some(gathered);
+    }
+    if border.is_some() {
+        // The heat step's time t = factor·h² uses the object's h (of the components the region
+        // touches), not the region's: the parametrization must not depend on where the cut falls,
+        // which automatic regions move from frame to frame.
+        let region_edge_length = mean_edge_length(mesh, topology);
+        if region_edge_length > 0.0 && object_edge_length > 0.0 {
+            params.heat_time_factor *= (object_edge_length / region_edge_length).powi(2);
+        }
+    }
+    let mut deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
+    let mut clamped = false;
+    if let Some(border) = border {
+        if let Some(v) = (0..border.len()).find(|&v| border[v] && deformation.contact[v]) {
+            return Err(too_small(format!("its contact zone reaches vertex {v} on the cut border")));
+        }
+        if (0..border.len()).any(|v| border[v] && deformation.deformable[v]) {
+            // φ does not depend on φ_max: the smallest φ on the cut bounds the extent that fits.
+            let reach = (0..border.len())
+                .filter(|&v| border[v])
+                .map(|v| deformation.u[v] * params.extent)
+                .fold(f64::INFINITY, f64::min);
+            let fitted = CLAMP_FRACTION * reach;
+            if !(fitted.is_finite() && fitted > 0.0) {
+                return Err(too_small(format!("its deformable region reaches the cut border at φ = {reach:.3e}")));
+            }
+            params.extent = fitted;
+            deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
+            clamped = true;
+            if let Some(v) =
+                (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v]))
+            {
+                return Err(too_small(format!("vertex {v} on the cut border still moves after clamping the extent")));
+            }
+        }
+    }
+    Ok(RegionOutcome { deformation, extent: params.extent, clamped, time: start.elapsed(), new_solver })
+}
+
+/// Writes the regions' deformations into one object-sized deformation (`None` if none).
+fn combine(
+    input: &[DVec3],
+    regions: &[RegionCache],
+    outcomes: Vec<Option<RegionOutcome>>,
+) -> Option<RegionDeformation> {
+    let deformed = outcomes.iter().filter(|o| o.is_some()).count();
+    if deformed == 0 {
+        return None;
+    }
+    let mut parts = regions.iter().zip(outcomes).filter_map(|(r, o)| o.map(|o| (r, o.deformation)));
+    if regions.len() == 1 && regions[0].sub.is_none() {
+        return parts.next().map(|(_, d)| d);
+    }
+    let n = input.len();
+    let mut out = RegionDeformation {
+        positions: input.to_vec(),
+        u: vec![f64::INFINITY; n],
+        deformable: vec![false; n],
+        contact: vec![false; n],
+        directions: vec![DVec3::ZERO; n],
+        heights: vec![0.0; n],
+        amplitude: vec![0.0; n],
+        slope: vec![0.0; n],
+        bulge_map: vec![1.0; n],
+        stats: DeformStats::default(),
+    };
+    let mut first = true;
+    for (region, d) in parts {
+        let Some(sub) = region.sub.as_deref() else { continue };
+        let map = &sub.sub;
+        map.scatter(&d.positions, &mut out.positions);
+        map.scatter(&d.u, &mut out.u);
+        map.scatter(&d.deformable, &mut out.deformable);
+        map.scatter(&d.contact, &mut out.contact);
+        map.scatter(&d.directions, &mut out.directions);
+        map.scatter(&d.heights, &mut out.heights);
+        map.scatter(&d.amplitude, &mut out.amplitude);
+        map.scatter(&d.slope, &mut out.slope);
+        map.scatter(&d.bulge_map, &mut out.bulge_map);
+        let (s, t) = (&d.stats, &mut out.stats);
+        if first {
+            t.bulge_height = s.bulge_height;
+            t.applied_bulge_height = s.applied_bulge_height;
+            t.volume_exact = s.volume_exact;
+            first = false;
+        }
+        t.volume_exact &= s.volume_exact;
+        t.volume_residual += s.volume_residual;
+        t.volume_before += s.volume_before;
+        t.volume_after += s.volume_after;
+        t.num_deformable += s.num_deformable;
+        t.num_contact += s.num_contact;
+        t.num_boundary_points += s.num_boundary_points;
+        t.outer_boundary_moved += s.outer_boundary_moved;
+        t.numeric_factorizations += s.numeric_factorizations;
+        t.timings.parametrization += s.timings.parametrization;
+        t.timings.directions += s.timings.directions;
+        t.timings.guide += s.timings.guide;
+        t.timings.deformation += s.timings.deformation;
+        t.timings.factorization += s.timings.factorization;
+        t.timings.total += s.timings.total;
+        t.fallbacks.direction_blend += s.fallbacks.direction_blend;
+        t.fallbacks.bulge_map += s.fallbacks.bulge_map;
+        t.fallbacks.volume_without_root += s.fallbacks.volume_without_root;
+        t.fallbacks.clamped_slopes += s.fallbacks.clamped_slopes;
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod region_tests;
 #[cfg(test)]
 mod tests;

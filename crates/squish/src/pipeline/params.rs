@@ -7,6 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::WorkingRegion;
 use crate::contact::Stiffness;
 use crate::deform::{DeformParams, ProfileShape, Wrinkles};
 
@@ -46,6 +47,9 @@ pub struct ObjectParams {
     pub normalize_diffused_direction: bool,
     /// Heat-method time step as a multiple of the squared mean edge length (§5.1). Default 10.
     pub heat_time_factor: f64,
+    /// 𝒲: the working regions the pipeline processes (§4, §4.5, §7.5). Default: the whole
+    /// object. See [`WorkingRegion`] and [`super::regions`].
+    pub region: WorkingRegion,
 }
 
 impl Default for ObjectParams {
@@ -66,6 +70,7 @@ impl Default for ObjectParams {
             bulge_map: None,
             normalize_diffused_direction: deform.normalize_diffused,
             heat_time_factor: deform.heat_time_factor,
+            region: WorkingRegion::Whole,
         }
     }
 }
@@ -85,6 +90,12 @@ impl ObjectParams {
     /// With a fixed extent φ_max.
     pub fn with_extent(mut self, extent: f64) -> Self {
         self.extent = Some(extent);
+        self
+    }
+
+    /// With other working regions.
+    pub fn with_region(mut self, region: WorkingRegion) -> Self {
+        self.region = region;
         self
     }
 

@@ -125,3 +125,86 @@ pub fn crossed_capsules(depth: f64, segments: u32) -> ProceduralScene {
     scene.pair(u, l);
     scene
 }
+
+/// Radius of the fingers of [`fingers_on_ball`] and [`fingers_on_slab`].
+pub const FINGER_RADIUS: f64 = 0.12;
+
+/// A finger of the hand-like scenes: where it touches, in the plane (x, y); its length; its
+/// penetration depth relative to `depth`; its leans (radians about y, then about x).
+type Finger = ((f64, f64), f64, f64, (f64, f64));
+
+/// The five fingers: every finger presses at its own angle, and neighbours lean apart so that
+/// fingers never touch.
+const FINGERS: [Finger; 5] = [
+    ((-0.45, 0.1), 0.55, 1.0, (-0.45, -0.15)),
+    ((-0.15, 0.22), 0.75, 1.2, (-0.15, -0.3)),
+    ((0.15, 0.22), 0.85, 0.9, (0.1, -0.25)),
+    ((0.45, 0.1), 0.7, 1.1, (0.4, -0.1)),
+    ((-0.2, -0.45), 0.5, 0.8, (-0.2, 0.5)),
+];
+
+/// A hand-like mesh: five capsule fingers of radius [`FINGER_RADIUS`] and different lengths joined
+/// into one mesh with [`TriMesh::append`] (each finger a connected component, finger `k` holding
+/// the faces of the `k`-th block), each with its tip sphere centred at `tips[k]` and its axis
+/// leaning as listed in `FINGERS`.
+fn fingers(tips: &[DVec3; 5], segments: u32) -> TriMesh {
+    let mut hand = TriMesh::default();
+    for (tip, &(_, length, _, (lean_y, lean_x))) in tips.iter().zip(&FINGERS) {
+        let mut finger = shapes::capsule(FINGER_RADIUS, length, segments, segments / 4, (segments / 4).max(2));
+        let axis = (DQuat::from_rotation_x(lean_x) * DQuat::from_rotation_y(lean_y)) * DVec3::Z;
+        let rotation = DQuat::from_rotation_arc(DVec3::Z, axis);
+        // The capsule's lower hemisphere is centred at z = −length/2 on its axis.
+        let offset = *tip + axis * (0.5 * length);
+        finger.map_positions(|p| rotation * p + offset);
+        hand.append(&finger);
+    }
+    hand
+}
+
+/// Five fingers of one hand mesh pressing a soft unit ball at the origin (icosphere with
+/// `subdivisions`), each at its own angle, finger `k`'s tip sphere overlapping the ball by
+/// `depth × factor_k` (factors 1, 1.2, 0.9, 1.1, 0.8). The hand's working regions are its
+/// components (one per finger, §7.1.2, Fig. 7.6); the ball is one region. Pair: (hand, ball).
+pub fn fingers_on_ball(depth: f64, subdivisions: u32, segments: u32) -> ProceduralScene {
+    let mut scene = ProceduralScene { name: "fingers on a ball".into(), ..Default::default() };
+    let tips = FINGERS.map(|((x, y), _, factor, _)| {
+        let on_ball = DVec3::new(x, y, (1.0 - x * x - y * y).sqrt());
+        on_ball * (1.0 + FINGER_RADIUS - depth * factor)
+    });
+    let h = scene.push("hand", fingers(&tips, segments));
+    scene.objects[h].params.region = super::WorkingRegion::Components;
+    let b = scene.push("ball", shapes::icosphere(1.0, subdivisions));
+    scene.pair(h, b);
+    scene
+}
+
+/// The fingers of [`fingers_on_ball`] pressing a soft closed slab (2 × 2 × 0.4, top face at
+/// z = 0, `cells` cells along each axis) straight down at their own angles, finger `k` sinking
+/// `depth × factor_k` into it. The slab's working regions are automatic (`Distance(0)`: bands as
+/// wide as its extent requires). Pair: (hand, slab).
+pub fn fingers_on_slab(depth: f64, cells: u32, segments: u32) -> ProceduralScene {
+    let mut scene = ProceduralScene { name: "fingers on a slab".into(), ..Default::default() };
+    let tips = FINGERS.map(|((x, y), _, factor, _)| DVec3::new(x, y, FINGER_RADIUS - depth * factor));
+    let h = scene.push("hand", fingers(&tips, segments));
+    scene.objects[h].params.region = super::WorkingRegion::Components;
+    let mut slab = shapes::cuboid(DVec3::new(2.0, 2.0, 0.4), cells);
+    slab.map_positions(|p| p - DVec3::new(0.0, 0.0, 0.2));
+    let s = scene.push("slab", slab);
+    scene.objects[s].params.region = super::WorkingRegion::Distance(0.0);
+    scene.pair(h, s);
+    scene
+}
+
+/// The fingers of [`fingers_on_slab`] and the slab as ONE mesh (the slab first, then the five
+/// fingers): fingers pressing the palm of their own hand (Fig. 7.5). Its working regions are its
+/// components; the pair is the object with itself, so its distinct regions are paired.
+pub fn fingers_on_own_palm(depth: f64, cells: u32, segments: u32) -> ProceduralScene {
+    let two = fingers_on_slab(depth, cells, segments);
+    let mut hand = two.objects[1].mesh.clone();
+    hand.append(&two.objects[0].mesh);
+    let mut scene = ProceduralScene { name: "fingers on their own palm".into(), ..Default::default() };
+    let h = scene.push("hand", hand);
+    scene.objects[h].params.region = super::WorkingRegion::Components;
+    scene.pair(h, h);
+    scene
+}
