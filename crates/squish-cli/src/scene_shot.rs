@@ -3,12 +3,12 @@
 //! with the vertices of the input file — same count, same order — even when the scene layer
 //! welded them (glTF seams, `weld = true`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::DVec3;
-use squish::contact::PairParams;
+use squish::contact::{ContactMethod, PairParams};
 use squish::deform::{ProfileShape, Wrinkles};
-use squish::pipeline::FramePair;
+use squish::pipeline::{FramePair, WorkingRegion};
 use squish::{ObjectParams, TriMesh};
 use squish_io::scene::{
     ContactMethodFrame, FramePattern, MeshSource, ObjectFrame, PairFrame, PreserveVolume, RegionFrame, Weld,
@@ -44,48 +44,42 @@ pub fn object_params(object: &ObjectFrame) -> ObjectParams {
 
 /// The library's parameters for a pair at a frame.
 pub fn pair_params(pair: &PairFrame) -> PairParams {
-    PairParams { contact_tau: pair.contact_tau, direction: pair.direction, ..PairParams::default() }
+    let contact_method = match pair.contact_method {
+        ContactMethodFrame::Geometric => ContactMethod::Geometric,
+        ContactMethodFrame::Ball { radius } => ContactMethod::Ball { radius },
+    };
+    PairParams { contact_tau: pair.contact_tau, direction: pair.direction, contact_method, ..PairParams::default() }
+}
+
+/// The library's working region of an object at a frame.
+fn working_region(region: &RegionFrame) -> WorkingRegion {
+    match region {
+        RegionFrame::Whole => WorkingRegion::Whole,
+        RegionFrame::Mask(mask) => WorkingRegion::Mask(mask.to_vec()),
+        RegionFrame::Distance(distance) => WorkingRegion::Distance(*distance),
+    }
 }
 
 /// A scene frame as the library's frame: every object, and the pairs enabled at this frame.
 ///
-/// The only place where scene values become library values. Working regions other than the
-/// whole mesh and the ball method (method A) are refused here until the pipeline takes them.
-pub fn library_frame(spec: FrameSpec, scene_file: &Path) -> Result<ShotFrame, CliError> {
-    let frame = spec.frame;
-    for object in &spec.objects {
-        let region = match &object.region {
-            RegionFrame::Whole => continue,
-            RegionFrame::Mask(_) => "region = { mask … }",
-            RegionFrame::Distance(_) => "region = { distance … }",
-        };
-        return Err(CliError::input(format!(
-            "{}: frame {frame}: [[objects]] \"{}\": {region} (a working region) is not supported by the deformer yet; remove `region` to deform the whole mesh",
-            scene_file.display(),
-            object.name
-        )));
-    }
-    let mut pairs = Vec::new();
-    for pair in spec.pairs.iter().filter(|p| p.enabled) {
-        if let ContactMethodFrame::Ball { .. } = pair.contact_method {
-            return Err(CliError::input(format!(
-                "{}: frame {frame}: [[pairs]] [\"{}\", \"{}\"]: contact_method = {{ ball = … }} (method A) is not supported by the deformer yet; remove `contact_method` to use the geometric method",
-                scene_file.display(),
-                pair.names[0],
-                pair.names[1]
-            )));
-        }
-        pairs.push(FramePair { objects: pair.objects, params: pair_params(pair) });
-    }
+/// The only place where scene values become library values; the library checks them (and its
+/// errors name the object or pair).
+pub fn library_frame(spec: FrameSpec) -> ShotFrame {
+    let pairs = spec
+        .pairs
+        .iter()
+        .filter(|p| p.enabled)
+        .map(|pair| FramePair { objects: pair.objects, params: pair_params(pair) })
+        .collect();
     let objects = spec
         .objects
         .into_iter()
         .map(|o| {
-            let params = object_params(&o);
+            let params = ObjectParams { region: working_region(&o.region), ..object_params(&o) };
             ShotObject { name: o.name, mesh: o.mesh, params }
         })
         .collect();
-    Ok(ShotFrame { objects, pairs })
+    ShotFrame { objects, pairs }
 }
 
 /// A loaded scene as a [`ShotSource`].
@@ -96,7 +90,7 @@ pub struct SceneShot<'a> {
 impl ShotSource for SceneShot<'_> {
     fn frame(&self, frame: i64) -> Result<ShotFrame, CliError> {
         let spec = self.scene.evaluate(frame as f64)?;
-        library_frame(spec, self.scene.path())
+        Ok(library_frame(spec))
     }
 }
 
@@ -241,14 +235,11 @@ mod tests {
     }
 
     #[test]
-    fn unsupported_features_name_the_object_pair_and_key() {
-        let path = Path::new("shot.toml");
-        let mut o = object();
-        o.region = RegionFrame::Distance(0.5);
-        let spec = FrameSpec { frame: 7.0, objects: vec![o], pairs: Vec::new() };
-        let err = library_frame(spec, path).unwrap_err().to_string();
-        assert!(err.contains("\"ball\"") && err.contains("region") && err.contains("frame 7"), "{err}");
-
+    fn regions_and_contact_methods_reach_the_library() {
+        let mut masked = object();
+        masked.region = RegionFrame::Mask(vec![true; 12].into());
+        let mut near = object();
+        near.region = RegionFrame::Distance(0.5);
         let pair = PairFrame {
             objects: [0, 1],
             names: ["ball".into(), "ground".into()],
@@ -257,17 +248,17 @@ mod tests {
             direction: Some(DVec3::Z),
             contact_method: ContactMethodFrame::Ball { radius: 0.3 },
         };
-        let spec = FrameSpec { frame: 1.0, objects: vec![object(), object()], pairs: vec![pair.clone()] };
-        let err = library_frame(spec, path).unwrap_err().to_string();
-        assert!(err.contains("[\"ball\", \"ground\"]") && err.contains("contact_method"), "{err}");
-
-        // Geometric and disabled pairs map; disabled ones are left out.
         let geometric = PairFrame { contact_method: ContactMethodFrame::Geometric, ..pair.clone() };
-        let disabled = PairFrame { enabled: false, ..pair };
-        let spec = FrameSpec { frame: 1.0, objects: vec![object(), object()], pairs: vec![geometric, disabled] };
-        let frame = library_frame(spec, path).unwrap();
-        assert_eq!(frame.pairs.len(), 1);
-        assert_eq!(frame.pairs[0].params.contact_tau, 0.5);
-        assert_eq!(frame.pairs[0].params.direction, Some(DVec3::Z));
+        let disabled = PairFrame { enabled: false, ..pair.clone() };
+        let spec = FrameSpec { frame: 7.0, objects: vec![masked, near], pairs: vec![pair, geometric, disabled] };
+        let frame = library_frame(spec);
+        assert_eq!(frame.objects[0].params.region, WorkingRegion::Mask(vec![true; 12]));
+        assert_eq!(frame.objects[1].params.region, WorkingRegion::Distance(0.5));
+        // Disabled pairs are left out.
+        assert_eq!(frame.pairs.len(), 2);
+        assert_eq!(frame.pairs[0].params.contact_method, ContactMethod::Ball { radius: 0.3 });
+        assert_eq!(frame.pairs[1].params.contact_method, ContactMethod::Geometric);
+        assert_eq!(frame.pairs[1].params.contact_tau, 0.5);
+        assert_eq!(frame.pairs[1].params.direction, Some(DVec3::Z));
     }
 }

@@ -430,8 +430,11 @@ impl<'a> Reader<'a> {
             let welded = weld_positions(&out.positions, &out.triangles, weld);
             let kept = welded.positions.len();
             if let Some(w) = &out.skin_weights {
-                let weights = average_skin_weights(w, &welded.vertex_map, kept)
-                    .map_err(|source| IoError::Skin { path: self.path.to_path_buf(), element: element.clone(), source })?;
+                let weights = average_skin_weights(w, &welded.vertex_map, kept).map_err(|source| IoError::Skin {
+                    path: self.path.to_path_buf(),
+                    element: element.clone(),
+                    source,
+                })?;
                 out.skin_weights = Some(weights);
             }
             for target in &mut out.morph_targets {

@@ -26,7 +26,8 @@ pub enum Label {
 
 impl Label {
     /// Every label, in legend order.
-    pub const ALL: [Label; 5] = [Label::Outside, Label::Intersection, Label::Mapping, Label::Contact, Label::Deformable];
+    pub const ALL: [Label; 5] =
+        [Label::Outside, Label::Intersection, Label::Mapping, Label::Contact, Label::Deformable];
 
     /// The label's linear colour: neutral grey for outside, then four well separated hues.
     pub fn color(self) -> Rgb {
@@ -105,9 +106,10 @@ pub fn sequential(t: f64) -> Rgb {
 pub fn scalar_colors(values: &[f64], range: Option<(f64, f64)>) -> Vec<Rgb> {
     let (lo, hi) = match range {
         Some((lo, hi)) if lo.is_finite() && hi.is_finite() => (lo, hi),
-        _ => values.iter().filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        }),
+        _ => values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v))),
     };
     values
         .iter()

@@ -160,8 +160,8 @@ impl Image {
 /// Places `images` side by side, left to right, `gap` pixels apart, each centred vertically,
 /// on a `background` canvas. No image gives a 0 × 0 image.
 pub fn hstack(images: &[&Image], gap: u32, background: [u8; 4]) -> Image {
-    let width = images.iter().map(|i| u64::from(i.width)).sum::<u64>()
-        + u64::from(gap) * images.len().saturating_sub(1) as u64;
+    let width =
+        images.iter().map(|i| u64::from(i.width)).sum::<u64>() + u64::from(gap) * images.len().saturating_sub(1) as u64;
     let height = images.iter().map(|i| i.height).max().unwrap_or(0);
     let mut out = Image::new(width.min(u64::from(MAX_IMAGE_SIDE)) as u32, height, background);
     let mut x = 0i64;

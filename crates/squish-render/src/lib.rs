@@ -43,7 +43,9 @@ mod shading;
 pub use camera::{Camera, orbit_direction};
 pub use canvas::{draw_line, draw_polyline, fill_circle, stroke_rect};
 pub use colormap::{Label, MISSING_COLOR, categorical, label_colors, scalar_colors, sequential};
-pub use font::{ADVANCE, GLYPH_HEIGHT, GLYPH_WIDTH, LINE_HEIGHT, draw_text, draw_text_vertical, glyph, label, text_size};
+pub use font::{
+    ADVANCE, GLYPH_HEIGHT, GLYPH_WIDTH, LINE_HEIGHT, draw_text, draw_text_vertical, glyph, label, text_size,
+};
 pub use image::{Image, MAX_IMAGE_SIDE, encode_png, grid, hstack, rgba8, vstack};
 pub use plot::{Plot, Series, plot_image, svg_line_plot};
 pub use raster::{Background, RenderMesh, RenderOptions, Shading, clay, render};

@@ -114,11 +114,7 @@ impl Axis {
         if !v.is_finite() {
             return None;
         }
-        if self.log {
-            if v > 0.0 { Some(v.log10()) } else { None }
-        } else {
-            Some(v)
-        }
+        if self.log { if v > 0.0 { Some(v.log10()) } else { None } } else { Some(v) }
     }
 
     /// Fraction of the way from `lo` to `hi`.
@@ -258,7 +254,11 @@ struct Metrics {
 }
 
 fn series_color(plot: &Plot, index: usize) -> Rgb {
-    plot.series.get(index).and_then(|s| s.color).filter(|c| c.iter().all(|v| v.is_finite())).unwrap_or(categorical(index))
+    plot.series
+        .get(index)
+        .and_then(|s| s.color)
+        .filter(|c| c.iter().all(|v| v.is_finite()))
+        .unwrap_or(categorical(index))
 }
 
 fn layout(plot: &Plot, m: Metrics) -> Layout {

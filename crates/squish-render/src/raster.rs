@@ -335,11 +335,7 @@ impl Scene {
                 let outside = if c.is_finite() { outcode(c, frame.near) } else { 0x1f };
                 ClipVertex { clip: c, outside }
             }));
-            let smooth_normals = if item.shading == Shading::Smooth {
-                vertex_normals(mesh)
-            } else {
-                Vec::new()
-            };
+            let smooth_normals = if item.shading == Shading::Smooth { vertex_normals(mesh) } else { Vec::new() };
             if smooth_normals.len() == n {
                 normals.extend(smooth_normals.iter().map(|&v| basis.to_view(v).as_vec3()));
             } else {
@@ -392,7 +388,12 @@ impl Scene {
             for &c in rest {
                 let c = Self::snap(c, frame);
                 if let Some(b) = previous {
-                    out.push(ScreenTri { x: [a.0, b.0, c.0], y: [a.1, b.1, c.1], inv_w: [a.2, b.2, c.2], tri: t as u32 });
+                    out.push(ScreenTri {
+                        x: [a.0, b.0, c.0],
+                        y: [a.1, b.1, c.1],
+                        inv_w: [a.2, b.2, c.2],
+                        tri: t as u32,
+                    });
                 }
                 previous = Some(c);
             }

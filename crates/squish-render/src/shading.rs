@@ -35,11 +35,7 @@ pub fn linear_to_srgb8(c: f32) -> u8 {
 
 /// The linear colour of an 8-bit sRGB triple, e.g. `srgb8(0x44, 0x88, 0xcc)` for `#4488cc`.
 pub fn srgb8(r: u8, g: u8, b: u8) -> Rgb {
-    [
-        srgb_to_linear(f32::from(r) / 255.0),
-        srgb_to_linear(f32::from(g) / 255.0),
-        srgb_to_linear(f32::from(b) / 255.0),
-    ]
+    [srgb_to_linear(f32::from(r) / 255.0), srgb_to_linear(f32::from(g) / 255.0), srgb_to_linear(f32::from(b) / 255.0)]
 }
 
 /// A directional light. `direction` points from the surface toward the light, in camera space:
@@ -149,11 +145,8 @@ impl PreparedLighting {
     /// and `front` whether the viewer sees the triangle's front side.
     #[inline]
     pub(crate) fn shade(&self, normal: Vec3, to_eye: Vec3, albedo: Vec3, front: bool) -> Vec3 {
-        let albedo = if front {
-            albedo
-        } else {
-            albedo.lerp(self.back_tint, self.back_tint_amount) * self.back_brightness
-        };
+        let albedo =
+            if front { albedo } else { albedo.lerp(self.back_tint, self.back_tint_amount) * self.back_brightness };
         let hemisphere = 0.5 + 0.5 * normal.dot(self.up);
         let ambient = self.ground.lerp(self.sky, hemisphere);
         let key = normal.dot(self.key_dir).max(0.0);

@@ -107,10 +107,12 @@ fn degenerate_plots_do_not_panic() {
         Plot::new("empty series").with_series(Series::new("nothing", vec![])),
         Plot::new("one point").with_series(Series::new("p", vec![(3.0, 4.0)])),
         Plot::new("constant").with_series(Series::new("c", vec![(0.0, 2.0), (1.0, 2.0), (2.0, 2.0)])),
-        Plot::new("all missing").with_series(Series::new("n", vec![(f64::NAN, 1.0), (1.0, f64::NAN), (f64::INFINITY, 0.0)])),
+        Plot::new("all missing")
+            .with_series(Series::new("n", vec![(f64::NAN, 1.0), (1.0, f64::NAN), (f64::INFINITY, 0.0)])),
         Plot::new("log of non-positive").with_log_y(true).with_series(Series::new("z", vec![(0.0, 0.0), (1.0, -1.0)])),
         Plot::new("huge").with_series(Series::new("h", vec![(-1e300, 1e300), (1e300, -1e300)])),
-        Plot::new("extreme").with_series(Series::new("m", vec![(f64::MAX, f64::MIN), (f64::MIN, f64::MAX), (0.0, 0.0)])),
+        Plot::new("extreme")
+            .with_series(Series::new("m", vec![(f64::MAX, f64::MIN), (f64::MIN, f64::MAX), (0.0, 0.0)])),
         Plot::new("tiny").with_series(Series::new("t", vec![(0.0, 1e-300), (1e-300, 2e-300)])).with_log_y(true),
         Plot::new("small canvas").with_size(0, 0).with_series(Series::new("s", vec![(0.0, 1.0), (1.0, 0.0)])),
     ];
@@ -134,7 +136,8 @@ fn plot_picture_shows_the_series_colours() {
     assert!(count > 200, "{count} pixels of the first series' colour");
     // White background in the corner, dark text somewhere near the top (the title).
     assert_eq!(image.pixel(0, 0), Some([255, 255, 255, 255]));
-    let dark_in_title = (0..40).flat_map(|y| (0..800).map(move |x| (x, y))).any(|(x, y)| image.pixel(x, y).unwrap()[0] < 60);
+    let dark_in_title =
+        (0..40).flat_map(|y| (0..800).map(move |x| (x, y))).any(|(x, y)| image.pixel(x, y).unwrap()[0] < 60);
     assert!(dark_in_title);
 }
 

@@ -98,8 +98,9 @@ fn cube_shows_the_colours_of_its_visible_faces() {
     // are +x, −y and +z.
     let camera = Camera::orbit(&bounding_box(&cube), 60.0, 30.0, 35.0, 1.25);
     let options = RenderOptions::new(w, h);
-    let image = render(&[RenderMesh::new(&cube).with_face_colors(&colors).with_shading(Shading::Flat)], &camera, &options)
-        .unwrap();
+    let image =
+        render(&[RenderMesh::new(&cube).with_face_colors(&colors).with_shading(Shading::Flat)], &camera, &options)
+            .unwrap();
     let at = |p: DVec3| {
         let q = camera.project(p, w, h).unwrap();
         image.pixel(q.x as u32, q.y as u32).unwrap()
@@ -125,10 +126,12 @@ fn a_small_sphere_in_front_occludes_a_big_one_whatever_the_order() {
     let red = [0.8, 0.05, 0.05];
     let grey = [0.5, 0.5, 0.5];
     let options = RenderOptions::new(120, 120);
-    let a = render(&[RenderMesh::new(&big).with_color(grey), RenderMesh::new(&small).with_color(red)], &camera, &options)
-        .unwrap();
-    let b = render(&[RenderMesh::new(&small).with_color(red), RenderMesh::new(&big).with_color(grey)], &camera, &options)
-        .unwrap();
+    let a =
+        render(&[RenderMesh::new(&big).with_color(grey), RenderMesh::new(&small).with_color(red)], &camera, &options)
+            .unwrap();
+    let b =
+        render(&[RenderMesh::new(&small).with_color(red), RenderMesh::new(&big).with_color(grey)], &camera, &options)
+            .unwrap();
     assert_eq!(a, b, "the depth test, not the drawing order, decides");
     let centre = a.pixel(60, 60).unwrap();
     assert!(u16::from(centre[0]) > 3 * u16::from(centre[1]).max(10), "small red sphere in front: {centre:?}");
@@ -248,7 +251,11 @@ fn rendering_is_deterministic_across_runs_and_thread_counts() {
     let scene = [RenderMesh::new(&a).with_vertex_colors(&colors).with_wireframe(true), RenderMesh::new(&b)];
     let options = RenderOptions::new(160, 120);
     let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| render(&scene, &camera, &options))
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| render(&scene, &camera, &options))
     };
     let first = run(1).unwrap();
     assert_eq!(first, run(1).unwrap());
@@ -321,8 +328,12 @@ fn example_pictures() {
     let face = axis_colors(&cube);
     let small = RenderOptions::new(320, 240);
     let cam = Camera::orbit(&bounding_box(&cube), 60.0, 30.0, 35.0, small.aspect());
-    let mut left = render(&[RenderMesh::new(&cube).with_face_colors(&face).with_shading(Shading::Flat).with_wireframe(true)], &cam, &small)
-        .unwrap();
+    let mut left = render(
+        &[RenderMesh::new(&cube).with_face_colors(&face).with_shading(Shading::Flat).with_wireframe(true)],
+        &cam,
+        &small,
+    )
+    .unwrap();
     label(&mut left, "before");
     let mut capsule = shapes::capsule(0.5, 2.0, 32, 8, 8);
     for t in capsule.triangles.iter_mut().take(400) {

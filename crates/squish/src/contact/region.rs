@@ -65,11 +65,7 @@ impl EdgeRegion {
     /// A region from inside flags and a rule giving the boundary parameter α on every edge
     /// that joins an inside vertex to an outside one: `alpha(edge, inside_vertex, outside_vertex)`.
     /// α is clamped to [0, 1]; a non-finite α is replaced by 0.5.
-    pub fn from_inside(
-        topology: &Topology,
-        inside: Vec<bool>,
-        mut alpha: impl FnMut(u32, u32, u32) -> f64,
-    ) -> Self {
+    pub fn from_inside(topology: &Topology, inside: Vec<bool>, mut alpha: impl FnMut(u32, u32, u32) -> f64) -> Self {
         debug_assert_eq!(inside.len(), topology.num_vertices());
         let mut region = Self {
             inside,
@@ -273,12 +269,7 @@ impl EdgeRegion {
 
     /// Area of the region measured on displaced positions: `position(sample)` gives where each
     /// sample goes (e.g. its point on the contact surface 𝒮).
-    pub fn area_with(
-        &self,
-        mesh: &TriMesh,
-        topology: &Topology,
-        position: impl Fn(Sample) -> DVec3,
-    ) -> f64 {
+    pub fn area_with(&self, mesh: &TriMesh, topology: &Topology, position: impl Fn(Sample) -> DVec3) -> f64 {
         let mut area = 0.0;
         self.triangles(mesh, topology, |_, [a, b, c]| {
             let (pa, pb, pc) = (position(a), position(b), position(c));

@@ -2,8 +2,10 @@
 //! methods A and B agree where both apply (thesis Fig. 7.14), both direction fields are fold-free
 //! on deep collisions, and the parallel-transport field's cost on a ~10k-vertex region.
 //!
-//! The [`crate::pipeline::Deformer`] cannot choose the direction field yet, so these tests call
-//! [`contact_pair`] and [`deform_region`] directly.
+//! These tests call [`contact_pair`] and [`deform_region`] directly, to look at each stage; the
+//! same choices through the [`crate::pipeline::Deformer`] (`ObjectParams::direction_field`,
+//! `ObjectParams::uvs`, `PairParams::{contact_method, mapping}`) are tested in
+//! `pipeline::tests::method_a_runs_through_the_deformer`.
 
 #![allow(clippy::unwrap_used)]
 

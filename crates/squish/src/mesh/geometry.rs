@@ -145,10 +145,8 @@ pub fn mean_edge_length(mesh: &TriMesh, topology: &Topology) -> f64 {
     if edges.is_empty() {
         return 0.0;
     }
-    let total: f64 = edges
-        .iter()
-        .map(|&[a, b]| (mesh.positions[a as usize] - mesh.positions[b as usize]).length())
-        .sum();
+    let total: f64 =
+        edges.iter().map(|&[a, b]| (mesh.positions[a as usize] - mesh.positions[b as usize]).length()).sum();
     total / edges.len() as f64
 }
 

@@ -17,14 +17,12 @@ mod topology;
 pub mod shapes;
 
 pub use geometry::{
-    bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length,
-    signed_volume, triangle_area, vertex_areas, vertex_normals, Aabb3,
+    Aabb3, bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length, signed_volume,
+    triangle_area, vertex_areas, vertex_normals,
 };
-pub use region::{
-    close_pinches, cut_border, edge_path_distances, face_set_pieces, region_vertex_normals,
-};
-pub use submesh::{SubMesh, NOT_IN_SUBMESH};
-pub use topology::{Topology, NO_FACE};
+pub use region::{close_pinches, cut_border, edge_path_distances, face_set_pieces, region_vertex_normals};
+pub use submesh::{NOT_IN_SUBMESH, SubMesh};
+pub use topology::{NO_FACE, Topology};
 
 use glam::DVec3;
 
@@ -42,13 +40,19 @@ pub struct TriMesh {
 pub enum MeshError {
     #[error("the mesh is empty ({vertices} vertices, {triangles} triangles); give a mesh with at least one triangle")]
     Empty { vertices: usize, triangles: usize },
-    #[error("triangle {triangle} refers to vertex {index}, but the mesh has only {vertices} vertices (valid indices are 0..{vertices})")]
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but the mesh has only {vertices} vertices (valid indices are 0..{vertices})"
+    )]
     IndexOutOfRange { triangle: usize, index: u64, vertices: usize },
     #[error("vertex {vertex} has a non-finite coordinate ({value}); every coordinate must be a finite number")]
     NonFiniteCoordinate { vertex: usize, value: f64 },
-    #[error("triangle {triangle} is degenerate ({reason}); remove it or clean the mesh (e.g. merge by distance) before deforming")]
+    #[error(
+        "triangle {triangle} is degenerate ({reason}); remove it or clean the mesh (e.g. merge by distance) before deforming"
+    )]
     DegenerateTriangle { triangle: usize, reason: String },
-    #[error("edge ({v0}, {v1}) is shared by {faces} triangles; a manifold mesh has at most 2 per edge (split or clean the mesh)")]
+    #[error(
+        "edge ({v0}, {v1}) is shared by {faces} triangles; a manifold mesh has at most 2 per edge (split or clean the mesh)"
+    )]
     NonManifoldEdge { v0: u32, v1: u32, faces: usize },
     #[error("vertex {vertex} is non-manifold: its triangles form {fans} separate fans; split it into {fans} vertices")]
     NonManifoldVertex { vertex: u32, fans: usize },
@@ -85,10 +89,7 @@ impl TriMesh {
     /// Checks non-emptiness, index ranges and finite coordinates.
     pub fn check_structure(&self) -> Result<(), MeshError> {
         if self.triangles.is_empty() || self.positions.is_empty() {
-            return Err(MeshError::Empty {
-                vertices: self.positions.len(),
-                triangles: self.triangles.len(),
-            });
+            return Err(MeshError::Empty { vertices: self.positions.len(), triangles: self.triangles.len() });
         }
         let n = self.positions.len();
         for (t, tri) in self.triangles.iter().enumerate() {
@@ -165,11 +166,8 @@ mod tests {
     use super::*;
 
     fn tetrahedron() -> TriMesh {
-        TriMesh::new(
-            vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
-            vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
-        )
-        .expect("valid tetrahedron")
+        TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z], vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+            .expect("valid tetrahedron")
     }
 
     #[test]
@@ -187,8 +185,8 @@ mod tests {
 
     #[test]
     fn non_finite_coordinate_names_the_vertex() {
-        let err = TriMesh::new(vec![DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y], vec![[0, 1, 2]])
-            .unwrap_err();
+        let err =
+            TriMesh::new(vec![DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y], vec![[0, 1, 2]]).unwrap_err();
         assert!(matches!(err, MeshError::NonFiniteCoordinate { vertex: 1, .. }));
         let err = TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::new(0.0, f64::INFINITY, 0.0)], vec![[0, 1, 2]])
             .unwrap_err();

@@ -157,11 +157,7 @@ pub fn grid(width: f64, depth: f64, nx: u32, ny: u32) -> TriMesh {
     let mut positions = Vec::with_capacity(((nx + 1) * (ny + 1)) as usize);
     for j in 0..=ny {
         for i in 0..=nx {
-            positions.push(DVec3::new(
-                width * (i as f64 / nx as f64 - 0.5),
-                depth * (j as f64 / ny as f64 - 0.5),
-                0.0,
-            ));
+            positions.push(DVec3::new(width * (i as f64 / nx as f64 - 0.5), depth * (j as f64 / ny as f64 - 0.5), 0.0));
         }
     }
     let id = |i: u32, j: u32| j * (nx + 1) + i;
@@ -235,7 +231,7 @@ pub fn cube(size: f64, n: u32) -> TriMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{signed_volume, Topology};
+    use crate::mesh::{Topology, signed_volume};
 
     fn assert_closed_manifold(mesh: &TriMesh) {
         mesh.check_for_deformation().expect("valid mesh");

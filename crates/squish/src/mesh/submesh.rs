@@ -55,10 +55,8 @@ impl SubMesh {
             }
         }
         let positions = parent_vertex.iter().map(|&v| parent.positions[v as usize]).collect();
-        let triangles = face_ids
-            .iter()
-            .map(|&f| parent.triangles[f as usize].map(|v| local_vertex[v as usize]))
-            .collect();
+        let triangles =
+            face_ids.iter().map(|&f| parent.triangles[f as usize].map(|v| local_vertex[v as usize])).collect();
         Self { mesh: TriMesh { positions, triangles }, parent_vertex, parent_face: face_ids, local_vertex }
     }
 
@@ -106,15 +104,14 @@ impl SubMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{shapes, Topology};
+    use crate::mesh::{Topology, shapes};
 
     #[test]
     fn maps_round_trip() {
         let parent = shapes::icosphere(1.0, 2);
         // Faces of the upper half.
-        let faces = (0..parent.num_triangles() as u32).filter(|&f| {
-            parent.triangles[f as usize].iter().all(|&v| parent.positions[v as usize].z > 0.0)
-        });
+        let faces = (0..parent.num_triangles() as u32)
+            .filter(|&f| parent.triangles[f as usize].iter().all(|&v| parent.positions[v as usize].z > 0.0));
         let sub = SubMesh::from_faces(&parent, faces);
         assert!(sub.num_vertices() > 0 && sub.num_vertices() < parent.num_vertices());
         for (local, &p) in sub.parent_vertex.iter().enumerate() {

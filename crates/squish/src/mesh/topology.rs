@@ -408,11 +408,8 @@ mod tests {
 
     fn two_triangles() -> TriMesh {
         // A unit square split along its diagonal 0–2.
-        TriMesh::new(
-            vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y],
-            vec![[0, 1, 2], [0, 2, 3]],
-        )
-        .unwrap()
+        TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y], vec![[0, 1, 2], [0, 2, 3]])
+            .unwrap()
     }
 
     #[test]
@@ -488,11 +485,9 @@ mod tests {
     #[test]
     fn non_manifold_vertex_is_detected() {
         // Two triangles touching at vertex 0 only (a bow tie).
-        let mesh = TriMesh::new(
-            vec![DVec3::ZERO, DVec3::X, DVec3::Y, -DVec3::X, -DVec3::Y],
-            vec![[0, 1, 2], [0, 3, 4]],
-        )
-        .unwrap();
+        let mesh =
+            TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::Y, -DVec3::X, -DVec3::Y], vec![[0, 1, 2], [0, 3, 4]])
+                .unwrap();
         let topo = Topology::new(&mesh);
         assert!(topo.non_manifold_edges().is_empty());
         assert_eq!(topo.check_manifold(&mesh).unwrap_err(), MeshError::NonManifoldVertex { vertex: 0, fans: 2 });

@@ -26,14 +26,14 @@
 //! for a region whose face set changed). The same input gives bit-identical output with a fresh or
 //! a reused deformer, whatever the thread count.
 
-mod params;
 pub mod bench_scenes;
+mod params;
 pub mod regions;
 pub mod scenes;
 
 use std::time::{Duration, Instant};
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -99,6 +99,10 @@ pub enum PipelineError {
     InvalidParameter { object: String, what: &'static str, value: f64 },
     #[error("object \"{object}\": working region: {reason}")]
     InvalidRegion { object: String, reason: String },
+    #[error(
+        "object \"{object}\": {what} has {actual} values but the mesh has {expected} vertices; give one value per vertex"
+    )]
+    PerVertexLength { object: String, what: &'static str, expected: usize, actual: usize },
     #[error(
         "object \"{object}\", working region {region}: {reason}; use a larger working region (a wider mask or \
          distance) or a smaller extent"
@@ -336,6 +340,7 @@ impl ObjectCache {
         object: &'a FrameObject,
         normals: Option<&'a [DVec3]>,
         name: &'a str,
+        uvs: Option<&'a [DVec2]>,
     ) -> Option<ContactSide<'a>> {
         let region = self.regions.get(r)?;
         let side = match region.sub.as_deref() {
@@ -343,7 +348,7 @@ impl ObjectCache {
             Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
                 .with_border((sub.border_count > 0).then_some(sub.border.as_slice())),
         };
-        Some(side.with_name(name).with_stiffness(object.params.contact_stiffness()))
+        Some(side.with_name(name).with_stiffness(object.params.contact_stiffness()).with_uvs(uvs))
     }
 
     /// For a cut region `r` and a partner region that is a whole closed object: the first vertex
@@ -491,6 +496,16 @@ impl Deformer {
                 .region
                 .validate(object.mesh.num_vertices())
                 .map_err(|reason| regions::invalid(object.name, reason))?;
+            if let Some(uvs) = &params.uvs
+                && uvs.len() != object.mesh.num_vertices()
+            {
+                return Err(PipelineError::PerVertexLength {
+                    object: object.name.to_string(),
+                    what: "the UVs",
+                    expected: object.mesh.num_vertices(),
+                    actual: uvs.len(),
+                });
+            }
         }
         // The whole-object tree is needed by `Whole` regions and by the partners of automatic ones.
         let needs_tree: Vec<bool> = (0..count)
@@ -595,6 +610,20 @@ impl Deformer {
                     .collect()
             })
             .collect();
+        // UVs of each region (gathered for cut regions), for the shared-parametrization mapping.
+        let uvs: Vec<Vec<Option<Vec<DVec2>>>> = caches
+            .iter()
+            .zip(&frame.objects)
+            .map(|(c, o)| {
+                c.regions
+                    .iter()
+                    .map(|region| {
+                        let uvs = o.params.uvs.as_ref()?;
+                        Some(region.sub.as_deref().map_or_else(|| uvs.clone(), |sub| sub.sub.gather(uvs)))
+                    })
+                    .collect()
+            })
+            .collect();
         let sizes: Vec<Vec<f64>> = caches
             .iter()
             .zip(&prepared)
@@ -627,12 +656,9 @@ impl Deformer {
                 let pair = &frame.pairs[rp.pair];
                 let [ia, ib] = pair.objects;
                 let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
-                let sides = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra]).zip(caches[ib].side(
-                    rb,
-                    ob,
-                    normals[ib].as_deref(),
-                    &names[ib][rb],
-                ));
+                let side_a = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra], uvs[ia][ra].as_deref());
+                let side_b = caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb], uvs[ib][rb].as_deref());
+                let sides = side_a.zip(side_b);
                 let Some((side_a, side_b)) = sides else { return Ok(None) };
                 let contact = contact_pair(&side_a, &side_b, &pair.params).map_err(|source| {
                     PipelineError::Contact { a: names[ia][ra].clone(), b: names[ib][rb].clone(), source }

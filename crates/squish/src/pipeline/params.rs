@@ -5,11 +5,12 @@
 //! Scale-dependent defaults are derived from the geometry by the pipeline (see
 //! [`super::automatic_extent`]), never hard-coded.
 
+use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
 use super::WorkingRegion;
 use crate::contact::Stiffness;
-use crate::deform::{DeformParams, ProfileShape, Wrinkles};
+use crate::deform::{DeformParams, DirectionFieldMethod, ProfileShape, Wrinkles};
 
 /// Parameters of one object. Public fields, `Default` = the thesis' defaults, serde-ready
 /// (missing fields take their defaults; unknown fields are errors).
@@ -47,6 +48,13 @@ pub struct ObjectParams {
     pub normalize_diffused_direction: bool,
     /// Heat-method time step as a multiple of the squared mean edge length (§5.1). Default 10.
     pub heat_time_factor: f64,
+    /// How the displacement direction field d is built: method B's blend with the normal (§5.2)
+    /// or method A's parallel transport (§5.2 of the 2020 paper). Default blended.
+    pub direction_field: DirectionFieldMethod,
+    /// Per-vertex texture coordinates, one per vertex: needed by the shared-parametrization
+    /// mapping ([`crate::contact::MappingMethod::SharedParametrization`]) on both objects of a
+    /// pair. Default none.
+    pub uvs: Option<Vec<DVec2>>,
     /// 𝒲: the working regions the pipeline processes (§4, §4.5, §7.5). Default: the whole
     /// object. See [`WorkingRegion`] and [`super::regions`].
     pub region: WorkingRegion,
@@ -70,6 +78,8 @@ impl Default for ObjectParams {
             bulge_map: None,
             normalize_diffused_direction: deform.normalize_diffused,
             heat_time_factor: deform.heat_time_factor,
+            direction_field: deform.direction_method,
+            uvs: None,
             region: WorkingRegion::Whole,
         }
     }
@@ -126,6 +136,7 @@ impl ObjectParams {
             bulge_map: self.bulge_map.clone(),
             normalize_diffused: self.normalize_diffused_direction,
             heat_time_factor: self.heat_time_factor,
+            direction_method: self.direction_field,
             ..DeformParams::default()
         }
     }

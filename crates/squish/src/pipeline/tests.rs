@@ -8,6 +8,8 @@ use glam::DVec3;
 
 use super::scenes::{self, ProceduralScene};
 use super::*;
+use crate::contact::{ContactMethod, MappingMethod};
+use crate::deform::DirectionFieldMethod;
 use crate::mesh::{face_normal_unnormalized, shapes};
 use crate::spatial::{penetration_depths, test_meshes};
 
@@ -318,4 +320,41 @@ fn a_deep_press_stays_continuous() {
     }
     println!("largest jump over a press to 0.45: {worst_ratio:.2} × the step");
     assert!(worst_ratio < 5.0, "{worst_ratio}");
+}
+
+/// Method A end to end through the deformer: ball testing (§4.4.1), the shared-parametrization
+/// mapping (§4.2.1, UVs = (x, y) on both objects) and the parallel-transport direction field. The
+/// elastic ground keeps its volume, the rigid ball's penetration is resolved, and the result stays
+/// close to method B's on this configuration where both apply (thesis Fig. 7.14).
+#[test]
+fn method_a_runs_through_the_deformer() {
+    let depth = 0.2;
+    let method_b = {
+        let mut scene = scenes::ball_on_ground(depth, 4, 48);
+        scene.objects[0].params = ObjectParams::rigid();
+        scene
+    };
+    let mut method_a = method_b.clone();
+    for object in &mut method_a.objects {
+        object.params.uvs = Some(object.mesh.positions.iter().map(|p| p.truncate()).collect());
+    }
+    method_a.objects[1].params.direction_field = DirectionFieldMethod::ParallelTransport;
+    method_a.pairs[0].params = method_a.pairs[0]
+        .params
+        .with_mapping(MappingMethod::SharedParametrization)
+        .with_contact_method(ContactMethod::Ball { radius: 0.15 });
+    let (volume, penetration) = check_scene(&method_a);
+    println!("method A: volume change {volume:.2e}, residual penetration {:.2}%", 100.0 * penetration);
+    assert!(volume < 1e-9, "volume change {volume}");
+    assert!(penetration < 0.05, "residual penetration {penetration}");
+    let (a, b) = (run(&method_a), run(&method_b));
+    let largest_gap = a.positions[1].iter().zip(&b.positions[1]).map(|(p, q)| p.distance(*q)).fold(0.0, f64::max);
+    println!("largest vertex distance between methods A and B: {largest_gap:.4} (depth {depth})");
+    assert!(largest_gap < 0.5 * depth, "methods A and B disagree by {largest_gap}");
+    assert!(a.deformations[1].as_ref().is_some_and(|d| d.contact.iter().any(|&c| c)));
+
+    let mut bad = method_a.clone();
+    bad.objects[1].params.uvs.as_mut().unwrap().pop();
+    let err = Deformer::new().deform(&bad.frame()).unwrap_err().to_string();
+    assert!(err.contains("\"ground\"") && err.contains("UVs"), "{err}");
 }

@@ -19,10 +19,10 @@ use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
 use rayon::prelude::*;
 
-use super::batch::Batch;
-use super::bvh::{box_distance_squared, to_parry, SegmentProbe};
-use super::exact::segment_segment_2d;
 use super::SpatialError;
+use super::batch::Batch;
+use super::bvh::{SegmentProbe, box_distance_squared, to_parry};
+use super::exact::segment_segment_2d;
 use crate::mesh::Aabb3;
 
 /// A BVH over boxes; results name boxes by their index in the input slice.
@@ -431,7 +431,10 @@ mod tests {
         }
         tree.crossings(DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5), &mut hits);
         assert_eq!(hits.len(), 2);
-        let batch = tree.crossings_batch(&[[DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5)], [DVec2::new(5.0, 5.0), DVec2::new(6.0, 5.0)]]);
+        let batch = tree.crossings_batch(&[
+            [DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5)],
+            [DVec2::new(5.0, 5.0), DVec2::new(6.0, 5.0)],
+        ]);
         assert_eq!(batch.get(0), &hits[..]);
         assert!(batch.get(1).is_empty() && batch.len() == 2);
         assert_eq!(hits[0].segment, 3);

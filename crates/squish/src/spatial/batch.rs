@@ -10,7 +10,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::TriangleBvh;
-use super::queries::{hit_order, ClosestPoint, Hit, Ray};
+use super::queries::{ClosestPoint, Hit, Ray, hit_order};
 
 /// Queries per parallel task: large enough to amortize task overhead, small enough to balance.
 const CHUNK: usize = 128;
@@ -66,7 +66,6 @@ impl<T> Batch<T> {
     pub fn total(&self) -> usize {
         self.hits.len()
     }
-
 }
 
 impl<T> Batch<T> {
@@ -155,7 +154,7 @@ impl TriangleBvh {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::mesh::{shapes, Topology};
+    use crate::mesh::{Topology, shapes};
     use std::time::Instant;
 
     fn pseudo_random_segments(n: usize, seed: u64, scale: f64) -> Vec<[DVec3; 2]> {
@@ -217,7 +216,10 @@ mod tests {
             println!("  {name:<46} {:>9.2} ms  ({n} results)", t0.elapsed().as_secs_f64() * 1e3);
         };
         println!("{} rayon threads", rayon::current_num_threads());
-        for (label, mesh) in [("UV sphere 200 × 101", shapes::uv_sphere(1.0, 200, 101)), ("icosphere level 6", shapes::icosphere(1.0, 6))] {
+        for (label, mesh) in [
+            ("UV sphere 200 × 101", shapes::uv_sphere(1.0, 200, 101)),
+            ("icosphere level 6", shapes::icosphere(1.0, 6)),
+        ] {
             println!("{label}: {} triangles", mesh.num_triangles());
             let mut tree = None;
             time("build", &mut || {
@@ -258,8 +260,11 @@ mod tests {
             time("100k rays, farthest hit, batch", &mut || tree.ray_farthest_batch(&rays).iter().flatten().count());
             time("100k rays, nearest hit, batch", &mut || tree.ray_nearest_batch(&rays).iter().flatten().count());
             time("100k closest points, batch", &mut || tree.closest_point_batch(&points).iter().flatten().count());
-            let near_surface: Vec<DVec3> = points.iter().map(|p| p.normalize_or_zero() * (0.95 + 0.1 * (p.x * 40.0).sin().abs())).collect();
-            time("100k closest points near the surface, batch", &mut || tree.closest_point_batch(&near_surface).iter().flatten().count());
+            let near_surface: Vec<DVec3> =
+                points.iter().map(|p| p.normalize_or_zero() * (0.95 + 0.1 * (p.x * 40.0).sin().abs())).collect();
+            time("100k closest points near the surface, batch", &mut || {
+                tree.closest_point_batch(&near_surface).iter().flatten().count()
+            });
             time("  pass 1 only (parry project_point)", &mut || {
                 near_surface
                     .par_iter()
@@ -267,7 +272,10 @@ mod tests {
                         tree.bvh.project_point(p, f64::MAX, |leaf, _| {
                             let t = &tree.corners[leaf as usize];
                             let bary = crate::spatial::closest::closest_point_on_triangle(p, t);
-                            Some(parry3d_f64::query::PointProjection::new(false, crate::spatial::closest::barycentric_point(t, bary)))
+                            Some(parry3d_f64::query::PointProjection::new(
+                                false,
+                                crate::spatial::closest::barycentric_point(t, bary),
+                            ))
                         })
                     })
                     .count()

@@ -56,7 +56,9 @@ impl TriangleBvh {
                 .ok_or(SpatialError::FaceOutOfRange { face: f, faces: mesh.triangles.len() })?;
             for &i in &tri {
                 if i as usize >= nv {
-                    return Err(MeshError::IndexOutOfRange { triangle: f as usize, index: i as u64, vertices: nv }.into());
+                    return Err(
+                        MeshError::IndexOutOfRange { triangle: f as usize, index: i as u64, vertices: nv }.into()
+                    );
                 }
             }
             indices.push(tri);
@@ -292,7 +294,13 @@ mod tests {
             let c = tree.leaf_corners(0).unwrap();
             let centroid = (c[0] + c[1] + c[2]) / 3.0;
             assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z, centroid - DVec3::Z), 1);
-            assert_eq!(tree.segment_crossing_count(centroid + DVec3::Z - DVec3::new(5.0, 0.0, 3.0), centroid - DVec3::Z - DVec3::new(5.0, 0.0, 3.0)), 0);
+            assert_eq!(
+                tree.segment_crossing_count(
+                    centroid + DVec3::Z - DVec3::new(5.0, 0.0, 3.0),
+                    centroid - DVec3::Z - DVec3::new(5.0, 0.0, 3.0)
+                ),
+                0
+            );
         }
     }
 

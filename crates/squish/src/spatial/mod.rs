@@ -41,9 +41,9 @@ pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, Hit, Ray};
-pub use self_intersection::{mesh_intersections, self_intersections, SelfIntersections};
+pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
-pub use winding::{generalized_winding_number, penetration_depths, solid_angle, FastWinding};
+pub use winding::{FastWinding, generalized_winding_number, penetration_depths, solid_angle};
 
 use crate::mesh::MeshError;
 
@@ -60,6 +60,8 @@ pub enum SpatialError {
     InvalidBox { index: usize, min: [f64; 3], max: [f64; 3] },
     #[error("got {got} items to refit a tree built over {expected}")]
     ItemCount { expected: usize, got: usize },
-    #[error("the mesh is not closed ({boundary_edges} boundary edges): inside/outside is undefined; close its holes first")]
+    #[error(
+        "the mesh is not closed ({boundary_edges} boundary edges): inside/outside is undefined; close its holes first"
+    )]
     NotClosed { boundary_edges: usize },
 }

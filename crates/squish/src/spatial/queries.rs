@@ -24,9 +24,9 @@
 use glam::DVec3;
 use parry3d_f64::partitioning::{BvhNode, TraversalAction};
 
-use super::bvh::{box_distance_squared, to_parry, SegmentProbe, TriangleBvh};
+use super::bvh::{SegmentProbe, TriangleBvh, box_distance_squared, to_parry};
 use super::closest::{barycentric_point, closest_point_on_triangle};
-use super::exact::{segment_triangle, Crossing};
+use super::exact::{Crossing, segment_triangle};
 use crate::mesh::Aabb3;
 
 /// A crossing of a query segment or ray with a triangle of the tree.
@@ -354,7 +354,7 @@ impl TriangleBvh {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::mesh::{shapes, TriMesh};
+    use crate::mesh::{TriMesh, shapes};
 
     fn brute_force_hits(mesh: &TriMesh, a: DVec3, b: DVec3) -> Vec<(u32, f64)> {
         let mut v: Vec<(u32, f64)> = (0..mesh.num_triangles())
@@ -371,9 +371,11 @@ mod tests {
         let mesh = shapes::icosphere(r, level);
         let tree = TriangleBvh::new(&mesh).unwrap();
         // Chord error of an icosphere: the sagitta of its longest edge.
-        let max_edge = mesh.triangles.iter().flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3]))).fold(0.0f64, |m, (i, j)| {
-            m.max((mesh.positions[i as usize] - mesh.positions[j as usize]).length())
-        });
+        let max_edge = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .fold(0.0f64, |m, (i, j)| m.max((mesh.positions[i as usize] - mesh.positions[j as usize]).length()));
         let sagitta = r - (r * r - max_edge * max_edge / 4.0).sqrt();
         let mut hits = Vec::new();
         for (a, b) in [
@@ -481,7 +483,8 @@ mod tests {
         let mut hits = Vec::new();
         let mut vertex_segments: Vec<(DVec3, DVec3)> =
             mesh.positions.iter().step_by(7).map(|&v| (2.0 * v, -1.5 * v + DVec3::new(0.0, 0.0, 0.3))).collect();
-        vertex_segments.extend((0..400).map(|_| (DVec3::new(next(), next(), next()), DVec3::new(next(), next(), next()))));
+        vertex_segments
+            .extend((0..400).map(|_| (DVec3::new(next(), next(), next()), DVec3::new(next(), next(), next()))));
         for (a, b) in vertex_segments {
             tree.segment_hits(a, b, &mut hits);
             assert_eq!(tree.segment_nearest(a, b), hits.first().copied());
@@ -634,9 +637,8 @@ mod tests {
     #[test]
     fn subset_trees_report_mesh_face_ids() {
         let mesh = shapes::icosphere(1.0, 2);
-        let upper: Vec<u32> = (0..mesh.num_triangles() as u32)
-            .filter(|&f| mesh.corners(f as usize).iter().all(|p| p.z > 0.0))
-            .collect();
+        let upper: Vec<u32> =
+            (0..mesh.num_triangles() as u32).filter(|&f| mesh.corners(f as usize).iter().all(|p| p.z > 0.0)).collect();
         let tree = TriangleBvh::with_faces(&mesh, upper.iter().copied()).unwrap();
         let mut hits = Vec::new();
         tree.segment_hits(DVec3::new(0.1, 0.1, -2.0), DVec3::new(0.1, 0.1, 2.0), &mut hits);

@@ -14,9 +14,9 @@
 
 use rayon::prelude::*;
 
-use super::bvh::{triangle_aabb, TriangleBvh};
-use super::tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
 use super::SpatialError;
+use super::bvh::{TriangleBvh, triangle_aabb};
+use super::tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
 use crate::mesh::TriMesh;
 
 /// Self-intersections of a mesh.
@@ -112,7 +112,12 @@ mod tests {
 
     #[test]
     fn clean_closed_meshes_have_no_self_intersection() {
-        for mesh in [shapes::icosphere(1.0, 4), shapes::cube(2.0, 5), shapes::capsule(0.5, 2.0, 24, 6, 5), shapes::grid(1.0, 1.0, 7, 5)] {
+        for mesh in [
+            shapes::icosphere(1.0, 4),
+            shapes::cube(2.0, 5),
+            shapes::capsule(0.5, 2.0, 24, 6, 5),
+            shapes::grid(1.0, 1.0, 7, 5),
+        ] {
             let found = self_intersections(&mesh).unwrap();
             assert!(found.pairs.is_empty(), "{:?}", &found.pairs[..found.pairs.len().min(5)]);
         }

@@ -21,8 +21,8 @@
 use glam::DVec3;
 
 use super::exact::{
-    cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d, sign,
-    triangles_touch_2d,
+    cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d,
+    sign, triangles_touch_2d,
 };
 
 /// True if the closed triangles `t1` and `t2` share at least one point (touching counts).

@@ -24,8 +24,8 @@ use glam::DVec3;
 use parry3d_f64::partitioning::{BvhNode, BvhNodeIndex, TraversalAction};
 use rayon::prelude::*;
 
-use super::bvh::TriangleBvh;
 use super::SpatialError;
+use super::bvh::TriangleBvh;
 use crate::mesh::{Topology, TriMesh};
 
 /// Signed solid angle of the triangle `t` seen from `p`: positive when `p` is behind the
@@ -76,7 +76,14 @@ impl TriangleBvh {
     /// is classified as if moved by an infinitesimal along +x. Meaningless for open meshes.
     pub fn winding_number(&self, p: DVec3) -> i32 {
         let b = self.bounds;
-        if self.is_empty() || !p.is_finite() || p.x > b.max.x || p.y < b.min.y || p.y > b.max.y || p.z < b.min.z || p.z > b.max.z {
+        if self.is_empty()
+            || !p.is_finite()
+            || p.x > b.max.x
+            || p.y < b.min.y
+            || p.y > b.max.y
+            || p.z < b.min.z
+            || p.z > b.max.z
+        {
             return 0;
         }
         // Strictly beyond the box, so that the far end lies on no triangle.
@@ -333,7 +340,10 @@ mod tests {
         eprintln!("fast winding, accuracy 2: worst error {worst:.2e}");
         assert!(worst < 0.06, "{worst}");
         let finer = FastWinding::new(&tree, 4.0);
-        let worst_fine = points.iter().map(|&p| (finer.winding_number(p) - tree.generalized_winding_number(p)).abs()).fold(0.0, f64::max);
+        let worst_fine = points
+            .iter()
+            .map(|&p| (finer.winding_number(p) - tree.generalized_winding_number(p)).abs())
+            .fold(0.0, f64::max);
         eprintln!("fast winding, accuracy 4: worst error {worst_fine:.2e}");
         assert!(worst_fine < worst, "{worst_fine} vs {worst}");
     }
@@ -358,6 +368,9 @@ mod tests {
                 assert_eq!(*d > 0.0, p.z < 1.0, "{p}");
             }
         }
-        assert!(matches!(penetration_depths(&cube, &shapes::grid(1.0, 1.0, 2, 2)), Err(SpatialError::NotClosed { .. })));
+        assert!(matches!(
+            penetration_depths(&cube, &shapes::grid(1.0, 1.0, 2, 2)),
+            Err(SpatialError::NotClosed { .. })
+        ));
     }
 }
