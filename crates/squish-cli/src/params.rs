@@ -163,6 +163,23 @@ mod tests {
         assert_eq!(settings.a.profile.x2, 0.4);
         let settings = pair_settings(None, &["a.extent=auto".into()]).unwrap();
         assert_eq!(settings.a.extent, None);
+        // Method A's choices and working regions, as words or JSON.
+        let sets: Vec<String> = [
+            "b.direction_field=parallel_transport",
+            r#"pair.contact_method={"ball":{"radius":0.3}}"#,
+            "pair.mapping=shared_parametrization",
+            "a.region=components",
+            r#"b.region={"distance":0.5}"#,
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let settings = pair_settings(None, &sets).unwrap();
+        assert_eq!(settings.b.direction_field, squish::deform::DirectionFieldMethod::ParallelTransport);
+        assert_eq!(settings.pair.contact_method, squish::contact::ContactMethod::Ball { radius: 0.3 });
+        assert_eq!(settings.pair.mapping, squish::contact::MappingMethod::SharedParametrization);
+        assert_eq!(settings.a.region, squish::pipeline::WorkingRegion::Components);
+        assert_eq!(settings.b.region, squish::pipeline::WorkingRegion::Distance(0.5));
     }
 
     #[test]

@@ -64,6 +64,7 @@ pub fn relative_stiffness(a: Stiffness, b: Stiffness, names: [&str; 2]) -> Resul
 
 /// How the contact zone 𝒞 is extracted from the potential contact surface (thesis §4.4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum ContactMethod {
     /// Method B's geometric criterion δᵀn′ ≥ ε_c (§4.4.2, Eq. 4.2–4.4), driven by τ. Handles
     /// elastic–elastic contacts.
@@ -82,6 +83,7 @@ pub enum ContactMethod {
 
 /// How the points of one working region are matched on the other (thesis §4.2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum MappingMethod {
     /// Method B's unique mapping direction d̂ and farthest hits along it (§4.2.2).
     #[default]
@@ -247,9 +249,9 @@ mod tests {
             .with_contact_method(ContactMethod::Ball { radius: 0.25 })
             .with_mapping(MappingMethod::SharedParametrization);
         let json = serde_json::to_string(&a).unwrap();
-        assert!(json.contains("Ball") && json.contains("SharedParametrization"), "{json}");
+        assert!(json.contains("ball") && json.contains("shared_parametrization"), "{json}");
         assert_eq!(serde_json::from_str::<PairParams>(&json).unwrap(), a);
-        let parsed: PairParams = serde_json::from_str(r#"{"contact_method": {"Ball": {"radius": 2.0}}}"#).unwrap();
+        let parsed: PairParams = serde_json::from_str(r#"{"contact_method": {"ball": {"radius": 2.0}}}"#).unwrap();
         assert_eq!(parsed.contact_method, ContactMethod::Ball { radius: 2.0 });
         assert!(a.validate().is_ok());
         for radius in [0.0, -1.0, f64::NAN, f64::INFINITY] {

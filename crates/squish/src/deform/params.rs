@@ -11,6 +11,7 @@ use crate::linalg::DEFAULT_CONSTRAINT_WEIGHT_FACTOR;
 
 /// How the displacement direction field `d` is built (thesis §5.2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum DirectionFieldMethod {
     /// Method B (§5.2.2, Eq. 5.4): the mapping directions (diffused when there are several zones)
     /// blended with the input normals, `d = normalize(w(u)·d̄ + (1 − w(u))·n)`, `w = (1 − u²)⁶`.
