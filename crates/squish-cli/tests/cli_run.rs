@@ -211,25 +211,52 @@ fn a_misspelled_key_is_an_error_naming_the_key_and_the_line() {
     assert!(!message.contains("panicked"), "{message}");
 }
 
+/// Method A's ball testing against a rigid ground and an automatic working region on the ball
+/// run through `squish run`; a ball pair without a rigid side and bad arguments are clean errors.
 #[test]
-fn unsupported_features_and_bad_arguments_are_clean_errors() {
+fn ball_testing_and_working_regions_run_and_bad_arguments_are_clean_errors() {
     let dir = tempfile::tempdir().unwrap();
-    write_meshes(dir.path(), 1);
+    write_meshes(dir.path(), 3);
     let scene = write_scene(dir.path(), 4, "obj");
-    let text = std::fs::read_to_string(&scene).unwrap() + "contact_method = { ball = 0.3 }\n";
+    let text = std::fs::read_to_string(&scene).unwrap() + "contact_method = { ball = 0.1 }\n";
     let ball = dir.path().join("ball_method.toml");
-    std::fs::write(&ball, text.replace("stiffness = 2.0", "rigid = true")).unwrap();
-    let output = squish().arg("run").arg(&ball).output().unwrap();
-    assert_eq!(output.status.code(), Some(2));
-    assert!(
-        stderr(&output).contains("contact_method") && stderr(&output).contains("\"ground\""),
-        "{}",
-        stderr(&output)
-    );
+    let method_a = text
+        .replace("stiffness = 2.0", "rigid = true")
+        .replace("mesh = \"ball.obj\"", "mesh = \"ball.obj\"\nregion = { distance = 0.6 }");
+    std::fs::write(&ball, method_a).unwrap();
+    let out = dir.path().join("ball_out");
+    run(&ball, &out, &[]);
+    let report = read_report(&out);
+    let last = &report["per_frame"][3];
+    assert_eq!(last["pairs"][0]["in_contact"], true, "{last}");
+    let ratio = last["pairs"][0]["penetration_ratio"].as_f64().unwrap();
+    assert!(ratio < 0.05, "residual penetration {ratio} of the input's");
+    let volume = last["objects"][0]["relative_volume_change"].as_f64().unwrap();
+    assert!(volume.abs() < 1e-9, "volume change {volume}");
+
+    // Ball testing needs a rigid side: the library's error names the pair.
+    let both_soft = dir.path().join("both_soft.toml");
+    std::fs::write(&both_soft, &text).unwrap();
+    let output = squish().arg("run").arg(&both_soft).arg("-o").arg(dir.path().join("soft_out")).output().unwrap();
+    assert!(!output.status.success());
+    assert!(stderr(&output).contains("rigid") && stderr(&output).contains("ground"), "{}", stderr(&output));
     for args in [&["--frames", "3:9"][..], &["--threads", "0"], &["--preview=7"]] {
         let output = squish().arg("run").arg(&scene).args(args).output().unwrap();
         assert_eq!(output.status.code(), Some(2), "{args:?}: {}", stderr(&output));
     }
+}
+
+/// The README's example scene runs: frames around the deepest press, clean contact, volume kept.
+#[test]
+fn the_example_scene_runs() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/press/press.toml");
+    let dir = tempfile::tempdir().unwrap();
+    run(&scene, dir.path(), &["--frames", "22:26"]);
+    let summary = &read_report(dir.path())["summary"];
+    assert_eq!(summary["frames_computed"], 5);
+    assert!(summary["max_volume_change"]["value"].as_f64().unwrap() < 1e-9, "{summary}");
+    assert!(summary["max_penetration_ratio"]["value"].as_f64().unwrap() < 0.05, "{summary}");
+    assert!(summary["max_step_ratio"]["value"].as_f64().unwrap() < 3.0, "{summary}");
 }
 
 #[test]
