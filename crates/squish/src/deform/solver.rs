@@ -21,8 +21,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::DeformError;
+use crate::linalg::constraints::{find, union_through_faces};
 use crate::linalg::{
-    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NEGLIGIBLE_FACE_WEIGHT,
+    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT,
     NumericFactor, Operator, SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
 };
 use crate::mesh::{Topology, TriMesh};
@@ -261,7 +262,7 @@ fn refactorize(
 /// constraints, Neumann elsewhere.
 ///
 /// Pinning (as in [`crate::linalg::ConstrainedSystem`]): a vertex whose component — through faces
-/// of weight ≥ [`NEGLIGIBLE_FACE_WEIGHT`] — holds no constraint of weight ≥
+/// of weight ≥ [`crate::linalg::NEGLIGIBLE_FACE_WEIGHT`] — holds no constraint of weight ≥
 /// [`NEGLIGIBLE_CONSTRAINT_COEFFICIENT`] is undetermined; it gets +1 on its diagonal and the value
 /// 0 (these are vertices outside 𝒟, or a component of 𝒟 whose constraints all faded out).
 #[derive(Debug)]
@@ -305,20 +306,8 @@ impl WeightedSystem {
             }
         }
         // Components through non-negligible faces; anchored if they hold a non-negligible weight.
+        union_through_faces(&mut self.parent, operator);
         let parent = &mut self.parent;
-        parent.clear();
-        parent.extend(0..n as u32);
-        for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
-            if w >= NEGLIGIBLE_FACE_WEIGHT {
-                let r0 = find(parent, tri[0]);
-                for &v in &tri[1..] {
-                    let r = find(parent, v);
-                    if r != r0 {
-                        parent[r as usize] = r0;
-                    }
-                }
-            }
-        }
         self.anchored.clear();
         self.anchored.resize(n, false);
         for &(v, w) in weighted {
@@ -384,15 +373,6 @@ impl WeightedSystem {
     pub(crate) fn pinned(&self) -> &[bool] {
         &self.pinned
     }
-}
-
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        let grand = parent[parent[v as usize] as usize];
-        parent[v as usize] = grand;
-        v = grand;
-    }
-    v
 }
 
 #[cfg(test)]

@@ -127,13 +127,33 @@ struct Group {
     links: u32,
 }
 
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
+/// Root of `v` in the union-find forest `parent` (path halving).
+pub(crate) fn find(parent: &mut [u32], mut v: u32) -> u32 {
     while parent[v as usize] != v {
         let grand = parent[parent[v as usize] as usize];
         parent[v as usize] = grand;
         v = grand;
     }
     v
+}
+
+/// Resets `parent` to the union-find forest of the operator's vertices joined through faces of
+/// weight ≥ [`NEGLIGIBLE_FACE_WEIGHT`] (the components the operator alone connects).
+pub(crate) fn union_through_faces(parent: &mut Vec<u32>, operator: &Operator) {
+    let pattern = operator.pattern();
+    parent.clear();
+    parent.extend(0..pattern.num_vertices() as u32);
+    for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
+        if w >= NEGLIGIBLE_FACE_WEIGHT {
+            let r0 = find(parent, tri[0]);
+            for &v in &tri[1..] {
+                let r = find(parent, v);
+                if r != r0 {
+                    parent[r as usize] = r0;
+                }
+            }
+        }
+    }
 }
 
 impl ConstrainedSystem {
@@ -225,21 +245,9 @@ impl ConstrainedSystem {
     fn find_unreachable(&mut self, operator: &Operator) {
         let pattern = operator.pattern();
         let n = pattern.num_vertices();
-        let parent = &mut self.union_find;
-        parent.clear();
-        parent.extend(0..n as u32);
         // Components through faces of non-negligible weight.
-        for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
-            if w >= NEGLIGIBLE_FACE_WEIGHT {
-                let r0 = find(parent, tri[0]);
-                for &v in &tri[1..] {
-                    let r = find(parent, v);
-                    if r != r0 {
-                        parent[r as usize] = r0;
-                    }
-                }
-            }
-        }
+        union_through_faces(&mut self.union_find, operator);
+        let parent = &mut self.union_find;
         // Freeze the component of every vertex; component roots are their own parents, so the same
         // union-find then groups components through constraint links.
         let component = &mut self.component;

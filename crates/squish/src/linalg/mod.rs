@@ -47,7 +47,7 @@
 //! ```
 
 mod cholesky;
-mod constraints;
+pub(crate) mod constraints;
 mod cut_weights;
 mod error;
 mod laplacian;

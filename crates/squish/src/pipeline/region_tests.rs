@@ -7,20 +7,11 @@
 use glam::DVec3;
 
 use super::scenes::{self, ProceduralScene};
+use super::tests::{deepest_penetration, deformed};
 use super::*;
 use crate::mesh::{face_normal_unnormalized, shapes};
 use crate::spatial::{penetration_depths, self_intersections, test_meshes};
 
-fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
-    TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
-}
-
-/// Deepest vertex of either mesh inside the other.
-fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
-    let ab = penetration_depths(a, b).unwrap();
-    let ba = penetration_depths(b, a).unwrap();
-    ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
-}
 
 fn bits(positions: &[DVec3]) -> Vec<u64> {
     positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect()

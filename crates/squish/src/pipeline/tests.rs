@@ -17,12 +17,12 @@ fn run(scene: &ProceduralScene) -> FrameResult {
     Deformer::new().deform(&scene.frame()).expect("frame deforms")
 }
 
-fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
+pub(super) fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
     TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
 }
 
 /// Deepest vertex of either mesh inside the other.
-fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
+pub(super) fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
     let ab = penetration_depths(a, b).unwrap();
     let ba = penetration_depths(b, a).unwrap();
     ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
