@@ -250,7 +250,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         }))?,
     )?;
     if interrupt.requested() {
-        return Err(CliError::failure(format!(
+        return Err(CliError::interrupted(format!(
             "interrupted after {} of {} scenes (reports written for the frames done; summary: {})",
             results.len(),
             demos.len(),

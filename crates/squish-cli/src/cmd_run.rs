@@ -136,7 +136,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         } else {
             "; the animated .glb files need every frame and were not written"
         };
-        return Err(CliError::failure(format!(
+        return Err(CliError::interrupted(format!(
             "interrupted: {} of {} frames done (report: {}){glb}; to finish, run the missing frames: {}",
             outcome.records.len(),
             frames.clone().count(),

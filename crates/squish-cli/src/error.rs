@@ -2,7 +2,8 @@
 
 use std::fmt;
 
-/// An error reported to the user. Exit code 1 for failures, 2 for bad usage or bad input.
+/// An error reported to the user. Exit code 1 for failures, 2 for bad usage or bad input, 130 when
+/// stopped by Ctrl-C (the shell convention 128 + SIGINT, so scripts can tell it from a failure).
 #[derive(Debug)]
 pub struct CliError {
     message: String,
@@ -18,6 +19,11 @@ impl CliError {
     /// Bad input or usage, exit code 2.
     pub fn input(message: impl Into<String>) -> Self {
         Self { message: message.into(), code: 2 }
+    }
+
+    /// Stopped by Ctrl-C after writing what was done, exit code 130.
+    pub fn interrupted(message: impl Into<String>) -> Self {
+        Self { message: message.into(), code: 130 }
     }
 
     /// The process exit code.

@@ -284,7 +284,7 @@ fn ctrl_c_stops_cleanly_with_a_report_of_the_frames_done() {
     let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
     assert!(status.success());
     let output = child.wait_with_output().unwrap();
-    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    assert_eq!(output.status.code(), Some(130), "{}", stderr(&output));
     let message = stderr(&output);
     assert!(message.contains("interrupted") && message.contains("--frames"), "{message}");
 

@@ -23,8 +23,8 @@ use std::time::{Duration, Instant};
 use super::DeformError;
 use crate::linalg::constraints::{find, union_through_faces};
 use crate::linalg::{
-    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT,
-    NumericFactor, Operator, SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
+    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NumericFactor, Operator,
+    SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
 };
 use crate::mesh::{Topology, TriMesh};
 

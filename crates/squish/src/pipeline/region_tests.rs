@@ -12,7 +12,6 @@ use super::*;
 use crate::mesh::{face_normal_unnormalized, shapes};
 use crate::spatial::{penetration_depths, self_intersections, test_meshes};
 
-
 fn bits(positions: &[DVec3]) -> Vec<u64> {
     positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
 }
