@@ -31,6 +31,13 @@
 //! empty there and the mapping direction falls back on the other side's integrals
 //! ([`super::direction`]).
 //!
+//! **Given interior.** A caller may decide which vertices are inside the other side
+//! ([`ContactSide::interior`]); tags and flood fill are then skipped for that side and ℐ is those
+//! vertices, bounded on each crossed edge by its crossing nearest to the inside vertex as above.
+//! Self-contact needs it (ch. 6): its two sides are the two halves of one closed mesh cut along
+//! the crease, so each intersection curve ends near the cut instead of closing, and a flood fill
+//! leaks around its end into the whole side.
+//!
 //! **Working-region borders.** A working region cut out of a bigger mesh has "border" vertices
 //! (flagged by the caller). If ℐ_l reaches one of them, the intersection is not closed inside the
 //! region and the result would depend on where the region was cut: this is
@@ -180,6 +187,56 @@ fn intersection_region(
     let topology = side.topology;
     let edges = topology.edges();
     let nv = topology.num_vertices();
+    let inside = match side.interior {
+        Some(given) => given.to_vec(),
+        None => match flood_interior(side, other, hits, stats) {
+            Some(inside) => inside,
+            None => return Ok(EdgeRegion::empty(topology)),
+        },
+    };
+    if let Some(border) = side.border
+        && let Some(v) = (0..nv).find(|&v| inside[v] && border.get(v).copied().unwrap_or(false))
+    {
+        return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
+    }
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
+        let [lo, hi] = edges[e as usize];
+        if !list.is_empty() && inside[lo as usize] == inside[hi as usize] {
+            stats.unrepresentable_edges += 1;
+        }
+    }
+    let mut without_crossing = 0;
+    let region = EdgeRegion::from_inside(topology, inside, |e, i, _| {
+        let list = hits.get(e as usize);
+        match (list.first(), list.last()) {
+            (Some(first), Some(last)) => {
+                if i == edges[e as usize][0] {
+                    first.t
+                } else {
+                    1.0 - last.t
+                }
+            }
+            _ => {
+                without_crossing += 1;
+                0.5
+            }
+        }
+    });
+    stats.edges_without_crossing += without_crossing;
+    Ok(region)
+}
+
+/// The interior vertices of `side` from the tags of its crossed edges and a flood fill (see the
+/// module doc); `None` when no edge is crossed.
+fn flood_interior(
+    side: &ContactSide,
+    other: &ContactSide,
+    hits: &EdgeHits,
+    stats: &mut IntersectionStats,
+) -> Option<Vec<bool>> {
+    let topology = side.topology;
+    let edges = topology.edges();
+    let nv = topology.num_vertices();
     let mut votes = vec![[0u32; 2]; nv]; // [interior, exterior]
     let mut any = false;
     for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
@@ -192,7 +249,7 @@ fn intersection_region(
         votes[hi as usize][usize::from(!last.entering)] += 1;
     }
     if !any {
-        return Ok(EdgeRegion::empty(topology));
+        return None;
     }
     let mut tags: Vec<Tag> = votes
         .iter()
@@ -235,36 +292,7 @@ fn intersection_region(
             }
         }
     }
-    if let Some(border) = side.border
-        && let Some(v) = (0..nv).find(|&v| inside[v] && border.get(v).copied().unwrap_or(false))
-    {
-        return Err(ContactError::IntersectionReachesBorder { object: side.display_name(), vertex: v as u32 });
-    }
-    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
-        let [lo, hi] = edges[e as usize];
-        if !list.is_empty() && inside[lo as usize] == inside[hi as usize] {
-            stats.unrepresentable_edges += 1;
-        }
-    }
-    let mut without_crossing = 0;
-    let region = EdgeRegion::from_inside(topology, inside, |e, i, _| {
-        let list = hits.get(e as usize);
-        match (list.first(), list.last()) {
-            (Some(first), Some(last)) => {
-                if i == edges[e as usize][0] {
-                    first.t
-                } else {
-                    1.0 - last.t
-                }
-            }
-            _ => {
-                without_crossing += 1;
-                0.5
-            }
-        }
-    });
-    stats.edges_without_crossing += without_crossing;
-    Ok(region)
+    Some(inside)
 }
 
 #[cfg(test)]

@@ -53,12 +53,27 @@ pub struct ContactSide<'a> {
     pub border: Option<&'a [bool]>,
     /// Per-vertex texture coordinates, needed by [`MappingMethod::SharedParametrization`] only.
     pub uvs: Option<&'a [DVec2]>,
+    /// Per vertex: true if it lies inside the other side, decided by the caller. `None`: decided
+    /// by the intersection stage (tags and flood fill, §4.1). Self-contact (ch. 6) gives it: its
+    /// two sides are parts of one closed mesh whose intersection curves end at the crease cut,
+    /// where a flood fill would leak (see [`super::intersect`]).
+    pub interior: Option<&'a [bool]>,
 }
 
 impl<'a> ContactSide<'a> {
     /// A side with the default stiffness (elastic, 1), no name and no cut border.
     pub fn new(mesh: &'a TriMesh, topology: &'a Topology, normals: &'a [DVec3], bvh: &'a TriangleBvh) -> Self {
-        Self { name: "", mesh, topology, normals, bvh, stiffness: Stiffness::default(), border: None, uvs: None }
+        Self {
+            name: "",
+            mesh,
+            topology,
+            normals,
+            bvh,
+            stiffness: Stiffness::default(),
+            border: None,
+            uvs: None,
+            interior: None,
+        }
     }
 
     /// Sets the name used in error messages.
@@ -85,6 +100,12 @@ impl<'a> ContactSide<'a> {
         self
     }
 
+    /// Sets the interior flags decided by the caller (one per vertex).
+    pub fn with_interior(mut self, interior: Option<&'a [bool]>) -> Self {
+        self.interior = interior;
+        self
+    }
+
     /// The name for messages.
     pub fn display_name(&self) -> String {
         if self.name.is_empty() { "unnamed".to_string() } else { self.name.to_string() }
@@ -101,6 +122,7 @@ impl<'a> ContactSide<'a> {
             ("the triangle tree", nf, self.bvh.len()),
             ("the border flags", nv, self.border.map_or(nv, <[bool]>::len)),
             ("the UVs", nv, self.uvs.map_or(nv, <[DVec2]>::len)),
+            ("the interior flags", nv, self.interior.map_or(nv, <[bool]>::len)),
         ];
         for (what, expected, got) in checks {
             if expected != got {
@@ -334,7 +356,10 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let toward = [direction, -direction];
     let k = [ka, kb];
     let surfaces = [0, 1].map(|l| side_surface(sides[l], &mappings[l], toward[l], k[l], k[1 - l]));
-    let crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
+    let mut crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
+    if let Some(max) = params.max_contact_threshold {
+        crit.threshold = crit.threshold.min(max);
+    }
     stats.timings.surface = t.elapsed();
 
     let t = Instant::now();

@@ -113,6 +113,10 @@ pub struct PairParams {
     pub contact_method: ContactMethod,
     /// How the meshes are matched. Default: the unique mapping direction (method B).
     pub mapping: MappingMethod,
+    /// An upper bound on ε_c (world units): `ε_c = min(m_𝒮 + τ·σ_𝒮, max)`. With 0 every
+    /// penetrating point of the mapping regions is in contact, whatever the spread of depths —
+    /// what self-contact uses (ch. 6), where no interpenetration may remain. Default: none.
+    pub max_contact_threshold: Option<f64>,
 }
 
 impl Default for PairParams {
@@ -123,6 +127,7 @@ impl Default for PairParams {
             safeguard_angle_degrees: 80.0,
             contact_method: ContactMethod::Geometric,
             mapping: MappingMethod::UniqueDirection,
+            max_contact_threshold: None,
         }
     }
 }
@@ -183,6 +188,15 @@ impl PairParams {
                 name: "contact_method.Ball.radius",
                 value: radius,
                 hint: "the ball radius r_s is a finite positive length in world units (larger = stiffer, smaller zones)",
+            });
+        }
+        if let Some(max) = self.max_contact_threshold
+            && !max.is_finite()
+        {
+            return Err(ContactError::InvalidParameter {
+                name: "max_contact_threshold",
+                value: max,
+                hint: "use a finite distance (0 = every penetrating point is in contact) or leave it unset",
             });
         }
         match self.direction {
