@@ -100,6 +100,7 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
     let direction_params = DirectionParams {
         method: deform_params.direction_method,
         normalize_diffused: deform_params.normalize_diffused,
+        mapping_field: None,
     };
     let guide_params = GuideParams { constraint_weight_factor: deform_params.constraint_weight_factor };
 

@@ -20,6 +20,9 @@
 //! - If the blend vanishes (d̄ opposite to n with w = ½, or a zero normal), d falls back to n, then
 //!   to the owner zone's direction; such vertices are counted.
 //! - Outside 𝒟, d is the normal (unused by the later stages).
+//! - A caller may give d̄ itself ([`DirectionParams::mapping_field`]): it is used as given, not
+//!   normalized. Chapter 6 (§6.2.2) does this with `(2β − 1)·d̂` over a shared region, so that d̄
+//!   vanishes at the crease and d falls back to the normal there.
 //!
 //! Method A's field (§5.2.1: tangent-space diffusion with parallel transport) is
 //! [`DirectionFieldMethod::ParallelTransport`], computed by [`super::transport`]; with it the
@@ -66,11 +69,13 @@ pub struct DirectionField {
 
 /// Options of the direction field.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DirectionParams {
-    /// The method (only the blended field of method B for now).
+pub struct DirectionParams<'a> {
+    /// The method.
     pub method: DirectionFieldMethod,
     /// Normalize the diffused mapping field (see the module doc).
     pub normalize_diffused: bool,
+    /// d̄ per vertex given by the caller, used as is (blended method only; see the module doc).
+    pub mapping_field: Option<&'a [DVec3]>,
 }
 
 /// Computes d̄ and d (see the module doc). `normals` are the input's area-weighted vertex normals;
@@ -86,6 +91,9 @@ pub fn direction_field(
 ) -> Result<DirectionField, DeformError> {
     let n = mesh.num_vertices();
     DeformError::check_len("normals", n, normals.len())?;
+    if let Some(field) = params.mapping_field {
+        DeformError::check_len("given mapping field", n, field.len())?;
+    }
     DeformError::check_len("contact set (vertices)", n, contact.vertex_zone.len())?;
     DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
     DeformError::check_len("parametrization (𝒟)", n, parametrization.deformable.len())?;
@@ -94,8 +102,10 @@ pub fn direction_field(
             .map(super::transport::TransportField::into_direction_field);
     }
     let first_direction = contact.boundary.first().map_or(DVec3::ZERO, |b| contact.directions[b.zone as usize]);
-    let diffused = contact.has_several_directions();
-    let mapping = if diffused {
+    let diffused = params.mapping_field.is_none() && contact.has_several_directions();
+    let mapping = if let Some(field) = params.mapping_field {
+        field.to_vec()
+    } else if diffused {
         diffuse_mapping_directions(solver, contact, parametrization, params.normalize_diffused)?
     } else {
         vec![first_direction; n]
@@ -181,7 +191,7 @@ mod tests {
         let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
         let p = parametrize(mesh, topology, solver, &contact, &params).unwrap();
         let normals = vertex_normals(mesh);
-        let options = DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused };
+        let options = DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused, mapping_field: None };
         let field = direction_field(mesh, solver, &contact, &p, &normals, &options).unwrap();
         (contact, p, field)
     }

@@ -320,7 +320,8 @@ mod tests {
         let contact = ContactSet::new(mesh, &topology, zones).unwrap();
         let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
         let p = parametrize(mesh, &topology, &mut solver, &contact, &params).unwrap();
-        let options = DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused: true };
+        let options =
+            DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused: true, mapping_field: None };
         let field = direction_field(mesh, &mut solver, &contact, &p, &vertex_normals(mesh), &options).unwrap();
         let guide = guide_fields(
             mesh,

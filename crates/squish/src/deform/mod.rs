@@ -59,7 +59,7 @@ use bulge::{AnisotropyParams, bulge_map};
 use direction_field::{DirectionParams, direction_field};
 use guide::{GuideParams, guide_fields};
 use parametrize::{ParametrizeParams, parametrize};
-use volume::{AffineDisplacement, VolumeCubic, solve_bulge_height};
+pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
 
 /// Wall-clock time of each stage of [`deform_region`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -175,6 +175,138 @@ pub fn deform_region(
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
     let start = Instant::now();
+    let plan = plan_region(mesh, topology, solver, zones, params, &RegionOverrides::default())?;
+    let stage = Instant::now();
+    let cubic = plan.volume_cubic(mesh)?;
+    let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
+        let solution = solve_bulge_height(&cubic, params.extent);
+        (solution.height, solution.exact, solution.residual)
+    } else {
+        (params.bulge_height, false, cubic.eval(params.bulge_height))
+    };
+    // `finish` adds its own time to the deformation stage: only the height solve is added here.
+    let height_time = stage.elapsed();
+    let mut deformation = plan.finish(mesh, bulge_height, params.bulge * bulge_height);
+    let stats = &mut deformation.stats;
+    stats.volume_exact = volume_exact;
+    stats.volume_residual = volume_residual;
+    stats.fallbacks.volume_without_root = usize::from(params.preserve_volume && !volume_exact);
+    stats.timings.deformation += height_time;
+    stats.timings.total = start.elapsed();
+    Ok(deformation)
+}
+
+/// What a caller may impose on [`plan_region`] beyond [`DeformParams`] (chapter 6 needs it).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RegionOverrides<'a> {
+    /// The mapping field d̄ per region vertex, used as given instead of the zones' directions
+    /// (not normalized; §6.2.2 gives `(2β − 1)·d̂`). Blended direction field only.
+    pub mapping_field: Option<&'a [DVec3]>,
+}
+
+/// A region's deformation before its bulge height is chosen: every position is affine in the
+/// bulge height h (`p′ = p + h·linear + constant`, see [`volume`]). [`deform_region`] solves h for
+/// the region alone; chapter 6 blends the plans of two overlapping regions first and solves one h
+/// for the blend ([`crate::skinning::self_contact`]).
+#[derive(Clone, Debug)]
+pub struct RegionPlan {
+    /// The affine displacement of every region vertex.
+    pub displacement: AffineDisplacement,
+    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable).
+    pub u: Vec<f64>,
+    /// The deformable region 𝒟.
+    pub deformable: Vec<bool>,
+    /// The contact region 𝒞.
+    pub contact: Vec<bool>,
+    /// The displacement direction d.
+    pub directions: Vec<DVec3>,
+    /// The part of 𝓗_i(u_i) that does not depend on h (on 𝒟).
+    pub fixed_heights: Vec<f64>,
+    /// The factor of h in 𝓗_i(u_i), η_i·N₂(t_i) (on 𝒟).
+    pub bulge_weights: Vec<f64>,
+    /// The amplitude field a (§5.3).
+    pub amplitude: Vec<f64>,
+    /// The slope field s (§5.3).
+    pub slope: Vec<f64>,
+    /// The bulge map η.
+    pub bulge_map: Vec<f64>,
+    /// Figures so far (the height, volume and total time are set by [`RegionPlan::finish`] and its
+    /// caller).
+    pub stats: DeformStats,
+}
+
+impl RegionPlan {
+    /// ΔV(h) of the region's faces (relative to the region's vertex centroid).
+    pub fn volume_cubic(&self, mesh: &TriMesh) -> Result<VolumeCubic, DeformError> {
+        VolumeCubic::new(mesh, &self.displacement, vertex_centroid(&mesh.positions))
+    }
+
+    /// The positions for an applied height `applied` (γ·h_v): moved vertices get
+    /// `p + applied·linear + constant`, the others are copied bit for bit.
+    pub fn positions(&self, mesh: &TriMesh, applied: f64) -> Vec<DVec3> {
+        let d = &self.displacement;
+        let mut positions = mesh.positions.clone();
+        for (v, p) in positions.iter_mut().enumerate() {
+            if d.moved[v] {
+                *p = mesh.positions[v] + applied * d.linear[v] + d.constant[v];
+            }
+        }
+        positions
+    }
+
+    /// The deformation for the bulge height `bulge_height` (h_v) applied as `applied` (γ·h_v).
+    /// The caller sets the volume figures of the stats that depend on how h_v was chosen.
+    pub fn finish(self, mesh: &TriMesh, bulge_height: f64, applied: f64) -> RegionDeformation {
+        let stage = Instant::now();
+        let positions = self.positions(mesh, applied);
+        let heights = (0..positions.len())
+            .map(|v| {
+                if self.displacement.moved[v] && self.deformable[v] {
+                    self.fixed_heights[v] + applied * self.bulge_weights[v]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let reference = vertex_centroid(&mesh.positions);
+        let mut stats = self.stats;
+        stats.bulge_height = bulge_height;
+        stats.applied_bulge_height = applied;
+        stats.volume_before = volume_about(&mesh.triangles, &mesh.positions, reference);
+        stats.volume_after = volume_about(&mesh.triangles, &positions, reference);
+        stats.timings.deformation += stage.elapsed();
+        RegionDeformation {
+            positions,
+            u: self.u,
+            deformable: self.deformable,
+            contact: self.contact,
+            directions: self.directions,
+            heights,
+            amplitude: self.amplitude,
+            slope: self.slope,
+            bulge_map: self.bulge_map,
+            stats,
+        }
+    }
+}
+
+/// The mean of the vertices (the reference point of the region's volume figures).
+fn vertex_centroid(positions: &[DVec3]) -> DVec3 {
+    positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / positions.len().max(1) as f64
+}
+
+/// Runs chapter 5 on a region up to, not including, the choice of the bulge height: contact set,
+/// parametrization, direction field, guide fields, bulge map and profiles (see the module doc and
+/// [`RegionPlan`]). [`deform_region`] is this plus the volume solve.
+pub fn plan_region(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    zones: &[ContactZone],
+    params: &DeformParams,
+    overrides: &RegionOverrides,
+) -> Result<RegionPlan, DeformError> {
+    let start = Instant::now();
     params.validate()?;
     solver.check_region(mesh, topology)?;
     let n = mesh.num_vertices();
@@ -203,8 +335,11 @@ pub fn deform_region(
     // §5.2: directions.
     let stage = Instant::now();
     let normals = vertex_normals(mesh);
-    let direction_params =
-        DirectionParams { method: params.direction_method, normalize_diffused: params.normalize_diffused };
+    let direction_params = DirectionParams {
+        method: params.direction_method,
+        normalize_diffused: params.normalize_diffused,
+        mapping_field: overrides.mapping_field,
+    };
     let field = direction_field(mesh, solver, &contact, &parametrization, &normals, &direction_params)?;
     fallbacks.direction_blend = field.fallbacks;
     timings.directions = stage.elapsed();
@@ -223,7 +358,7 @@ pub fn deform_region(
     fallbacks.clamped_slopes = guide.clamped_slopes;
     timings.guide = stage.elapsed();
 
-    // §5.4–5.5: bulge map, profiles, volume, positions.
+    // §5.4–5.5: bulge map and profiles.
     let stage = Instant::now();
     let anisotropy = params
         .anisotropic_bulge
@@ -273,39 +408,11 @@ pub fn deform_region(
             bulge_weights[v] = eta.weights[v] * sample.bulge_weight;
         }
     }
-    let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / n.max(1) as f64;
-    let cubic = VolumeCubic::new(mesh, &displacement, reference)?;
-    let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
-        let solution = solve_bulge_height(&cubic, params.extent);
-        fallbacks.volume_without_root = usize::from(!solution.exact);
-        (solution.height, solution.exact, solution.residual)
-    } else {
-        (params.bulge_height, false, cubic.eval(params.bulge_height))
-    };
-    let applied = params.bulge * bulge_height;
-    let mut positions = mesh.positions.clone();
-    let mut heights = vec![0.0; n];
-    for v in 0..n {
-        if displacement.moved[v] {
-            positions[v] = mesh.positions[v] + applied * displacement.linear[v] + displacement.constant[v];
-            if parametrization.deformable[v] {
-                heights[v] = fixed_heights[v] + applied * bulge_weights[v];
-            }
-        }
-    }
-    let volume_before = volume_about(&mesh.triangles, &mesh.positions, reference);
-    let volume_after = volume_about(&mesh.triangles, &positions, reference);
     timings.deformation = stage.elapsed();
     timings.factorization = solver.factorization_time().saturating_sub(factorization_time_before);
     timings.total = start.elapsed();
 
     let stats = DeformStats {
-        bulge_height,
-        applied_bulge_height: applied,
-        volume_exact,
-        volume_residual,
-        volume_before,
-        volume_after,
         num_deformable: parametrization.num_deformable(),
         num_contact: contact.num_inside(),
         num_boundary_points: contact.boundary.len(),
@@ -318,14 +425,16 @@ pub fn deform_region(
         numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
         timings,
         fallbacks,
+        ..DeformStats::default()
     };
-    Ok(RegionDeformation {
-        positions,
+    Ok(RegionPlan {
+        displacement,
         u: parametrization.u,
         deformable: parametrization.deformable,
         contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
         directions: field.directions,
-        heights,
+        fixed_heights,
+        bulge_weights,
         amplitude: guide.amplitude,
         slope: guide.slope,
         bulge_map: eta.weights,

@@ -596,7 +596,11 @@ fn no_zone_leaves_the_region_untouched_and_bad_input_is_an_error() {
     let contact = ContactSet::new(&press.mesh, &press.topology, std::slice::from_ref(&zone)).unwrap();
     let pp = parametrize::ParametrizeParams { extent: 0.5, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
     let p = parametrize::parametrize(&press.mesh, &press.topology, &mut press.solver, &contact, &pp).unwrap();
-    let options = direction_field::DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused: true };
+    let options = direction_field::DirectionParams {
+        method: DirectionFieldMethod::Blended,
+        normalize_diffused: true,
+        mapping_field: None,
+    };
     let err = direction_field::direction_field(&press.mesh, &mut press.solver, &contact, &p, &[DVec3::Z], &options)
         .unwrap_err();
     assert!(matches!(err, DeformError::LengthMismatch { what: "normals", .. }), "{err}");
