@@ -1,7 +1,21 @@
-//! Skinning. For now: linear blend skinning of a rest mesh by a skeleton pose ([`lbs`]), which
-//! produces the per-frame input meshes of an animated character (thesis §2.3.1). The contact-aware
-//! skinning of thesis ch. 6 (shared region, partition of unity, blending) will sit next to it.
+//! Skinning: linear blend skinning of a rest mesh by a skeleton pose ([`lbs`], thesis §2.3.1),
+//! which produces the per-frame input meshes of an animated character, and the self-contact of
+//! skinned articulations (thesis ch. 6): overlapping working regions and their partition of unity
+//! ([`articulation`], [`partition`]), the crease cut and the blended, volume-preserving
+//! deformation ([`self_contact`]).
 
+pub mod articulation;
 pub mod lbs;
+pub mod partition;
+pub mod self_contact;
 
+pub use articulation::{
+    Articulation, ArticulationDirection, ArticulationError, ArticulationParams, articulation_direction,
+    regions_from_skin_weights,
+};
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
+pub use partition::{Seed, SharedRegion};
+pub use self_contact::{
+    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, SelfContactError, apply_articulations,
+    count_self_intersections, plan_articulation,
+};

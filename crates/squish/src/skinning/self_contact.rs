@@ -1,0 +1,695 @@
+//! Self-contact of a skinned articulation, frame by frame (thesis ch. 6).
+//!
+//! An [`Articulation`] names two overlapping working regions 𝒲₁ (parent side) and 𝒲₂ (child
+//! side) of one mesh. [`ArticulationSetup`] holds what depends on the connectivity and the rest
+//! pose only: ℛ = 𝒲₁ ∩ 𝒲₂ with its partition of unity β ([`SharedRegion`], §6.1.1), and each
+//! region as a sub-mesh with its solver cache. At each frame [`plan_articulation`]
+//! 1. takes d̂ from the joints or the user (§6.1.2, [`super::articulation_direction`]);
+//! 2. cuts ℛ along the crease by max-flow ([`SharedRegion::crease_cut`], §6.1.3), giving the
+//!    non-overlapping truncated regions 𝒲̄₁ = (𝒲₁ \ ℛ) ∪ ℛ₁ and 𝒲̄₂ = (𝒲₂ \ ℛ) ∪ ℛ₂;
+//! 3. runs the contact definition of chapter 4 on (𝒲̄₂, 𝒲̄₁) with d̂ given — 𝒲̄₁ is the pair's
+//!    second object, d̂ points along its normals inside the fold;
+//! 4. reports each contact zone onto both whole regions (§6.2.1): 𝒲₁ gets 𝒞₁ and the part of 𝒞₂
+//!    in ℛ, 𝒲₂ gets 𝒞₂ and the part of 𝒞₁ in ℛ, with the same targets and normals, so that the
+//!    shared vertices are bound by the same constraints in both;
+//! 5. runs chapter 5 on 𝒲₁ and on 𝒲₂ up to the profiles ([`plan_region`]) with the mapping field
+//!    `d̄ = (2β − 1)·d̂` left unnormalized (§6.2.2): d̂ on 𝒲₁'s side, −d̂ on 𝒲₂'s, vanishing at
+//!    β = ½ so that the direction falls back to the normal at the crease;
+//! 6. blends the two results over ℛ, `p′ = βp′₁ + (1 − β)p′₂`.
+//!
+//! **Volume (better than the thesis).** Each region's result is affine in the bulge height h
+//! (see [`crate::deform::volume`]), and so is their blend. Instead of letting each region solve
+//! its own h and blending two volume-preserving results into one that is not (the thesis' blend
+//! over ℛ), [`apply_articulations`] solves *one* h per articulation for the blended displacement,
+//! from the cubic of the whole mesh: the volume after blending is exactly the input's (γ = 1).
+//! With several articulations on one mesh whose moving faces overlap (hip and knee of one leg),
+//! the heights are solved in turn against the others' current displacement until the volume is
+//! met (block Gauss–Seidel; one round when they do not overlap).
+//!
+//! **Decisions.**
+//! - Edges that leave a reported zone without a boundary point — an edge of the crease strip,
+//!   whose faces belong to neither truncated region — get the point α = 0 (the zone stops at its
+//!   last vertex, with that vertex's target and normal): no extrapolation.
+//! - The regions' borders on the shared side are not borders for the contact stage: the
+//!   intersection regions of a fold reach the crease cut by nature. Their *far* borders (where a
+//!   region is cut from the rest of the mesh) are: an intersection reaching one is an error, and
+//!   the extent is clamped so that the deformation stays inside (as for working regions). Both
+//!   regions use the same extent.
+//! - Automatic extent: `max(1.2·r, 1.5·√(A/π))`, r the RMS radius of ℛ on the rest pose (about
+//!   the limb's radius), A the contact area — the pipeline's rule (see
+//!   [`crate::pipeline::automatic_extent`]) with the limb as both objects.
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::partition::SharedRegion;
+use super::{Articulation, ArticulationError, articulation_direction};
+use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, PairParams, Stiffness, contact_pair};
+use crate::deform::{
+    AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic,
+    plan_region, solve_bulge_height,
+};
+use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume};
+use crate::spatial::{SpatialError, TriangleBvh};
+
+/// Why an articulation failed at a frame.
+#[derive(Debug, thiserror::Error)]
+pub enum SelfContactError {
+    #[error(transparent)]
+    Articulation(#[from] ArticulationError),
+    #[error("contact between its two sides: {0}")]
+    Contact(#[from] ContactError),
+    #[error("deformation: {0}")]
+    Deform(#[from] DeformError),
+    #[error("triangle tree: {0}")]
+    Spatial(#[from] SpatialError),
+    #[error("{reason}; make region {region} larger (lower min_weight or widen its mask) or give a smaller extent")]
+    RegionTooSmall { region: usize, reason: String },
+}
+
+/// Figures of one articulation at one frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ArticulationStats {
+    /// Index of the object and name of the articulation.
+    pub object: usize,
+    pub name: String,
+    /// d̂ at this frame.
+    pub direction: [f64; 3],
+    /// |𝒲₁|, |𝒲₂|, |ℛ| (vertices).
+    pub region_vertices: [usize; 2],
+    pub shared_vertices: usize,
+    /// Vertices of ℛ labeled 𝒲̄₁ by the crease cut, and edges of ℛ joining the two labels.
+    pub shared_first: usize,
+    pub cut_edges: usize,
+    /// True if the two sides are in contact at this frame.
+    pub in_contact: bool,
+    pub intersection_points: usize,
+    /// ε_c of the contact criterion and the contact area on 𝒮.
+    pub threshold: f64,
+    pub contact_area: f64,
+    /// |𝒞| and |𝒟| of each whole region (after reporting the zones).
+    pub contact_vertices: [usize; 2],
+    pub deformable_vertices: [usize; 2],
+    /// φ_max used, and whether it was clamped to keep 𝒟 inside the regions.
+    pub extent: f64,
+    pub extent_clamped: bool,
+    /// h_v solved for the blend (γ = 1) and γ·h_v applied.
+    pub bulge_height: f64,
+    pub applied_bulge_height: f64,
+    /// Whether h_v is a root of the volume cubic.
+    pub volume_exact: bool,
+    /// Self-intersecting faces among the faces of 𝒲₁ ∪ 𝒲₂, before and after (set by the
+    /// caller that measures them, see [`count_self_intersections`]).
+    pub self_intersecting_faces_before: usize,
+    pub self_intersecting_faces_after: usize,
+    /// Wall-clock times: crease cut, contact definition, the two deformations, total.
+    pub cut_time: Duration,
+    pub contact_time: Duration,
+    pub deformation_time: Duration,
+    pub total_time: Duration,
+}
+
+/// One region 𝒲_l with its connectivity-only caches.
+#[derive(Debug)]
+struct RegionSide {
+    sub: SubMesh,
+    topology: Topology,
+    solver: RegionSolver,
+    /// Per local vertex: on the far border (cut from the rest of the mesh, not from the other
+    /// region).
+    far_border: Vec<bool>,
+}
+
+/// What an articulation keeps between frames: everything that depends on the connectivity and
+/// the rest pose only.
+#[derive(Debug)]
+pub struct ArticulationSetup {
+    regions: [Vec<u32>; 2],
+    rest: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    shared: SharedRegion,
+    sides: [RegionSide; 2],
+    /// Faces of 𝒲₁ ∪ 𝒲₂ (object ids, increasing).
+    faces: Vec<u32>,
+    /// RMS radius of ℛ on the rest pose.
+    size: f64,
+    /// Tree over the whole object (refitted per frame) for the interior test.
+    tree: TriangleBvh,
+    /// Offset of the interior test (10⁻⁴ of the mean edge length).
+    epsilon: f64,
+    /// Mean edge length of the rest pose.
+    edge_length: f64,
+}
+
+impl ArticulationSetup {
+    /// Builds the caches of `articulation` on an object with the given connectivity (`mesh` at
+    /// any pose, `topology` its topology) and rest pose `rest` (same connectivity), where β is
+    /// computed.
+    pub fn new(
+        mesh: &TriMesh,
+        topology: &Topology,
+        articulation: &Articulation,
+        rest: &TriMesh,
+    ) -> Result<Self, SelfContactError> {
+        let shared = SharedRegion::new(rest, topology, &articulation.regions)?;
+        let in_faces = |l: usize| -> Vec<bool> {
+            mesh.triangles.iter().map(|t| t.iter().all(|&v| shared.membership[v as usize][l])).collect()
+        };
+        let face_sets = [in_faces(0), in_faces(1)];
+        let mut sides = Vec::with_capacity(2);
+        for (l, faces) in face_sets.iter().enumerate() {
+            let sub = SubMesh::from_faces(mesh, (0..faces.len() as u32).filter(|&f| faces[f as usize]));
+            if sub.mesh.triangles.is_empty() {
+                return Err(ArticulationError::EmptyRegion {
+                    what: if l == 0 {
+                        "region 1 (no face has all its vertices in it)"
+                    } else {
+                        "region 2 (no face has all its vertices in it)"
+                    },
+                    fix: "give regions of whole faces",
+                }
+                .into());
+            }
+            let sub_topology = Topology::new(&sub.mesh);
+            let solver = RegionSolver::new(&sub.mesh, &sub_topology)?;
+            let far_border = sub
+                .parent_vertex
+                .iter()
+                .map(|&v| {
+                    topology.vertex_faces(v).iter().any(|&f| !face_sets[0][f as usize] && !face_sets[1][f as usize])
+                })
+                .collect();
+            sides.push(RegionSide { sub, topology: sub_topology, solver, far_border });
+        }
+        let Ok(sides) = <[RegionSide; 2]>::try_from(sides) else {
+            return Err(ArticulationError::EmptyRegion { what: "a region", fix: "give two regions" }.into());
+        };
+        let faces =
+            (0..mesh.num_triangles() as u32).filter(|&f| face_sets[0][f as usize] || face_sets[1][f as usize]).collect();
+        let tree = TriangleBvh::new(mesh)?;
+        let edge_length = crate::mesh::mean_edge_length(rest, topology);
+        let size = shared_size(rest, &shared);
+        Ok(Self {
+            tree,
+            epsilon: 1e-4 * edge_length,
+            edge_length,
+            regions: articulation.regions.clone(),
+            rest: rest.positions.clone(),
+            triangles: mesh.triangles.clone(),
+            shared,
+            sides,
+            faces,
+            size,
+        })
+    }
+
+    /// True if these caches were built for this articulation's regions and this connectivity
+    /// (the rest pose may differ: see [`Self::set_rest`]).
+    pub fn matches(&self, mesh: &TriMesh, articulation: &Articulation) -> bool {
+        self.regions == articulation.regions && self.triangles == mesh.triangles
+    }
+
+    /// Recomputes β (and the scales) when the rest pose differs from the one they were computed
+    /// on; the regions' caches are kept.
+    pub fn set_rest(&mut self, rest: &TriMesh, topology: &Topology) -> Result<(), SelfContactError> {
+        if self.rest != rest.positions {
+            self.shared = SharedRegion::new(rest, topology, &self.regions)?;
+            self.rest = rest.positions.clone();
+            self.edge_length = crate::mesh::mean_edge_length(rest, topology);
+            self.epsilon = 1e-4 * self.edge_length;
+            self.size = shared_size(rest, &self.shared);
+        }
+        Ok(())
+    }
+
+    /// ℛ with β.
+    pub fn shared(&self) -> &SharedRegion {
+        &self.shared
+    }
+
+    /// Faces of 𝒲₁ ∪ 𝒲₂ (object ids).
+    pub fn faces(&self) -> &[u32] {
+        &self.faces
+    }
+}
+
+/// RMS radius of ℛ about its centroid on the rest pose (about the limb's radius).
+fn shared_size(rest: &TriMesh, shared: &SharedRegion) -> f64 {
+    let points: Vec<DVec3> = shared.vertices.iter().map(|&v| rest.positions[v as usize]).collect();
+    let count = points.len().max(1) as f64;
+    let centroid = points.iter().fold(DVec3::ZERO, |s, p| s + *p) / count;
+    (points.iter().map(|p| (*p - centroid).length_squared()).sum::<f64>() / count).sqrt()
+}
+
+/// An articulation's deformation at one frame, before the bulge height is chosen: the blended
+/// displacement is affine in h for every vertex of the object (zero outside 𝒲₁ ∪ 𝒲₂).
+#[derive(Clone, Debug)]
+pub struct ArticulationPlan {
+    pub displacement: AffineDisplacement,
+    /// φ_max used (the scale of the height search).
+    pub extent: f64,
+    /// Per vertex of ℛ (order of [`SharedRegion::vertices`]): labeled 𝒲̄₁ by the crease cut.
+    pub labels: Vec<bool>,
+    /// Per object vertex: in a contact zone of either region.
+    pub contact: Vec<bool>,
+    pub stats: ArticulationStats,
+}
+
+/// A truncated region 𝒲̄_l of this frame, ready for the contact stage.
+struct Truncated {
+    sub: SubMesh,
+    topology: Topology,
+    bvh: TriangleBvh,
+    normals: Vec<DVec3>,
+    border: Vec<bool>,
+    /// Per vertex: inside another part of the object (see [`interior_flags`]).
+    interior: Vec<bool>,
+}
+
+impl Truncated {
+    /// `None` when no face lies wholly in the mask.
+    fn new(
+        mesh: &TriMesh,
+        topology: &Topology,
+        mask: &[bool],
+        side: &RegionSide,
+        interior: &[bool],
+    ) -> Result<Option<Self>, SpatialError> {
+        let sub = SubMesh::from_vertex_mask(mesh, mask);
+        if sub.mesh.triangles.is_empty() {
+            return Ok(None);
+        }
+        let sub_topology = Topology::new(&sub.mesh);
+        let bvh = TriangleBvh::new(&sub.mesh)?;
+        let normals = region_vertex_normals(mesh, topology, &sub.parent_vertex);
+        let border = sub
+            .parent_vertex
+            .iter()
+            .map(|&v| {
+                let local = side.sub.local_vertex[v as usize];
+                local != NOT_IN_SUBMESH && side.far_border[local as usize]
+            })
+            .collect();
+        let interior = sub.gather(interior);
+        Ok(Some(Self { sub, topology: sub_topology, bvh, normals, border, interior }))
+    }
+}
+
+impl Truncated {
+    /// The contact side of this region (only its far border is a border for the contact stage).
+    fn side<'a>(&'a self, name: &'a str, stiffness: f64) -> ContactSide<'a> {
+        ContactSide::new(&self.sub.mesh, &self.topology, &self.normals, &self.bvh)
+            .with_name(name)
+            .with_stiffness(Stiffness::Elastic(stiffness))
+            .with_border(self.border.iter().any(|&b| b).then_some(self.border.as_slice()))
+            .with_interior(Some(&self.interior))
+    }
+}
+
+/// Per object vertex of `vertices`: true if it lies inside another part of the object. The
+/// object is closed, so its winding number (exact signed ray crossings) just inside its surface,
+/// at `p − ε·n`, is 1 where the skin encloses only its own body and 2 where it also lies inside
+/// another part — the other side of the fold. ε = 10⁻⁴·h keeps the point on the right side of
+/// its own faces without reaching other layers.
+fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertices: &[bool], epsilon: f64) -> Vec<bool> {
+    use rayon::prelude::*;
+    (0..mesh.num_vertices())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|v| vertices[v] && tree.winding_number(mesh.positions[v] - epsilon * normals[v]) >= 2)
+        .collect()
+}
+
+/// The zone `zone` of the region `from` (a sub-mesh of the object) on the region `to`, for the
+/// vertices `to` shares with `from` (see the module doc for edges without a boundary point).
+fn report_zone(zone: &ContactZone, from: &SubMesh, from_topology: &Topology, to: &SubMesh, to_topology: &Topology) -> ContactZone {
+    let n = to.num_vertices();
+    let source = |local_to: u32| -> Option<u32> {
+        let v = to.parent_vertex[local_to as usize];
+        let f = from.local_vertex[v as usize];
+        (f != NOT_IN_SUBMESH).then_some(f)
+    };
+    let inside: Vec<bool> = (0..n as u32).map(|v| source(v).is_some_and(|f| zone.region.contains(f))).collect();
+    let mut targets = to.mesh.positions.clone();
+    let mut normals = vec![DVec3::ZERO; n];
+    for v in 0..n {
+        if inside[v]
+            && let Some(f) = source(v as u32)
+        {
+            targets[v] = zone.targets[f as usize];
+            normals[v] = zone.normals[f as usize];
+        }
+    }
+    // The source's boundary point on the same edge, if any.
+    let source_point = |i: u32, j: u32| -> Option<usize> {
+        let (fi, fj) = (source(i)?, source(j)?);
+        let e = from_topology.edge_between(fi, fj)?;
+        zone.region.point_on_edge(e).map(|k| k as usize)
+    };
+    let region = EdgeRegion::from_inside(to_topology, inside, |_, i, j| {
+        source_point(i, j).map_or(0.0, |k| zone.region.points()[k].alpha)
+    });
+    let mut boundary_positions = Vec::with_capacity(region.points().len());
+    let mut boundary_targets = Vec::with_capacity(region.points().len());
+    let mut boundary_normals = Vec::with_capacity(region.points().len());
+    for p in region.points() {
+        match source_point(p.inside, p.outside) {
+            Some(k) => {
+                boundary_positions.push(zone.boundary_positions[k]);
+                boundary_targets.push(zone.boundary_targets[k]);
+                boundary_normals.push(zone.boundary_normals[k]);
+            }
+            None => {
+                let i = p.inside as usize;
+                boundary_positions.push(to.mesh.positions[i]);
+                boundary_targets.push(targets[i]);
+                boundary_normals.push(normals[i]);
+            }
+        }
+    }
+    ContactZone {
+        region,
+        targets,
+        normals,
+        boundary_positions,
+        boundary_targets,
+        boundary_normals,
+        direction: zone.direction,
+        mapping_direction: zone.mapping_direction,
+    }
+}
+
+/// The automatic contact gap as a fraction of the mean edge length (see [`separate`]).
+pub const GAP_FRACTION: f64 = 0.05;
+
+/// The zone with its targets moved back by `offset` against 𝒮's normal (outward from this side):
+/// the two sides of a fold stop `2·offset` apart instead of both sampling 𝒮 at their own
+/// vertices, whose chords would cross each other by the sampling error.
+fn separate(zone: &ContactZone, offset: f64) -> ContactZone {
+    let mut zone = zone.clone();
+    for (v, t) in zone.targets.iter_mut().enumerate() {
+        if zone.region.contains(v as u32) {
+            *t -= offset * zone.normals[v];
+        }
+    }
+    for (t, n) in zone.boundary_targets.iter_mut().zip(&zone.boundary_normals) {
+        *t -= offset * *n;
+    }
+    zone
+}
+
+/// Fraction of the smallest φ on a far border that a clamped extent keeps.
+const CLAMP_FRACTION: f64 = 0.95;
+
+/// Runs one articulation at one frame up to the choice of its bulge height (see the module doc).
+/// `mesh` is the object at this frame (the skinned input), `topology` its connectivity,
+/// `normals` its unit vertex normals, `params` the object's deformation parameters (its extent is
+/// ignored: the articulation's own, or the automatic one, is used).
+pub fn plan_articulation(
+    mesh: &TriMesh,
+    topology: &Topology,
+    normals: &[DVec3],
+    setup: &mut ArticulationSetup,
+    articulation: &Articulation,
+    params: &DeformParams,
+) -> Result<ArticulationPlan, SelfContactError> {
+    let start = Instant::now();
+    articulation.params.validate()?;
+    let n = mesh.num_vertices();
+    let d = articulation_direction(&articulation.direction)?;
+    let shared = &setup.shared;
+    let mut stats = ArticulationStats {
+        name: articulation.name.clone(),
+        direction: d.to_array(),
+        region_vertices: [setup.sides[0].sub.num_vertices(), setup.sides[1].sub.num_vertices()],
+        shared_vertices: shared.vertices.len(),
+        ..ArticulationStats::default()
+    };
+
+    // §6.1.3: the crease cut.
+    let t = Instant::now();
+    let labels = shared.crease_cut(normals, d, articulation.params.cut_regional_weight);
+    stats.shared_first = labels.iter().filter(|&&l| l).count();
+    stats.cut_edges = shared.edges.iter().filter(|&&[i, j]| labels[i as usize] != labels[j as usize]).count();
+    let mut masks = [vec![false; n], vec![false; n]];
+    for (v, m) in shared.membership.iter().enumerate() {
+        match m {
+            [true, false] => masks[0][v] = true,
+            [false, true] => masks[1][v] = true,
+            _ => {}
+        }
+    }
+    for (&v, &first) in shared.vertices.iter().zip(&labels) {
+        masks[if first { 0 } else { 1 }][v as usize] = true;
+    }
+    stats.cut_time = t.elapsed();
+
+    // Ch. 4 on the truncated regions: a = 𝒲̄₂, b = 𝒲̄₁ (d̂ along 𝒲₁'s normals in the fold).
+    let t = Instant::now();
+    for side in &mut setup.sides {
+        side.sub.update_positions(&mesh.positions);
+    }
+    let shared = &setup.shared;
+    let in_regions: Vec<bool> = shared.membership.iter().map(|m| m[0] || m[1]).collect();
+    setup.tree.refit(&mesh.positions)?;
+    let interior = interior_flags(mesh, normals, &setup.tree, &in_regions, setup.epsilon);
+    let truncated = match (
+        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], &interior)?,
+        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], &interior)?,
+    ) {
+        (Some(first), Some(second)) => Some([first, second]),
+        _ => None,
+    };
+    let pair_params = PairParams {
+        contact_tau: articulation.params.contact_tau,
+        direction: Some(d),
+        safeguard_angle_degrees: articulation.params.safeguard_angle_degrees,
+        max_contact_threshold: Some(0.0),
+        ..PairParams::default()
+    };
+    let contact = match &truncated {
+        Some(t) => {
+            let k = articulation.params.stiffness;
+            let sides = [t[0].side("region 1", k[0]), t[1].side("region 2", k[1])];
+            Some(contact_pair(&sides[1], &sides[0], &pair_params)?)
+        }
+        None => None,
+    };
+    stats.contact_time = t.elapsed();
+
+    let mut plan = ArticulationPlan {
+        displacement: AffineDisplacement::none(n),
+        extent: f64::NAN,
+        labels,
+        contact: vec![false; n],
+        stats,
+    };
+    let (Some(contact), Some(truncated)) = (contact.filter(|c| !c.is_empty()), truncated) else {
+        plan.stats.total_time = start.elapsed();
+        return Ok(plan);
+    };
+    plan.stats.in_contact = true;
+    plan.stats.intersection_points = contact.intersection_points.len();
+    plan.stats.threshold = contact.criterion.threshold;
+    plan.stats.contact_area = contact.contact_area;
+
+    // §6.2.1: each zone reported onto both whole regions; zones on the pair's sides: [𝒲̄₂, 𝒲̄₁].
+    let t = Instant::now();
+    let gap = articulation.params.contact_gap.unwrap_or(GAP_FRACTION * setup.edge_length);
+    let separated = [&contact.sides[1].zone, &contact.sides[0].zone].map(|z| separate(z, 0.5 * gap));
+    let found = [(&separated[0], &truncated[0]), (&separated[1], &truncated[1])];
+    let zones: [Vec<ContactZone>; 2] = [0, 1].map(|l| {
+        let to = &setup.sides[l];
+        found
+            .iter()
+            .map(|(zone, from)| report_zone(zone, &from.sub, &from.topology, &to.sub, &to.topology))
+            .filter(|z| !z.is_empty())
+            .collect()
+    });
+    // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
+    let fields: [Vec<DVec3>; 2] =
+        [0, 1].map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
+    let automatic = (1.2 * setup.size).max(1.5 * (contact.contact_area.max(0.0) / std::f64::consts::PI).sqrt());
+    let mut extent = articulation.params.extent.unwrap_or(automatic);
+    let mut plans: Vec<RegionPlan> = Vec::with_capacity(2);
+    for attempt in 0..2 {
+        plans.clear();
+        let mut reach = f64::INFINITY;
+        for l in 0..2 {
+            let side = &mut setup.sides[l];
+            let mut region_params = params.clone().with_extent(extent);
+            if let Some(map) = params.bulge_map.as_ref() {
+                if map.len() != n {
+                    return Err(DeformError::BulgeMapLength { expected: n, actual: map.len() }.into());
+                }
+                region_params.bulge_map = Some(side.sub.gather(map));
+            }
+            let overrides = RegionOverrides { mapping_field: Some(&fields[l]) };
+            let region_plan =
+                plan_region(&side.sub.mesh, &side.topology, &mut side.solver, &zones[l], &region_params, &overrides)?;
+            for (v, &far) in side.far_border.iter().enumerate() {
+                if !far {
+                    continue;
+                }
+                if region_plan.contact[v] {
+                    return Err(SelfContactError::RegionTooSmall {
+                        region: l + 1,
+                        reason: format!(
+                            "articulation \"{}\": the contact reaches vertex {} on the border of region {}",
+                            articulation.name,
+                            side.sub.parent_vertex[v],
+                            l + 1
+                        ),
+                    });
+                }
+                if region_plan.deformable[v] {
+                    reach = reach.min(region_plan.u[v] * extent);
+                }
+            }
+            plans.push(region_plan);
+        }
+        if reach.is_finite() {
+            let fitted = CLAMP_FRACTION * reach;
+            if attempt == 1 || !(fitted > 0.0) {
+                return Err(SelfContactError::RegionTooSmall {
+                    region: 1,
+                    reason: format!(
+                        "articulation \"{}\": the deformation reaches a region's far border (φ = {reach:.3e})",
+                        articulation.name
+                    ),
+                });
+            }
+            extent = fitted;
+            plan.stats.extent_clamped = true;
+            continue;
+        }
+        break;
+    }
+    plan.extent = extent;
+    plan.stats.extent = extent;
+    for l in 0..2 {
+        plan.stats.contact_vertices[l] = plans[l].stats.num_contact;
+        plan.stats.deformable_vertices[l] = plans[l].stats.num_deformable;
+    }
+
+    // §6: p′ = βp′₁ + (1 − β)p′₂, as affine displacements.
+    let out = &mut plan.displacement;
+    let mut weight_sum = vec![0.0; n];
+    for (l, region_plan) in plans.iter().enumerate() {
+        let sub = &setup.sides[l].sub;
+        for (local, &v) in sub.parent_vertex.iter().enumerate() {
+            let v = v as usize;
+            let in_other = setup.sides[1 - l].sub.local_vertex[v] != NOT_IN_SUBMESH;
+            let beta = shared.beta[v];
+            let w = match (in_other, l) {
+                (false, _) => 1.0,
+                (true, 0) => beta,
+                (true, _) => 1.0 - beta,
+            };
+            weight_sum[v] += w;
+            plan.contact[v] |= region_plan.contact[local];
+            let d = &region_plan.displacement;
+            if w > 0.0 && d.moved[local] {
+                out.moved[v] = true;
+                out.constant[v] += w * d.constant[local];
+                out.linear[v] += w * d.linear[local];
+            }
+        }
+    }
+    debug_assert!(weight_sum.iter().all(|&w| w == 0.0 || (w - 1.0).abs() < 1e-12));
+    plan.stats.deformation_time = t.elapsed();
+    plan.stats.total_time = start.elapsed();
+    Ok(plan)
+}
+
+/// The bulge heights of an object's articulation plans and the resulting positions.
+#[derive(Clone, Debug)]
+pub struct AppliedArticulations {
+    /// The object's positions after every articulation.
+    pub positions: Vec<DVec3>,
+    /// Per plan: h_v (γ = 1) and whether it is exact.
+    pub heights: Vec<(f64, bool)>,
+    /// Block Gauss–Seidel rounds run (1 when the plans' moving faces do not overlap).
+    pub rounds: usize,
+}
+
+/// Largest number of rounds of the height solve.
+const MAX_ROUNDS: usize = 16;
+
+/// Chooses the bulge height of every plan and applies them (see the module doc): with
+/// `preserve_volume`, each h solves the whole mesh's volume cubic given the others; otherwise
+/// every h is `bulge_height`. Each plan then moves by `constant + bulge·h·linear`.
+pub fn apply_articulations(
+    mesh: &TriMesh,
+    plans: &[ArticulationPlan],
+    preserve_volume: bool,
+    bulge_height: f64,
+    bulge: f64,
+) -> Result<AppliedArticulations, DeformError> {
+    let k = plans.len();
+    let active: Vec<bool> = plans.iter().map(|p| p.displacement.moved.iter().any(|&m| m)).collect();
+    let mut heights: Vec<(f64, bool)> = vec![(if preserve_volume { 0.0 } else { bulge_height }, !preserve_volume); k];
+    for (h, &a) in heights.iter_mut().zip(&active) {
+        if !a {
+            *h = (0.0, true);
+        }
+    }
+    let positions_with = |heights: &[(f64, bool)], skip: Option<usize>, scale: f64| -> Vec<DVec3> {
+        let mut positions = mesh.positions.clone();
+        for (j, plan) in plans.iter().enumerate() {
+            if Some(j) == skip || !active[j] {
+                continue;
+            }
+            let d = &plan.displacement;
+            for (v, p) in positions.iter_mut().enumerate() {
+                if d.moved[v] {
+                    *p += d.constant[v] + scale * heights[j].0 * d.linear[v];
+                }
+            }
+        }
+        positions
+    };
+    let mut rounds = 0;
+    if preserve_volume && active.iter().any(|&a| a) {
+        let target = signed_volume(mesh);
+        let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / mesh.num_vertices().max(1) as f64;
+        // Moving faces of each plan, to know whether one round is exact.
+        let moving: Vec<Vec<bool>> = plans
+            .iter()
+            .map(|p| mesh.triangles.iter().map(|t| t.iter().any(|&v| p.displacement.moved[v as usize])).collect())
+            .collect();
+        let overlapping = (0..k).any(|i| {
+            (i + 1..k).any(|j| moving[i].iter().zip(&moving[j]).any(|(&a, &b)| a && b) && active[i] && active[j])
+        });
+        for round in 0..MAX_ROUNDS {
+            rounds = round + 1;
+            let mut change: f64 = 0.0;
+            for j in (0..k).filter(|&j| active[j]) {
+                let base = TriMesh { positions: positions_with(&heights, Some(j), 1.0), triangles: mesh.triangles.clone() };
+                let mut cubic = VolumeCubic::new(&base, &plans[j].displacement, reference)?;
+                cubic.coefficients[0] += signed_volume(&base) - target;
+                let solution = solve_bulge_height(&cubic, plans[j].extent);
+                change = change.max((solution.height - heights[j].0).abs() / plans[j].extent);
+                heights[j] = (solution.height, solution.exact);
+            }
+            if !overlapping || change < 1e-12 {
+                break;
+            }
+        }
+    }
+    Ok(AppliedArticulations { positions: positions_with(&heights, None, bulge), heights, rounds })
+}
+
+/// Self-intersecting faces among `faces` of `mesh` (the faces of an articulation's regions).
+pub fn count_self_intersections(mesh: &TriMesh, faces: &[u32]) -> Result<usize, SpatialError> {
+    if faces.is_empty() {
+        return Ok(0);
+    }
+    Ok(TriangleBvh::with_faces(mesh, faces.iter().copied())?.self_intersections().faces.len())
+}
+
+#[cfg(test)]
+#[path = "self_contact_tests.rs"]
+mod tests;
