@@ -30,6 +30,7 @@ pub mod bench_scenes;
 mod params;
 pub mod regions;
 pub mod scenes;
+mod self_contact;
 
 use std::time::{Duration, Instant};
 
@@ -39,6 +40,7 @@ use serde::{Deserialize, Serialize};
 
 pub use params::ObjectParams;
 pub use regions::WorkingRegion;
+pub use self_contact::SelfContactResult;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
@@ -103,6 +105,8 @@ pub enum PipelineError {
         "object \"{object}\": {what} has {actual} values but the mesh has {expected} vertices; give one value per vertex"
     )]
     PerVertexLength { object: String, what: &'static str, expected: usize, actual: usize },
+    #[error("object \"{object}\", articulation \"{articulation}\": {source}")]
+    SelfContact { object: String, articulation: String, source: Box<crate::skinning::SelfContactError> },
     #[error(
         "object \"{object}\", working region {region}: {reason}; use a larger working region (a wider mask or \
          distance) or a smaller extent"
@@ -253,6 +257,9 @@ pub struct FrameStats {
     /// Every working region, object by object.
     #[serde(default)]
     pub regions: Vec<RegionStats>,
+    /// Every articulation with self-contact (ch. 6), object by object.
+    #[serde(default)]
+    pub articulations: Vec<crate::skinning::ArticulationStats>,
 }
 
 /// Which part of its object a working region is (same order as [`FrameStats::regions`]).
@@ -288,6 +295,8 @@ pub struct FrameResult {
     pub deformations: Vec<Option<RegionDeformation>>,
     /// The working regions, in the order of [`FrameStats::regions`].
     pub regions: Vec<RegionSummary>,
+    /// Per object: the result of its articulations' self-contact (ch. 6), `None` without any.
+    pub self_contact: Vec<Option<SelfContactResult>>,
     /// Timings and quality figures.
     pub stats: FrameStats,
 }
@@ -399,6 +408,8 @@ pub struct Deformer {
     /// Symbolic factorizations run since creation (one per deformed region unless its face set
     /// or connectivity changes): lets benchmarks check that frames reuse them.
     symbolic_analyses: usize,
+    /// Per object: the caches of its articulations (ch. 6).
+    self_contact: Vec<self_contact::SelfContactCache>,
 }
 
 /// The automatic extent φ_max of an object (used when [`ObjectParams::extent`] is `None`):
@@ -460,6 +471,46 @@ impl Deformer {
     /// Deforms one frame. See the module doc.
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
+        if frame.objects.iter().all(|o| o.params.self_contact.is_empty()) {
+            self.self_contact.clear();
+            return self.deform_pairs(frame, start);
+        }
+        let (resolved, articulations) = self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
+        let meshes: Vec<Option<TriMesh>> = resolved
+            .iter()
+            .zip(&frame.objects)
+            .map(|(r, o)| r.as_ref().map(|r| TriMesh { positions: r.positions.clone(), triangles: o.mesh.triangles.clone() }))
+            .collect();
+        let objects = frame
+            .objects
+            .iter()
+            .zip(&meshes)
+            .map(|(o, m)| FrameObject { mesh: m.as_ref().unwrap_or(o.mesh), ..*o })
+            .collect();
+        let mut result = self.deform_pairs(&Frame { objects, pairs: frame.pairs.clone() }, start)?;
+        // Figures relative to the frame's input, not to the self-contact stage's output.
+        for ((stats, object), (positions, r)) in
+            result.stats.objects.iter_mut().zip(&frame.objects).zip(result.positions.iter().zip(&resolved))
+        {
+            if r.is_none() {
+                continue;
+            }
+            stats.volume_before = signed_volume(object.mesh);
+            if stats.volume_before != 0.0 {
+                stats.relative_volume_change = (stats.volume_after - stats.volume_before) / stats.volume_before.abs();
+            }
+            stats.max_displacement =
+                object.mesh.positions.iter().zip(positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+            stats.deformed |= r.as_ref().is_some_and(|r| r.moved.iter().any(|&m| m));
+        }
+        result.stats.articulations = articulations;
+        result.self_contact = resolved;
+        result.stats.total = start.elapsed();
+        Ok(result)
+    }
+
+    /// The contacts between objects (ch. 4–5) of a frame; `start` is when the frame began.
+    fn deform_pairs(&mut self, frame: &Frame, start: Instant) -> Result<FrameResult, PipelineError> {
         let count = frame.objects.len();
         let mut partners: Vec<Vec<usize>> = vec![Vec::new(); count];
         for (p, pair) in frame.pairs.iter().enumerate() {
@@ -879,12 +930,14 @@ impl Deformer {
             contacts,
             deformations: kept,
             regions: summaries,
+            self_contact: vec![None; count],
             stats: FrameStats {
                 total: start.elapsed(),
                 stages,
                 objects: object_stats,
                 pairs: pair_stats,
                 regions: region_stats,
+                articulations: Vec::new(),
             },
         })
     }

@@ -5,12 +5,13 @@
 //! Scale-dependent defaults are derived from the geometry by the pipeline (see
 //! [`super::automatic_extent`]), never hard-coded.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::WorkingRegion;
 use crate::contact::Stiffness;
 use crate::deform::{DeformParams, DirectionFieldMethod, ProfileShape, Wrinkles};
+use crate::skinning::Articulation;
 
 /// Parameters of one object. Public fields, `Default` = the thesis' defaults, serde-ready
 /// (missing fields take their defaults; unknown fields are errors).
@@ -58,6 +59,14 @@ pub struct ObjectParams {
     /// 𝒲: the working regions the pipeline processes (§4, §4.5, §7.5). Default: the whole
     /// object. See [`WorkingRegion`] and [`super::regions`].
     pub region: WorkingRegion,
+    /// Articulations whose two sides may fold onto each other (skinned joints, lips; thesis
+    /// ch. 6), resolved before the contacts with other objects. Default: none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub self_contact: Vec<Articulation>,
+    /// The rest (bind) pose, one position per vertex, on which the articulations' partition of
+    /// unity β is computed (§6.1.1). Default: the frame's own mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rest_positions: Option<Vec<DVec3>>,
 }
 
 impl Default for ObjectParams {
@@ -81,6 +90,8 @@ impl Default for ObjectParams {
             direction_field: deform.direction_method,
             uvs: None,
             region: WorkingRegion::Whole,
+            self_contact: Vec::new(),
+            rest_positions: None,
         }
     }
 }

@@ -1,0 +1,166 @@
+//! The self-contact stage of a frame (thesis ch. 6): every object with articulations
+//! ([`ObjectParams::self_contact`]) has them resolved first, in parallel over objects and
+//! articulations, with one volume-preserving bulge height per articulation solved on the whole
+//! object ([`crate::skinning::self_contact`]). The contacts between objects (ch. 4–5) then run on
+//! the result.
+//!
+//! *Decision (ordering):* a skinned character that folds onto itself and also touches another
+//! object is first made free of its own folds, then deformed by the other object. The two stages
+//! see consistent inputs (the second one's input has no self-intersection at the articulations),
+//! and each stage preserves the volume of its own input, so the whole frame does too.
+//!
+//! The rest pose on which β is computed is [`ObjectParams::rest_positions`] (a skinned mesh's
+//! bind pose), or the frame's own mesh when none is given: β then follows the frame, which keeps
+//! every frame independent of the others.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{Frame, ObjectParams, PipelineError};
+use crate::mesh::{Topology, TriMesh, vertex_normals};
+use crate::skinning::{
+    ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, count_self_intersections,
+    plan_articulation,
+};
+
+/// What the deformer keeps about an object's articulations between frames.
+#[derive(Debug, Default)]
+pub(super) struct SelfContactCache {
+    triangles: Vec<[u32; 3]>,
+    topology: Option<Topology>,
+    setups: Vec<Option<ArticulationSetup>>,
+}
+
+/// The self-contact result of one object at one frame.
+#[derive(Clone, Debug)]
+pub struct SelfContactResult {
+    /// The object's positions after its articulations (the input to the contacts between
+    /// objects).
+    pub positions: Vec<DVec3>,
+    /// Per vertex: in a contact zone of one of its articulations.
+    pub contact: Vec<bool>,
+    /// Per vertex: moved by one of its articulations.
+    pub moved: Vec<bool>,
+    /// Per articulation: ℛ's vertices (object ids) and their crease-cut label (true = 𝒲̄₁).
+    pub cuts: Vec<(Vec<u32>, Vec<bool>)>,
+}
+
+/// Runs the articulations of every object that has some. Returns, per object, its result
+/// (`None` for objects without articulations) and the articulations' figures.
+pub(super) fn resolve_self_contacts(
+    caches: &mut Vec<SelfContactCache>,
+    frame: &Frame,
+) -> Result<(Vec<Option<SelfContactResult>>, Vec<ArticulationStats>), PipelineError> {
+    let count = frame.objects.len();
+    caches.resize_with(count, SelfContactCache::default);
+    caches.truncate(count);
+    let results: Vec<Option<(SelfContactResult, Vec<ArticulationStats>)>> = caches
+        .par_iter_mut()
+        .zip(&frame.objects)
+        .enumerate()
+        .map(|(i, (cache, object))| {
+            if object.params.self_contact.is_empty() || object.params.rigid {
+                return Ok(None);
+            }
+            resolve_object(i, cache, object.name, object.mesh, object.params).map(Some)
+        })
+        .collect::<Result<_, _>>()?;
+    let mut stats = Vec::new();
+    let results = results
+        .into_iter()
+        .map(|r| {
+            r.map(|(result, s)| {
+                stats.extend(s);
+                result
+            })
+        })
+        .collect();
+    Ok((results, stats))
+}
+
+fn resolve_object(
+    index: usize,
+    cache: &mut SelfContactCache,
+    name: &str,
+    mesh: &TriMesh,
+    params: &ObjectParams,
+) -> Result<(SelfContactResult, Vec<ArticulationStats>), PipelineError> {
+    let n = mesh.num_vertices();
+    let error = |articulation: &str, source| PipelineError::SelfContact {
+        object: name.to_string(),
+        articulation: articulation.to_string(),
+        source: Box::new(source),
+    };
+    if cache.topology.is_none() || cache.triangles != mesh.triangles {
+        let topology =
+            mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
+        *cache = SelfContactCache { triangles: mesh.triangles.clone(), topology: Some(topology), setups: Vec::new() };
+    }
+    let Some(topology) = cache.topology.as_ref() else {
+        return Err(PipelineError::InvalidRegion { object: name.to_string(), reason: "no topology".into() });
+    };
+    let rest = match &params.rest_positions {
+        Some(rest) if rest.len() != n => {
+            return Err(PipelineError::PerVertexLength {
+                object: name.to_string(),
+                what: "the rest positions",
+                expected: n,
+                actual: rest.len(),
+            });
+        }
+        Some(rest) => TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() },
+        None => mesh.clone(),
+    };
+    let closed = topology.is_closed();
+    let articulations = &params.self_contact;
+    cache.setups.resize_with(articulations.len(), || None);
+    cache.setups.truncate(articulations.len());
+    let normals = vertex_normals(mesh);
+    // Any extent here is replaced by the articulation's own.
+    let deform_params = params.deform_params(1.0, closed);
+    let plans: Vec<ArticulationPlan> = cache
+        .setups
+        .par_iter_mut()
+        .zip(articulations)
+        .map(|(slot, articulation)| {
+            let err = |source| error(&articulation.name, source);
+            let setup = match slot {
+                Some(setup) if setup.matches(mesh, articulation) => {
+                    setup.set_rest(&rest, topology).map_err(err)?;
+                    setup
+                }
+                _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest).map_err(err)?),
+            };
+            let mut plan =
+                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params).map_err(err)?;
+            plan.stats.object = index;
+            Ok(plan)
+        })
+        .collect::<Result<_, _>>()?;
+    let preserve = params.preserve_volume.unwrap_or(closed);
+    let applied = apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge)
+        .map_err(|source| PipelineError::Deform { object: name.to_string(), source })?;
+    let after = TriMesh { positions: applied.positions, triangles: mesh.triangles.clone() };
+    let mut contact = vec![false; n];
+    let mut moved = vec![false; n];
+    let mut cuts = Vec::with_capacity(plans.len());
+    let mut stats = Vec::with_capacity(plans.len());
+    for ((plan, &(height, exact)), setup) in plans.into_iter().zip(&applied.heights).zip(&cache.setups) {
+        for v in 0..n {
+            contact[v] |= plan.contact[v];
+            moved[v] |= plan.displacement.moved[v];
+        }
+        let mut s = plan.stats;
+        s.bulge_height = height;
+        s.applied_bulge_height = params.bulge * height;
+        s.volume_exact = exact;
+        if let Some(setup) = setup {
+            let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
+            s.self_intersecting_faces_before = count_self_intersections(mesh, setup.faces()).map_err(spatial)?;
+            s.self_intersecting_faces_after = count_self_intersections(&after, setup.faces()).map_err(spatial)?;
+            cuts.push((setup.shared().vertices.clone(), plan.labels));
+        }
+        stats.push(s);
+    }
+    Ok((SelfContactResult { positions: after.positions, contact, moved, cuts }, stats))
+}
