@@ -399,7 +399,8 @@ pub fn normal_at(mesh: &TriMesh, normals: &[DVec3], face: u32, bary: [f64; 3]) -
 /// (farthest crossing; closest point if the line misses). Returns the matches and the number of
 /// closest-point fallbacks.
 pub fn cast_matches(points: &[DVec3], other: &ContactSide, toward: DVec3) -> (Vec<Match>, usize) {
-    let bounds = other.bvh.bounds();
+    let tree = other.match_tree();
+    let bounds = tree.bounds();
     let (center, half) = (bounds.center(), 0.5 * bounds.diagonal());
     // Start every ray behind the other mesh's box (|p − c| + half-diagonal reaches past it, the
     // second half-diagonal is margin) so that the ray covers the whole line there.
@@ -410,12 +411,12 @@ pub fn cast_matches(points: &[DVec3], other: &ContactSide, toward: DVec3) -> (Ve
             Ray::new(p - toward * back, toward)
         })
         .collect();
-    let hits = other.bvh.ray_farthest_batch(&rays);
+    let hits = tree.ray_farthest_batch(&rays);
     let missed: Vec<usize> = (0..hits.len()).filter(|&k| hits[k].is_none()).collect();
     let closest = if missed.is_empty() {
         Vec::new()
     } else {
-        other.bvh.closest_point_batch(&missed.iter().map(|&k| points[k]).collect::<Vec<_>>())
+        tree.closest_point_batch(&missed.iter().map(|&k| points[k]).collect::<Vec<_>>())
     };
     let mut closest = closest.into_iter();
     let matches = hits

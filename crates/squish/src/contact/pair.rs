@@ -58,6 +58,11 @@ pub struct ContactSide<'a> {
     /// two sides are parts of one closed mesh whose intersection curves end at the crease cut,
     /// where a flood fill would leak (see [`super::intersect`]).
     pub interior: Option<&'a [bool]>,
+    /// Tree over the faces that the other side's lines along ±d̂ are matched on (§4.2.2), face
+    /// ids = mesh face ids. `None`: all faces ([`Self::bvh`]). Self-contact (ch. 6) gives the
+    /// faces that face the fold: its sides are open parts of one limb, and the farthest crossing
+    /// of a line with the whole part would be the limb's outer skin, beyond the fold.
+    pub match_bvh: Option<&'a TriangleBvh>,
 }
 
 impl<'a> ContactSide<'a> {
@@ -73,6 +78,7 @@ impl<'a> ContactSide<'a> {
             border: None,
             uvs: None,
             interior: None,
+            match_bvh: None,
         }
     }
 
@@ -104,6 +110,17 @@ impl<'a> ContactSide<'a> {
     pub fn with_interior(mut self, interior: Option<&'a [bool]>) -> Self {
         self.interior = interior;
         self
+    }
+
+    /// Sets the tree of the faces the other side's lines are matched on (see [`Self::match_bvh`]).
+    pub fn with_match_bvh(mut self, tree: Option<&'a TriangleBvh>) -> Self {
+        self.match_bvh = tree;
+        self
+    }
+
+    /// The tree the other side's lines are matched on.
+    pub fn match_tree(&self) -> &'a TriangleBvh {
+        self.match_bvh.unwrap_or(self.bvh)
     }
 
     /// The name for messages.
@@ -357,6 +374,9 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let k = [ka, kb];
     let surfaces = [0, 1].map(|l| side_surface(sides[l], &mappings[l], toward[l], k[l], k[1 - l]));
     let mut crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
+    if let Some(floor) = params.contact_threshold_floor {
+        crit.threshold = crit.threshold.max(-floor * crit.penetration);
+    }
     if let Some(max) = params.max_contact_threshold {
         crit.threshold = crit.threshold.min(max);
     }

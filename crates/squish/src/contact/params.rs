@@ -117,6 +117,13 @@ pub struct PairParams {
     /// penetrating point of the mapping regions is in contact, whatever the spread of depths —
     /// what self-contact uses (ch. 6), where no interpenetration may remain. Default: none.
     pub max_contact_threshold: Option<f64>,
+    /// A lower bound on ε_c in units of the typical penetration depth P (see
+    /// [`super::zone::CriterionStats::penetration`]): `ε_c ≥ −floor·P`. Where the mapping regions
+    /// face each other across wide gaps (the two sides of a fold), m_𝒮 + τσ_𝒮 is far below 0
+    /// and would pull in points up to that gap away as soon as the contact starts — a jump.
+    /// With the floor, the zone starts as the penetrating points and grows with the penetration.
+    /// Default: none (the thesis' criterion).
+    pub contact_threshold_floor: Option<f64>,
 }
 
 impl Default for PairParams {
@@ -128,6 +135,7 @@ impl Default for PairParams {
             contact_method: ContactMethod::Geometric,
             mapping: MappingMethod::UniqueDirection,
             max_contact_threshold: None,
+            contact_threshold_floor: None,
         }
     }
 }
@@ -197,6 +205,15 @@ impl PairParams {
                 name: "max_contact_threshold",
                 value: max,
                 hint: "use a finite distance (0 = every penetrating point is in contact) or leave it unset",
+            });
+        }
+        if let Some(floor) = self.contact_threshold_floor
+            && !(floor.is_finite() && floor >= 0.0)
+        {
+            return Err(ContactError::InvalidParameter {
+                name: "contact_threshold_floor",
+                value: floor,
+                hint: "use a factor ≥ 0 of the penetration depth (1 = the typical depth) or leave it unset",
             });
         }
         match self.direction {

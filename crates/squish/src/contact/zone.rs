@@ -44,6 +44,9 @@ pub struct CriterionStats {
     pub std_dev: f64,
     /// ε_c = m_𝒮 + τσ_𝒮.
     pub threshold: f64,
+    /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without
+    /// penetration): continuous, and 0 when the contact starts.
+    pub penetration: f64,
 }
 
 /// Penetration c at every sample of ℳ (0 for a vertex outside ℳ, which integration never asks).
@@ -85,7 +88,14 @@ pub fn criterion(
         spread += s;
     }
     let std_dev = (spread / area).max(0.0).sqrt();
-    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev }
+    let (mut first, mut second) = (0.0, 0.0);
+    for l in 0..2 {
+        let depth = |s| depth_at(mappings[l], surfaces[l], s).max(0.0);
+        first += mappings[l].region.integrate(sides[l].mesh, sides[l].topology, depth, |c: f64| c).1;
+        second += mappings[l].region.integrate(sides[l].mesh, sides[l].topology, depth, |c: f64| c * c).1;
+    }
+    let penetration = if first > 0.0 { second / first } else { 0.0 };
+    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev, penetration }
 }
 
 /// The safeguard value min(−toward·n, toward·n″) of a sample.

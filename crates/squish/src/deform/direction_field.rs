@@ -17,6 +17,14 @@
 //!   its diffused length, so d falls back to the normal where the directions cancel (skinning,
 //!   ch. 6).
 //! - At a boundary point of ∂𝒞 (u = 0, w = 1), `d_ij = normalize((1 − α)d̄_i + α d̄_j)`.
+//! - **Short d̄ (better than the thesis).** When d̄ is not a unit vector (given by the caller, or
+//!   diffused without normalization), the blend is `d = normalize(w·d̄ + (1 − w·|d̄|)·n)`, and at
+//!   a boundary point `d_ij = normalize(d̄_ij + (1 − |d̄_ij|)·n_ij)` (d̄ and n interpolated). With
+//!   |d̄| = 1 this is the thesis' blend; as |d̄| → 0 it tends to n *everywhere*, ∂𝒞 included.
+//!   The thesis' `w·d̄ + (1 − w)·n` falls back to n only inside 𝒟: at ∂𝒞 (w = 1) it normalizes
+//!   a vanishing d̄, whose sign flips across the crease of a skinned fold (d̄ = (2β − 1)·d̂), and
+//!   the amplitudes measured along it jumped by the whole penetration there (a bent capsule:
+//!   crease vertices pushed 0.45 radius into the limb).
 //! - If the blend vanishes (d̄ opposite to n with w = ½, or a zero normal), d falls back to n, then
 //!   to the owner zone's direction; such vertices are counted.
 //! - Outside 𝒟, d is the normal (unused by the later stages).
@@ -111,13 +119,20 @@ pub fn direction_field(
         vec![first_direction; n]
     };
 
+    // A d̄ shorter than 1 (given, or diffused without normalization) gives the normal the weight
+    // `1 − w·|d̄|` (see the module doc); a unit d̄ keeps the thesis' `1 − w` exactly.
+    let unnormalized = params.mapping_field.is_some() || (diffused && !params.normalize_diffused);
     let mut fallbacks = 0;
     let boundary = contact
         .boundary
         .iter()
         .map(|b| {
             let p = b.point;
-            let d = mapping[p.inside as usize] * (1.0 - p.alpha) + mapping[p.outside as usize] * p.alpha;
+            let mut d = mapping[p.inside as usize] * (1.0 - p.alpha) + mapping[p.outside as usize] * p.alpha;
+            if unnormalized {
+                let normal = normals[p.inside as usize] * (1.0 - p.alpha) + normals[p.outside as usize] * p.alpha;
+                d += (1.0 - d.length().min(1.0)) * normal;
+            }
             if d.length() > MIN_BLEND_LENGTH {
                 d.normalize()
             } else {
@@ -133,7 +148,8 @@ pub fn direction_field(
             continue;
         }
         let w = blend_weight(parametrization.u[v]);
-        let blend = w * mapping[v] + (1.0 - w) * normals[v];
+        let normal_weight = if unnormalized { 1.0 - w * mapping[v].length().min(1.0) } else { 1.0 - w };
+        let blend = w * mapping[v] + normal_weight * normals[v];
         let length = blend.length();
         directions[v] = if length > MIN_BLEND_LENGTH {
             blend / length
@@ -191,7 +207,8 @@ mod tests {
         let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
         let p = parametrize(mesh, topology, solver, &contact, &params).unwrap();
         let normals = vertex_normals(mesh);
-        let options = DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused, mapping_field: None };
+        let options =
+            DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused, mapping_field: None };
         let field = direction_field(mesh, solver, &contact, &p, &normals, &options).unwrap();
         (contact, p, field)
     }

@@ -479,7 +479,9 @@ impl Deformer {
         let meshes: Vec<Option<TriMesh>> = resolved
             .iter()
             .zip(&frame.objects)
-            .map(|(r, o)| r.as_ref().map(|r| TriMesh { positions: r.positions.clone(), triangles: o.mesh.triangles.clone() }))
+            .map(|(r, o)| {
+                r.as_ref().map(|r| TriMesh { positions: r.positions.clone(), triangles: o.mesh.triangles.clone() })
+            })
             .collect();
         let objects = frame
             .objects

@@ -52,7 +52,9 @@ pub enum ArticulationError {
          give the direction instead"
     )]
     DegenerateJoints { joints: [[f64; 3]; 3] },
-    #[error("the direction {direction:?} is zero or not finite; give a non-zero direction from region 1 toward region 2")]
+    #[error(
+        "the direction {direction:?} is zero or not finite; give a non-zero direction from region 1 toward region 2"
+    )]
     InvalidDirection { direction: [f64; 3] },
     #[error("{what} is empty; {fix}")]
     EmptyRegion { what: &'static str, fix: &'static str },

@@ -16,6 +16,6 @@ pub use articulation::{
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
 pub use partition::{Seed, SharedRegion};
 pub use self_contact::{
-    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, SelfContactError, apply_articulations,
-    count_self_intersections, plan_articulation,
+    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, SelfContactError,
+    apply_articulations, count_self_intersections, plan_articulation,
 };

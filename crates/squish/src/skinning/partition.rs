@@ -68,8 +68,11 @@ impl SharedRegion {
         let mut membership = vec![[false; 2]; n];
         for (l, list) in regions.iter().enumerate() {
             for &v in list {
-                let slot =
-                    membership.get_mut(v as usize).ok_or(ArticulationError::VertexOutOfRange { region: l + 1, vertex: v, count: n })?;
+                let slot = membership.get_mut(v as usize).ok_or(ArticulationError::VertexOutOfRange {
+                    region: l + 1,
+                    vertex: v,
+                    count: n,
+                })?;
                 slot[l] = true;
             }
         }
@@ -150,7 +153,8 @@ impl SharedRegion {
         }
         for (k, &v) in vertices.iter().enumerate() {
             // Exact seeds; a vertex of ℛ in no face of ℛ takes ½ unless seeded.
-            beta[v as usize] = seed_value(seeds[k]).unwrap_or(if beta[v as usize].is_nan() { 0.5 } else { beta[v as usize] });
+            beta[v as usize] =
+                seed_value(seeds[k]).unwrap_or(if beta[v as usize].is_nan() { 0.5 } else { beta[v as usize] });
         }
         Ok(Self { vertices, membership, beta, seeds, edges })
     }

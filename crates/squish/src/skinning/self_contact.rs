@@ -48,8 +48,8 @@ use super::partition::SharedRegion;
 use super::{Articulation, ArticulationError, articulation_direction};
 use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, PairParams, Stiffness, contact_pair};
 use crate::deform::{
-    AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic,
-    plan_region, solve_bulge_height,
+    AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic, plan_region,
+    solve_bulge_height,
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume};
 use crate::spatial::{SpatialError, TriangleBvh};
@@ -186,8 +186,9 @@ impl ArticulationSetup {
         let Ok(sides) = <[RegionSide; 2]>::try_from(sides) else {
             return Err(ArticulationError::EmptyRegion { what: "a region", fix: "give two regions" }.into());
         };
-        let faces =
-            (0..mesh.num_triangles() as u32).filter(|&f| face_sets[0][f as usize] || face_sets[1][f as usize]).collect();
+        let faces = (0..mesh.num_triangles() as u32)
+            .filter(|&f| face_sets[0][f as usize] || face_sets[1][f as usize])
+            .collect();
         let tree = TriangleBvh::new(mesh)?;
         let edge_length = crate::mesh::mean_edge_length(rest, topology);
         let size = shared_size(rest, &shared);
@@ -262,6 +263,9 @@ struct Truncated {
     sub: SubMesh,
     topology: Topology,
     bvh: TriangleBvh,
+    /// Tree over the faces that face the fold (`n·toward > 0`), where the other side's lines
+    /// are matched; `None` when no face does.
+    facing: Option<TriangleBvh>,
     normals: Vec<DVec3>,
     border: Vec<bool>,
     /// Per vertex: inside another part of the object (see [`interior_flags`]).
@@ -276,6 +280,7 @@ impl Truncated {
         mask: &[bool],
         side: &RegionSide,
         interior: &[bool],
+        toward: DVec3,
     ) -> Result<Option<Self>, SpatialError> {
         let sub = SubMesh::from_vertex_mask(mesh, mask);
         if sub.mesh.triangles.is_empty() {
@@ -283,6 +288,14 @@ impl Truncated {
         }
         let sub_topology = Topology::new(&sub.mesh);
         let bvh = TriangleBvh::new(&sub.mesh)?;
+        let facing_faces: Vec<u32> = crate::mesh::face_normals(&sub.mesh)
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.dot(toward) > 0.0)
+            .map(|(f, _)| f as u32)
+            .collect();
+        let facing =
+            if facing_faces.is_empty() { None } else { Some(TriangleBvh::with_faces(&sub.mesh, facing_faces)?) };
         let normals = region_vertex_normals(mesh, topology, &sub.parent_vertex);
         let border = sub
             .parent_vertex
@@ -293,7 +306,7 @@ impl Truncated {
             })
             .collect();
         let interior = sub.gather(interior);
-        Ok(Some(Self { sub, topology: sub_topology, bvh, normals, border, interior }))
+        Ok(Some(Self { sub, topology: sub_topology, bvh, facing, normals, border, interior }))
     }
 }
 
@@ -305,6 +318,7 @@ impl Truncated {
             .with_stiffness(Stiffness::Elastic(stiffness))
             .with_border(self.border.iter().any(|&b| b).then_some(self.border.as_slice()))
             .with_interior(Some(&self.interior))
+            .with_match_bvh(self.facing.as_ref())
     }
 }
 
@@ -324,7 +338,13 @@ fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertice
 
 /// The zone `zone` of the region `from` (a sub-mesh of the object) on the region `to`, for the
 /// vertices `to` shares with `from` (see the module doc for edges without a boundary point).
-fn report_zone(zone: &ContactZone, from: &SubMesh, from_topology: &Topology, to: &SubMesh, to_topology: &Topology) -> ContactZone {
+fn report_zone(
+    zone: &ContactZone,
+    from: &SubMesh,
+    from_topology: &Topology,
+    to: &SubMesh,
+    to_topology: &Topology,
+) -> ContactZone {
     let n = to.num_vertices();
     let source = |local_to: u32| -> Option<u32> {
         let v = to.parent_vertex[local_to as usize];
@@ -380,6 +400,9 @@ fn report_zone(zone: &ContactZone, from: &SubMesh, from_topology: &Topology, to:
         mapping_direction: zone.mapping_direction,
     }
 }
+
+/// ε_c ≥ −P (P the typical penetration depth, see [`PairParams::contact_threshold_floor`]).
+pub const CONTACT_THRESHOLD_FLOOR: f64 = 1.0;
 
 /// The automatic contact gap as a fraction of the mean edge length (see [`separate`]).
 pub const GAP_FRACTION: f64 = 0.05;
@@ -456,8 +479,8 @@ pub fn plan_articulation(
     setup.tree.refit(&mesh.positions)?;
     let interior = interior_flags(mesh, normals, &setup.tree, &in_regions, setup.epsilon);
     let truncated = match (
-        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], &interior)?,
-        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], &interior)?,
+        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], &interior, d)?,
+        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], &interior, -d)?,
     ) {
         (Some(first), Some(second)) => Some([first, second]),
         _ => None,
@@ -467,6 +490,7 @@ pub fn plan_articulation(
         direction: Some(d),
         safeguard_angle_degrees: articulation.params.safeguard_angle_degrees,
         max_contact_threshold: Some(0.0),
+        contact_threshold_floor: Some(CONTACT_THRESHOLD_FLOOR),
         ..PairParams::default()
     };
     let contact = match &truncated {
@@ -509,8 +533,8 @@ pub fn plan_articulation(
             .collect()
     });
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
-    let fields: [Vec<DVec3>; 2] =
-        [0, 1].map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
+    let fields: [Vec<DVec3>; 2] = [0, 1]
+        .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
     let automatic = (1.2 * setup.size).max(1.5 * (contact.contact_area.max(0.0) / std::f64::consts::PI).sqrt());
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     let mut plans: Vec<RegionPlan> = Vec::with_capacity(2);
@@ -667,7 +691,8 @@ pub fn apply_articulations(
             rounds = round + 1;
             let mut change: f64 = 0.0;
             for j in (0..k).filter(|&j| active[j]) {
-                let base = TriMesh { positions: positions_with(&heights, Some(j), 1.0), triangles: mesh.triangles.clone() };
+                let base =
+                    TriMesh { positions: positions_with(&heights, Some(j), 1.0), triangles: mesh.triangles.clone() };
                 let mut cubic = VolumeCubic::new(&base, &plans[j].displacement, reference)?;
                 cubic.coefficients[0] += signed_volume(&base) - target;
                 let solution = solve_bulge_height(&cubic, plans[j].extent);
