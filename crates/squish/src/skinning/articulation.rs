@@ -80,7 +80,7 @@ pub fn articulation_direction(direction: &ArticulationDirection) -> Result<DVec3
                 return Err(degenerate());
             }
             let scale = b1.length().max(b2.length());
-            if !(scale > 0.0) || b1.length() <= 1e-12 * scale || b2.length() <= 1e-12 * scale {
+            if scale <= 0.0 || b1.length() <= 1e-12 * scale || b2.length() <= 1e-12 * scale {
                 return Err(degenerate());
             }
             let sum = b1.normalize() + b2.normalize();
@@ -211,13 +211,13 @@ pub fn regions_from_skin_weights(
     }
     // Joints carried by the child bone: its subtree in the skin's hierarchy.
     let mut carried = vec![false; count];
-    for j in 0..count {
+    for (j, carried_j) in carried.iter_mut().enumerate() {
         let mut k = Some(j);
         // A hierarchy has no cycle deeper than the joint count; the bound keeps bad data finite.
         for _ in 0..=count {
             match k {
                 Some(x) if x == child => {
-                    carried[j] = true;
+                    *carried_j = true;
                     break;
                 }
                 Some(x) => k = parents.get(x).copied().flatten(),

@@ -576,7 +576,7 @@ pub fn plan_articulation(
         }
         if reach.is_finite() {
             let fitted = CLAMP_FRACTION * reach;
-            if attempt == 1 || !(fitted > 0.0) {
+            if attempt == 1 || fitted.is_nan() || fitted <= 0.0 {
                 return Err(SelfContactError::RegionTooSmall {
                     region: 1,
                     reason: format!(
@@ -593,9 +593,9 @@ pub fn plan_articulation(
     }
     plan.extent = extent;
     plan.stats.extent = extent;
-    for l in 0..2 {
-        plan.stats.contact_vertices[l] = plans[l].stats.num_contact;
-        plan.stats.deformable_vertices[l] = plans[l].stats.num_deformable;
+    for (l, region_plan) in plans.iter().enumerate() {
+        plan.stats.contact_vertices[l] = region_plan.stats.num_contact;
+        plan.stats.deformable_vertices[l] = region_plan.stats.num_deformable;
     }
 
     // §6: p′ = βp′₁ + (1 − β)p′₂, as affine displacements.
