@@ -118,7 +118,7 @@ pub struct ArticulationParams {
     /// Angle beyond which a point cannot be in contact (§4.4.2). Default 80°.
     pub safeguard_angle_degrees: f64,
     /// Distance left between the two sides where they touch (world units). `None`: automatic,
-    /// a small fraction of the mean edge length (see [`super::self_contact`]).
+    /// half the mean edge length (see [`super::self_contact::GAP_FRACTION`]).
     pub contact_gap: Option<f64>,
 }
 

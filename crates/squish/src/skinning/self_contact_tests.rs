@@ -43,17 +43,22 @@ impl BentCapsule {
     /// Faces of `mesh` (a pose at `angle`) whose normal points against the skinned rest normal
     /// (LBS's crumpled faces when `mesh` is the input).
     fn inverted_faces(&self, mesh: &TriMesh, angle: f64) -> usize {
+        self.inverted(mesh, angle).iter().filter(|&&i| i).count()
+    }
+
+    /// Per face: inverted (see [`Self::inverted_faces`]).
+    fn inverted(&self, mesh: &TriMesh, angle: f64) -> Vec<bool> {
         let r = Self::rotation(angle);
         let rest = face_normals(&self.rest);
         face_normals(mesh)
             .iter()
             .zip(&rest)
             .zip(&mesh.triangles)
-            .filter(|((n, n0), t)| {
+            .map(|((n, n0), t)| {
                 let w = t.iter().map(|&v| self.child_weight[v as usize]).sum::<f64>() / 3.0;
-                n.dot((1.0 - w) * **n0 + w * (r * **n0)) <= 0.0
+                n.dot((1.0 - w) * *n0 + w * (r * *n0)) <= 0.0
             })
-            .count()
+            .collect()
     }
 
     fn joints(angle: f64) -> [DVec3; 3] {
@@ -83,7 +88,8 @@ fn run(
     let normals = crate::mesh::vertex_normals(mesh);
     let mut params = DeformParams::new(1.0);
     // Without the anisotropic bulge (Eq. 5.6) the two sides' bulges rise into the fold's gap
-    // and meet there at the deepest bends (150°: 41 faces instead of 13).
+    // and meet there at the deepest bends (150°: 41 self-intersecting faces instead of 13 with
+    // the former gap of 0.05 edge).
     params.anisotropic_bulge = true;
     let plan = plan_articulation(mesh, &capsule.topology, &normals, setup, articulation, &params).unwrap();
     let applied = apply_articulations(mesh, std::slice::from_ref(&plan), true, 0.0, 1.0).unwrap();
@@ -97,6 +103,8 @@ struct SweepFrame {
     after: usize,
     inverted_before: usize,
     inverted_after: usize,
+    /// Faces inverted in the result but not in the input.
+    newly_inverted: usize,
     volume_change: f64,
     /// Largest displacement of the result since the previous frame, and of the input.
     step: f64,
@@ -136,6 +144,12 @@ fn sweep(blend: f64, max_degrees: f64, frames: usize) -> Vec<SweepFrame> {
             after: count_self_intersections(&result, setup.faces()).unwrap(),
             inverted_before: capsule.inverted_faces(&mesh, angle),
             inverted_after: capsule.inverted_faces(&result, angle),
+            newly_inverted: capsule
+                .inverted(&result, angle)
+                .iter()
+                .zip(capsule.inverted(&mesh, angle))
+                .filter(|&(&a, b)| a && !b)
+                .count(),
             volume_change: (signed_volume(&result) - v0) / v0,
             step,
             input_step,
@@ -147,12 +161,13 @@ fn sweep(blend: f64, max_degrees: f64, frames: usize) -> Vec<SweepFrame> {
     }
     for f in &out_frames {
         eprintln!(
-            "{:5.1}°  self-intersecting {:3} -> {:3}  inverted {:3} -> {:2}  dV/V {:9.2e}  step {:.4} (input {:.4}, own {:.4})  cut changes {}",
+            "{:5.1}°  self-intersecting {:3} -> {:3}  inverted {:3} -> {:2} (new {})  dV/V {:9.2e}  step {:.4} (input {:.4}, own {:.4})  cut changes {}",
             f.angle,
             f.before,
             f.after,
             f.inverted_before,
             f.inverted_after,
+            f.newly_inverted,
             f.volume_change,
             f.step,
             f.input_step,
@@ -165,22 +180,20 @@ fn sweep(blend: f64, max_degrees: f64, frames: usize) -> Vec<SweepFrame> {
 
 /// The capsule: bent by LBS from 0° to 150° over 60 frames, weights blended over two
 /// radii on each side of the joint. Measured (this test's output): the input self-intersects
-/// from 107.5° on (24 → 180 faces) with up to 84 crumpled (inverted) faces; the result has none
-/// up to 137.5°, 10 to 13 faces from 140° to 150° (contact faces at the bottom of the fold,
-/// where the two sides' targets on 𝒮 meet at the crease), inverted faces 84 → ≤ 3, volume
-/// exact to 10⁻¹⁴, and the deformer's own motion per frame ≤ 0.04 for an input step of 0.15.
+/// from 107.5° on (24 → 180 faces) with up to 84 crumpled (inverted) faces; the result has no
+/// self-intersecting face at any frame, no inverted face up to 140° and 2 to 4 from 142.5° on
+/// (2 of them not inverted in the input), the volume exact to 10⁻¹⁴, and the deformer's own
+/// motion per frame ≤ 0.05 for an input step of 0.15 (largest at the crease, when the vertices
+/// next to it enter 𝒞).
 #[test]
 fn bent_capsule_from_0_to_150_degrees() {
     let frames = sweep(1.0, 150.0, 60);
     assert!(frames.iter().any(|f| f.in_contact));
     for f in &frames {
         assert!(f.volume_change.abs() < 1e-9, "{:.1}°: volume change {:.2e}", f.angle, f.volume_change);
-        assert!(f.inverted_after <= f.inverted_before.min(4), "{:.1}°: {} inverted faces", f.angle, f.inverted_after);
-        if f.angle <= 135.0 + 1e-9 {
-            assert_eq!(f.after, 0, "{:.1}°: self-intersecting faces remain", f.angle);
-        } else {
-            assert!(4 * f.after <= f.before, "{:.1}°: {} -> {}", f.angle, f.before, f.after);
-        }
+        assert!(f.inverted_after <= 4, "{:.1}°: {} inverted faces", f.angle, f.inverted_after);
+        assert_eq!(f.after, 0, "{:.1}°: self-intersecting faces remain", f.angle);
+        assert!(f.newly_inverted <= 2, "{:.1}°: {} faces inverted by the deformer", f.angle, f.newly_inverted);
         assert!(f.step <= 5.0 * f.input_step + 1e-12, "{:.1}°: jump {} vs input {}", f.angle, f.step, f.input_step);
         // The deformer's own motion stays below the input's.
         assert!(
