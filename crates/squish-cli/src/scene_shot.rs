@@ -38,6 +38,8 @@ pub fn object_params(object: &ObjectFrame) -> ObjectParams {
         anisotropy_exponent: object.anisotropy.map_or(defaults.anisotropy_exponent, |a| a.exponent),
         anisotropy_offset: object.anisotropy.map_or(defaults.anisotropy_offset, |a| a.offset),
         bulge_map: object.bulge_map.as_deref().map(<[f64]>::to_vec),
+        self_contact: object.self_contact.iter().map(|a| a.to_articulation()).collect(),
+        rest_positions: object.rest_positions.as_deref().map(<[DVec3]>::to_vec),
         ..defaults
     }
 }
@@ -218,6 +220,8 @@ mod tests {
             anisotropy: Some(AnisotropyValues { exponent: 3.0, offset: 0.2 }),
             bulge_map: Some(Arc::from(vec![0.5; 12])),
             region: RegionFrame::Whole,
+            self_contact: Vec::new(),
+            rest_positions: None,
         }
     }
 
