@@ -239,6 +239,30 @@ mod tests {
     }
 
     #[test]
+    fn articulations_and_the_rest_pose_reach_the_library() {
+        use squish::skinning::{ArticulationDirection, ArticulationParams};
+        use squish_io::scene::ArticulationFrame;
+        let mut o = object();
+        let params = ArticulationParams { contact_tau: 0.5, stiffness: [2.0, 0.5], ..ArticulationParams::default() };
+        let direction = ArticulationDirection::Joints([DVec3::NEG_X, DVec3::ZERO, DVec3::Y]);
+        o.self_contact = vec![ArticulationFrame {
+            name: "elbow".into(),
+            regions: Arc::new([vec![0, 1, 2], vec![2, 3]]),
+            direction,
+            params: params.clone(),
+        }];
+        o.rest_positions = Some(Arc::from(o.mesh.positions.clone()));
+        let p = object_params(&o);
+        let [a] = p.self_contact.as_slice() else { panic!("one articulation") };
+        assert_eq!(a.name, "elbow");
+        assert_eq!(a.regions, [vec![0, 1, 2], vec![2, 3]]);
+        assert_eq!(a.direction, direction);
+        assert_eq!(a.params, params);
+        assert_eq!(p.rest_positions.as_deref(), Some(o.mesh.positions.as_slice()));
+        assert!(object_params(&object()).self_contact.is_empty());
+    }
+
+    #[test]
     fn regions_and_contact_methods_reach_the_library() {
         let mut masked = object();
         masked.region = RegionFrame::Mask(vec![true; 12].into());

@@ -53,13 +53,13 @@ pub fn skinned_cylinder() -> Fixture {
     let v = |r: usize, s: usize| (r * segments + s % segments) as f64;
     for r in 0..rings - 1 {
         for s in 0..segments {
-            indices.extend_from_slice(&[v(r, s), v(r + 1, s), v(r + 1, s + 1), v(r, s), v(r + 1, s + 1), v(r, s + 1)]);
+            indices.extend_from_slice(&[v(r, s), v(r + 1, s + 1), v(r + 1, s), v(r, s), v(r, s + 1), v(r + 1, s + 1)]);
         }
     }
     let (c0, c1) = ((rings * segments) as f64, (rings * segments + 1) as f64);
     for s in 0..segments {
-        indices.extend_from_slice(&[c0, v(0, s), v(0, s + 1)]);
-        indices.extend_from_slice(&[c1, v(rings - 1, s + 1), v(rings - 1, s)]);
+        indices.extend_from_slice(&[c0, v(0, s + 1), v(0, s)]);
+        indices.extend_from_slice(&[c1, v(rings - 1, s), v(rings - 1, s + 1)]);
     }
     let mut f = Fixture::new();
     let pos = f.accessor(F32, "VEC3", &positions);
