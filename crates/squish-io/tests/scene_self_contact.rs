@@ -388,3 +388,17 @@ fn objects_without_self_contact_are_unchanged() {
     assert_eq!(frame.objects[0].rest_positions, None);
     assert!(!scene.to_json().unwrap().contains("self_contact"));
 }
+
+#[test]
+fn the_documented_example_parses() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-format.md")).unwrap();
+    let section = doc.split("### `[[objects.self_contact]]`").nth(1).unwrap();
+    let toml = section.split("```toml").nth(1).unwrap().split("```").next().unwrap();
+    let text = format!("frames = {{ start = 1, end = 24 }}\n{toml}");
+    let description = SceneDescription::parse(&text, std::path::Path::new("/shots/scene.toml")).unwrap();
+    let [man, head] = description.objects.as_slice() else { panic!("two objects") };
+    assert_eq!(man.self_contact.len(), 2);
+    assert_eq!(man.self_contact[1].stiffness.at(1.0), StiffnessPair([1.0, 2.0]));
+    assert_eq!(man.self_contact[1].min_weight, Some(0.1));
+    assert_eq!(head.self_contact[0].direction, SelfContactDirection::Fixed(DVec3::new(0.0, -1.0, 0.0).into()));
+}
