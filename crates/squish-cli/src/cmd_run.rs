@@ -120,6 +120,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let report = output.dir.join("report.json");
 
     if let Some(failure) = outcome.failure {
+        for articulation in &summary.articulations {
+            eprintln!("  {}", articulation.line());
+        }
         eprintln!(
             "{} frame{} done before the failure; report: {}",
             outcome.records.len(),
