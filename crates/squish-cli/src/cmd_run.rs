@@ -120,6 +120,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let report = output.dir.join("report.json");
 
     if let Some(failure) = outcome.failure {
+        for articulation in &summary.articulations {
+            eprintln!("  {}", articulation.line());
+        }
         eprintln!(
             "{} frame{} done before the failure; report: {}",
             outcome.records.len(),
@@ -145,6 +148,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         )));
     }
     say!("{}", summary.one_line());
+    for articulation in &summary.articulations {
+        say!("  {}", articulation.line());
+    }
     say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
     if !previews.is_empty() {
         say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
@@ -263,6 +269,19 @@ fn print_dry_run(
         );
         if let Some(note) = &n.note {
             say!("  {:<16} note: {note}", "");
+        }
+        for a in &object.params.self_contact {
+            let direction = match a.direction {
+                squish::skinning::ArticulationDirection::Joints(_) => "direction from the joints".to_string(),
+                squish::skinning::ArticulationDirection::Fixed(d) => format!("direction [{}, {}, {}]", d.x, d.y, d.z),
+            };
+            say!(
+                "  {:<16} self-contact \"{}\": regions of {} and {} vertices, {direction}",
+                "",
+                a.name,
+                a.regions[0].len(),
+                a.regions[1].len()
+            );
         }
     }
     say!("pairs:");

@@ -6,7 +6,10 @@
 //! for reference, the same for the *input* (both include the input's own motion, so their ratio
 //! is what tells a jump: ≈ 1 when the result follows the input smoothly). Per frame and pair:
 //! the deepest penetration of either mesh into the other before and after deformation (closed
-//! meshes only). Per shot: the worst of each, the total and per-frame times, frames per second.
+//! meshes only). Per frame and articulation with self-contact (thesis ch. 6): whether its sides
+//! touch, the self-intersecting faces of its regions before and after, the contact area, the
+//! bulge height and the time. Per shot: the worst of each, the total and per-frame times, frames
+//! per second, and per articulation the self-intersecting faces summed over the frames.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -172,6 +175,160 @@ pub fn measure(
     (objects, pairs)
 }
 
+/// Figures of one articulation (`[[objects.self_contact]]`) at one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArticulationQuality {
+    pub name: String,
+    /// The object's name.
+    pub object: String,
+    /// True if the two sides were in contact at this frame.
+    pub in_contact: bool,
+    /// Self-intersecting faces among the faces of the two regions (exact triangle–triangle
+    /// tests), in the input and in the result.
+    pub self_intersecting_faces_before: usize,
+    pub self_intersecting_faces_after: usize,
+    pub contact_area: f64,
+    /// h_v solved for volume preservation, γ·h_v applied, and whether h_v solves the volume
+    /// equation exactly.
+    pub bulge_height: f64,
+    pub applied_bulge_height: f64,
+    pub volume_exact: bool,
+    /// φ_max used, and whether it was clamped to keep the deformation inside the regions.
+    pub extent: f64,
+    pub extent_clamped: bool,
+    /// |𝒲₁|, |𝒲₂| and |ℛ| (vertices).
+    pub region_vertices: [usize; 2],
+    pub shared_vertices: usize,
+    /// d̂ at this frame.
+    pub direction: [f64; 3],
+    /// Wall-clock times: crease cut, contact, deformation, whole articulation.
+    pub cut_ms: f64,
+    pub contact_ms: f64,
+    pub deformation_ms: f64,
+    pub time_ms: f64,
+}
+
+/// The articulations' figures of a computed frame.
+pub fn articulation_figures(record: &FrameRecord) -> Vec<ArticulationQuality> {
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    record
+        .stats
+        .articulations
+        .iter()
+        .map(|a| ArticulationQuality {
+            name: a.name.clone(),
+            object: record.objects.get(a.object).map_or_else(|| format!("#{}", a.object), |o| o.name.clone()),
+            in_contact: a.in_contact,
+            self_intersecting_faces_before: a.self_intersecting_faces_before,
+            self_intersecting_faces_after: a.self_intersecting_faces_after,
+            contact_area: a.contact_area,
+            bulge_height: a.bulge_height,
+            applied_bulge_height: a.applied_bulge_height,
+            volume_exact: a.volume_exact,
+            extent: a.extent,
+            extent_clamped: a.extent_clamped,
+            region_vertices: a.region_vertices,
+            shared_vertices: a.shared_vertices,
+            direction: a.direction,
+            cut_ms: ms(a.cut_time),
+            contact_ms: ms(a.contact_time),
+            deformation_ms: ms(a.deformation_time),
+            time_ms: ms(a.total_time),
+        })
+        .collect()
+}
+
+/// One articulation over a shot.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArticulationSummary {
+    pub object: String,
+    pub name: String,
+    pub frames: usize,
+    pub frames_in_contact: usize,
+    /// Self-intersecting faces of the regions, summed over the frames, before and after.
+    pub self_intersecting_faces_before: usize,
+    pub self_intersecting_faces_after: usize,
+    /// The frame with the most self-intersecting faces left, if any are left.
+    pub worst_after: Option<Extreme>,
+    /// Frames whose bulge height does not solve the volume equation exactly.
+    pub frames_volume_inexact: usize,
+    pub total_time_ms: f64,
+    pub mean_time_ms: f64,
+    pub max_time_ms: f64,
+}
+
+impl ArticulationSummary {
+    /// Sums the articulations of every record, in order of first appearance.
+    pub fn of(records: &[FrameRecord]) -> Vec<Self> {
+        let mut out: Vec<Self> = Vec::new();
+        for r in records {
+            for a in articulation_figures(r) {
+                let i = match out.iter().position(|s| s.object == a.object && s.name == a.name) {
+                    Some(i) => i,
+                    None => {
+                        out.push(Self {
+                            object: a.object.clone(),
+                            name: a.name.clone(),
+                            frames: 0,
+                            frames_in_contact: 0,
+                            self_intersecting_faces_before: 0,
+                            self_intersecting_faces_after: 0,
+                            worst_after: None,
+                            frames_volume_inexact: 0,
+                            total_time_ms: 0.0,
+                            mean_time_ms: 0.0,
+                            max_time_ms: 0.0,
+                        });
+                        out.len() - 1
+                    }
+                };
+                let s = &mut out[i];
+                s.frames += 1;
+                s.frames_in_contact += usize::from(a.in_contact);
+                s.self_intersecting_faces_before += a.self_intersecting_faces_before;
+                s.self_intersecting_faces_after += a.self_intersecting_faces_after;
+                if a.self_intersecting_faces_after > 0 {
+                    keep_max(&mut s.worst_after, a.self_intersecting_faces_after as f64, r.frame, || {
+                        format!("{}/{}", a.object, a.name)
+                    });
+                }
+                s.frames_volume_inexact += usize::from(a.in_contact && !a.volume_exact);
+                s.total_time_ms += a.time_ms;
+                s.max_time_ms = s.max_time_ms.max(a.time_ms);
+            }
+        }
+        for s in &mut out {
+            if s.frames > 0 {
+                s.mean_time_ms = s.total_time_ms / s.frames as f64;
+            }
+        }
+        out
+    }
+
+    /// One line for people.
+    pub fn line(&self) -> String {
+        let mut line = format!(
+            "{}/{}: self-intersecting faces {} → {} over {} frame{} (in contact on {}), {:.1} ms per frame (max {:.1})",
+            self.object,
+            self.name,
+            self.self_intersecting_faces_before,
+            self.self_intersecting_faces_after,
+            self.frames,
+            if self.frames == 1 { "" } else { "s" },
+            self.frames_in_contact,
+            self.mean_time_ms,
+            self.max_time_ms
+        );
+        if let Some(w) = &self.worst_after {
+            let _ = write!(line, "; most left: {} at frame {}", w.value, w.frame);
+        }
+        if self.frames_volume_inexact > 0 {
+            let _ = write!(line, "; volume not exact on {} frame(s)", self.frames_volume_inexact);
+        }
+        line
+    }
+}
+
 /// A worst value and where it happened.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Extreme {
@@ -209,6 +366,9 @@ pub struct ShotSummary {
     /// Frames computed per second of wall-clock time.
     pub frames_per_second: f64,
     pub threads: usize,
+    /// Per articulation with self-contact: totals over the shot.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub articulations: Vec<ArticulationSummary>,
 }
 
 /// The largest output and input steps of a frame over its objects, and their ratio.
@@ -240,6 +400,7 @@ impl ShotSummary {
             max_frame_ms: 0.0,
             frames_per_second: 0.0,
             threads: outcome.threads,
+            articulations: ArticulationSummary::of(&outcome.records),
         };
         for r in &outcome.records {
             let ms = r.stats.total.as_secs_f64() * 1e3;
@@ -336,6 +497,8 @@ struct FrameEntry<'a> {
     step_ratio: Option<f64>,
     objects: &'a [ObjectQuality],
     pairs: &'a [PairQuality],
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    articulations: Vec<ArticulationQuality>,
     stats: FrameReport,
 }
 
@@ -410,6 +573,7 @@ pub fn write_report<S: Serialize>(
                 step_ratio,
                 objects: &r.objects,
                 pairs: &r.pairs,
+                articulations: articulation_figures(r),
                 stats: FrameReport::from(&r.stats),
             }
         })

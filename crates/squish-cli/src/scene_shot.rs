@@ -38,6 +38,8 @@ pub fn object_params(object: &ObjectFrame) -> ObjectParams {
         anisotropy_exponent: object.anisotropy.map_or(defaults.anisotropy_exponent, |a| a.exponent),
         anisotropy_offset: object.anisotropy.map_or(defaults.anisotropy_offset, |a| a.offset),
         bulge_map: object.bulge_map.as_deref().map(<[f64]>::to_vec),
+        self_contact: object.self_contact.iter().map(|a| a.to_articulation()).collect(),
+        rest_positions: object.rest_positions.as_deref().map(<[DVec3]>::to_vec),
         ..defaults
     }
 }
@@ -218,6 +220,8 @@ mod tests {
             anisotropy: Some(AnisotropyValues { exponent: 3.0, offset: 0.2 }),
             bulge_map: Some(Arc::from(vec![0.5; 12])),
             region: RegionFrame::Whole,
+            self_contact: Vec::new(),
+            rest_positions: None,
         }
     }
 
@@ -232,6 +236,30 @@ mod tests {
         assert!(p.anisotropy);
         assert_eq!((p.anisotropy_exponent, p.anisotropy_offset), (3.0, 0.2));
         assert_eq!(p.bulge_map.as_deref(), Some(&[0.5; 12][..]));
+    }
+
+    #[test]
+    fn articulations_and_the_rest_pose_reach_the_library() {
+        use squish::skinning::{ArticulationDirection, ArticulationParams};
+        use squish_io::scene::ArticulationFrame;
+        let mut o = object();
+        let params = ArticulationParams { contact_tau: 0.5, stiffness: [2.0, 0.5], ..ArticulationParams::default() };
+        let direction = ArticulationDirection::Joints([DVec3::NEG_X, DVec3::ZERO, DVec3::Y]);
+        o.self_contact = vec![ArticulationFrame {
+            name: "elbow".into(),
+            regions: Arc::new([vec![0, 1, 2], vec![2, 3]]),
+            direction,
+            params: params.clone(),
+        }];
+        o.rest_positions = Some(Arc::from(o.mesh.positions.clone()));
+        let p = object_params(&o);
+        let [a] = p.self_contact.as_slice() else { panic!("one articulation") };
+        assert_eq!(a.name, "elbow");
+        assert_eq!(a.regions, [vec![0, 1, 2], vec![2, 3]]);
+        assert_eq!(a.direction, direction);
+        assert_eq!(a.params, params);
+        assert_eq!(p.rest_positions.as_deref(), Some(o.mesh.positions.as_slice()));
+        assert!(object_params(&object()).self_contact.is_empty());
     }
 
     #[test]

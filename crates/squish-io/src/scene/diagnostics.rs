@@ -125,6 +125,9 @@ impl<'a> SourceText<'a> {
         };
         let array = header.starts_with("[[");
         let name = header.trim_start_matches('[').split(']').next().unwrap_or("").trim();
+        if array && let Some((outer, inner)) = name.split_once('.') {
+            return self.nested_path_at(offset, outer.trim(), inner.trim());
+        }
         let Some(entry) = root.get_ref().get(name) else { return path };
         path.push(Seg::Key(name));
         let table = if array {
@@ -142,6 +145,51 @@ impl<'a> SourceText<'a> {
         } else {
             entry.get_ref().as_table()
         };
+        if let Some(table) = table {
+            walk_table(table, offset, &mut path);
+        }
+        path
+    }
+
+    /// The path of `offset` under a nested array-of-tables header `[[outer.inner]]` (as
+    /// `[[objects.self_contact]]`): the last `[[outer]]` entry before `offset`, and the entry of
+    /// its `inner` array opened by the last such header since.
+    fn nested_path_at<'s>(&'s self, offset: usize, outer: &'s str, inner: &'s str) -> Vec<Seg<'s>> {
+        let mut path = Vec::new();
+        let Some(root) = &self.root else { return path };
+        let before = &self.text[..floor_char_boundary(self.text, offset)];
+        let header_of = |l: &str| -> Option<String> {
+            let l = l.trim();
+            if !l.starts_with("[[") {
+                return None;
+            }
+            let name = l.trim_start_matches('[').split(']').next()?;
+            Some(name.split('.').map(str::trim).collect::<Vec<_>>().join("."))
+        };
+        let (mut outer_count, mut inner_count) = (0usize, 0usize);
+        let nested = format!("{outer}.{inner}");
+        for line in before.lines() {
+            match header_of(line) {
+                Some(h) if h == outer => {
+                    outer_count += 1;
+                    inner_count = 0;
+                }
+                Some(h) if h == nested => inner_count += 1,
+                _ => {}
+            }
+        }
+        let (Some(o), Some(k)) = (outer_count.checked_sub(1), inner_count.checked_sub(1)) else { return path };
+        path.extend([Seg::Key(outer), Seg::Index(o), Seg::Key(inner), Seg::Index(k)]);
+        let table = root
+            .get_ref()
+            .get(outer)
+            .and_then(|v| v.get_ref().as_array())
+            .and_then(|a| a.get(o))
+            .and_then(|v| v.get_ref().as_table())
+            .and_then(|t| t.get(inner))
+            .and_then(|v| v.get_ref().as_array())
+            .and_then(|a| a.get(k))
+            .and_then(|v| v.get_ref().as_table());
         if let Some(table) = table {
             walk_table(table, offset, &mut path);
         }
@@ -166,6 +214,15 @@ impl<'a> SourceText<'a> {
             out = format!("[{section}]");
             rest = tail;
         }
+        let mut entry_name = String::new();
+        if let ([Seg::Key("objects"), Seg::Index(i), ..], [Seg::Key("self_contact"), Seg::Index(k), tail @ ..]) =
+            (path, rest)
+            && let Some(name) = self.self_contact_name(*i, *k)
+        {
+            entry_name = format!(" self_contact \"{name}\"");
+            rest = tail;
+        }
+        let out = out + &entry_name;
         let keys: Vec<String> = rest
             .iter()
             .map(|s| match s {
@@ -183,6 +240,13 @@ impl<'a> SourceText<'a> {
     }
 
     /// The `name` of `[[objects]]` number `i`, as written.
+    fn self_contact_name(&self, i: usize, k: usize) -> Option<&str> {
+        let root = self.root.as_ref()?;
+        let object = root.get_ref().get("objects")?.get_ref().as_array()?.get(i)?;
+        let entry = object.get_ref().as_table()?.get("self_contact")?.get_ref().as_array()?.get(k)?;
+        entry.get_ref().as_table()?.get("name")?.get_ref().as_str()
+    }
+
     fn object_name(&self, i: usize) -> Option<&str> {
         let root = self.root.as_ref()?;
         let object = root.get_ref().get("objects")?.get_ref().as_array()?.get(i)?;

@@ -7,10 +7,13 @@ use std::sync::Arc;
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 use squish::TriMesh;
+use squish::skinning::{Articulation, ArticulationDirection, ArticulationParams};
 
 use super::Scene;
-use super::source::source_mesh;
-use super::types::{AxisAngle, ContactMethod, Direction, PreserveVolume, Region, Scale, Transform};
+use super::source::{SourceAssets, source_mesh};
+use super::types::{
+    AxisAngle, ContactMethod, Direction, PreserveVolume, Region, Scale, SelfContactDirection, Transform,
+};
 use crate::IoError;
 
 /// Everything about one frame.
@@ -46,6 +49,42 @@ pub struct ObjectFrame {
     #[serde(serialize_with = "serialize_opt_slice")]
     pub bulge_map: Option<Arc<[f64]>>,
     pub region: RegionFrame,
+    /// Articulations with self-contact (`[[objects.self_contact]]`), in order.
+    pub self_contact: Vec<ArticulationFrame>,
+    /// The bind pose (one position per vertex) on which the articulations' partition weights
+    /// are computed: the glTF mesh's unskinned positions; `None`: the frame's own mesh.
+    #[serde(serialize_with = "serialize_opt_slice")]
+    pub rest_positions: Option<Arc<[DVec3]>>,
+}
+
+/// An articulation at a frame: the library's [`Articulation`] with its regions shared between
+/// frames.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArticulationFrame {
+    pub name: String,
+    /// Region 1 (parent side) and region 2 (child side), sorted object vertex ids.
+    #[serde(serialize_with = "serialize_regions")]
+    pub regions: Arc<[Vec<u32>; 2]>,
+    /// d̂ at this frame: the joints' world positions (after the object's transform), or a unit
+    /// vector.
+    pub direction: ArticulationDirection,
+    pub params: ArticulationParams,
+}
+
+impl ArticulationFrame {
+    /// The library's articulation.
+    pub fn to_articulation(&self) -> Articulation {
+        Articulation {
+            name: self.name.clone(),
+            regions: (*self.regions).clone(),
+            direction: self.direction,
+            params: self.params.clone(),
+        }
+    }
+}
+
+fn serialize_regions<S: serde::Serializer>(v: &Arc<[Vec<u32>; 2]>, s: S) -> Result<S::Ok, S::Error> {
+    v.as_ref().serialize(s)
 }
 
 /// Profile curve abscissas (0.2 < v2 < v3 < v4 < 1) and wrinkles.
@@ -148,10 +187,15 @@ impl Scene {
         for (spec, assets) in self.description.objects.iter().zip(&self.assets) {
             let name = &spec.name;
             let mut mesh = source_mesh(name, &assets.source, frame)?;
-            if !spec.transform.is_identity() {
+            let map = if spec.transform.is_identity() {
+                None
+            } else {
                 let map = transform_at(&spec.transform, frame).map_err(|m| err(name, m))?;
-                mesh.map_positions(map);
-            }
+                mesh.map_positions(&map);
+                Some(map)
+            };
+            let place = |p: DVec3| map.as_ref().map_or(p, |m| m(p));
+            let self_contact = self.articulations_at(spec, assets, frame, &place).map_err(|m| err(name, m))?;
             let profile = ProfileValues {
                 v2: spec.profile.v2.at(frame),
                 v3: spec.profile.v3.at(frame),
@@ -188,6 +232,8 @@ impl Scene {
                 anisotropy,
                 bulge_map: assets.bulge_map.clone(),
                 region,
+                self_contact,
+                rest_positions: assets.rest_positions.clone(),
             });
         }
         let mut pairs = Vec::with_capacity(self.description.pairs.len());
@@ -222,5 +268,62 @@ impl Scene {
             });
         }
         Ok(FrameSpec { frame, objects, pairs })
+    }
+
+    /// The articulations of an object at `frame`; `place` is the object's transform at this
+    /// frame. Errors are messages for the caller to place.
+    fn articulations_at(
+        &self,
+        spec: &super::ObjectSpec,
+        assets: &super::ObjectAssets,
+        frame: f64,
+        place: &impl Fn(DVec3) -> DVec3,
+    ) -> Result<Vec<ArticulationFrame>, String> {
+        if spec.self_contact.is_empty() {
+            return Ok(Vec::new());
+        }
+        // Node world transforms, computed once for all of the object's joint directions.
+        let world = match &assets.source {
+            SourceAssets::Gltf(g) if assets.articulations.iter().any(|a| a.joints.is_some()) => {
+                Some(g.scene.world_transforms(g.animation, g.time(frame)).map_err(|e| e.to_string())?)
+            }
+            _ => None,
+        };
+        let mut out = Vec::with_capacity(spec.self_contact.len());
+        for (entry, loaded) in spec.self_contact.iter().zip(&assets.articulations) {
+            let name = &entry.name;
+            let direction = match (&entry.direction, loaded.joints, &world) {
+                (SelfContactDirection::Fixed(d), _, _) => {
+                    let v = d.at(frame);
+                    if !(v.is_finite() && v.length() > 1e-12) {
+                        return Err(format!(
+                            "articulation \"{name}\": the direction {v} vanishes; keys must not pass through zero"
+                        ));
+                    }
+                    ArticulationDirection::Fixed(v.normalize())
+                }
+                (SelfContactDirection::Joints, Some(joints), Some(world)) => {
+                    let q = joints
+                        .points(world)
+                        .ok_or_else(|| format!("articulation \"{name}\": a joint node is missing from the pose"))?;
+                    ArticulationDirection::Joints(q.map(place))
+                }
+                (SelfContactDirection::Joints, _, _) => {
+                    return Err(format!(
+                        "articulation \"{name}\": direction = \"joints\" needs joints = [\"parent\", \"child\"] on a skinned glTF mesh; give direction = [x, y, z]"
+                    ));
+                }
+            };
+            let params = ArticulationParams {
+                contact_tau: entry.contact_tau.at(frame),
+                stiffness: entry.stiffness.at(frame).0,
+                extent: entry.extent.as_ref().map(|e| e.at(frame)),
+                cut_regional_weight: entry.cut_regional_weight.at(frame),
+                safeguard_angle_degrees: entry.safeguard_angle.at(frame),
+                contact_gap: entry.contact_gap.as_ref().map(|g| g.at(frame)),
+            };
+            out.push(ArticulationFrame { name: name.clone(), regions: loaded.regions.clone(), direction, params });
+        }
+        Ok(out)
     }
 }

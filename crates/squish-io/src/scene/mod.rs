@@ -17,6 +17,7 @@
 //! key "stifness" in [[objects]] "ball" (did you mean "stiffness"?)`; problems with a mesh or
 //! data file name that file (and the frame, for sequences).
 
+mod articulations;
 mod diagnostics;
 mod evaluate;
 mod frames;
@@ -30,15 +31,17 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub use evaluate::{
-    AnisotropyValues, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues, RegionFrame,
+    AnisotropyValues, ArticulationFrame, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues,
+    RegionFrame,
 };
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
 pub use types::{
-    Anisotropy, AxisAngle, ContactMethod, DEFAULT_V2, DEFAULT_V3, DEFAULT_V4, Direction, FrameRange, GltfSource,
-    MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreserveVolume, Profile, Region, Scale,
-    SceneDescription, Transform, VertexData, Weld,
+    Anisotropy, AxisAngle, ContactMethod, DEFAULT_MIN_WEIGHT, DEFAULT_V2, DEFAULT_V3, DEFAULT_V4, Direction,
+    FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreserveVolume, Profile,
+    Region, Scale, SceneDescription, SelfContactDirection, SelfContactSpec, StiffnessPair, Transform, VertexData, Weld,
 };
 
+use articulations::{ArticulationAssets, load_articulations};
 use diagnostics::{Seg, SourceText};
 use source::{GltfCache, SourceAssets, VertexNumbering, load_source};
 use vertex_data::{OwnGltf, load_vertex_values};
@@ -63,6 +66,10 @@ struct ObjectAssets {
     numbering: VertexNumbering,
     bulge_map: Option<Arc<[f64]>>,
     mask: Option<Arc<[bool]>>,
+    /// `[[objects.self_contact]]`, in order.
+    articulations: Vec<ArticulationAssets>,
+    /// The bind pose of a glTF mesh with articulations.
+    rest_positions: Option<Arc<[glam::DVec3]>>,
 }
 
 impl SceneDescription {
@@ -93,6 +100,13 @@ impl SceneDescription {
                 && let Some(file) = data.file_mut()
             {
                 resolve(file);
+            }
+            for entry in &mut object.self_contact {
+                for mask in entry.masks.iter_mut().flatten() {
+                    if let Some(file) = mask.file_mut() {
+                        resolve(file);
+                    }
+                }
             }
         }
     }
@@ -193,7 +207,27 @@ impl Scene {
                 }
                 _ => None,
             };
-            assets.push(ObjectAssets { source, numbering, bulge_map, mask });
+            let located_entry = |k: usize, key: &'static str, message: String| match src {
+                Some(src) => src.error_at_key(
+                    &[Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)],
+                    message,
+                ),
+                None => IoError::format(
+                    path,
+                    format!("[[objects]] \"{}\" self_contact #{}: {key}: {message}", object.name, k + 1),
+                ),
+            };
+            let loaded = load_articulations(object, &source, numbering.count, located_entry, |mask| {
+                load_data(mask, "self_contact", "a self_contact mask")
+            })?;
+            assets.push(ObjectAssets {
+                source,
+                numbering,
+                bulge_map,
+                mask,
+                articulations: loaded.articulations,
+                rest_positions: loaded.rest_positions,
+            });
         }
         let index = |name: &str| description.objects.iter().position(|o| o.name == name);
         let mut pair_objects = Vec::with_capacity(description.pairs.len());

@@ -159,6 +159,163 @@ pub struct ObjectSpec {
     /// Placement applied to the mesh of every frame (after glTF posing).
     #[serde(default)]
     pub transform: Transform,
+    /// Articulations whose two sides may fold onto each other (`[[objects.self_contact]]`,
+    /// thesis ch. 6), resolved before the pairs. Default none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub self_contact: Vec<SelfContactSpec>,
+}
+
+/// An `[[objects.self_contact]]` entry: one articulation of the object (a knee, an elbow, lips)
+/// whose two sides, region 1 (parent side) and region 2 (child side), may fold onto each other.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfContactSpec {
+    /// Unique within the object; names the articulation in messages and reports.
+    pub name: String,
+    /// Two consecutive joints of the object's skin, by glTF node name: the parent joint (whose
+    /// bone is region 1) and its child, the articulation (whose bone and descendants are
+    /// region 2). Exactly one of `joints` and `masks`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joints: Option<[String; 2]>,
+    /// The two regions as per-vertex masks (values ≥ 0.5 select a vertex).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masks: Option<[VertexData; 2]>,
+    /// With `joints`: the skinning weight from which a vertex belongs to a side, in (0, 1].
+    /// `None`: [`DEFAULT_MIN_WEIGHT`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_weight: Option<f64>,
+    /// The mapping direction d̂: from the joints' positions at each frame (default), or given.
+    #[serde(default)]
+    pub direction: SelfContactDirection,
+    /// τ of the contact criterion. Default −1 (the thesis' value for skinning).
+    #[serde(default = "minus_one")]
+    pub contact_tau: Keyframed<f64>,
+    /// Pseudo-stiffnesses k₁, k₂ of the two sides (a number gives both). Default 1, 1.
+    #[serde(default)]
+    pub stiffness: Keyframed<StiffnessPair>,
+    /// φ_max (> 0, scene units). `None`: automatic.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extent: Option<Keyframed<f64>>,
+    /// Weight (≥ 0) of the regional term of the crease cut's energy. Default 1.
+    #[serde(default = "one")]
+    pub cut_regional_weight: Keyframed<f64>,
+    /// Angle (degrees, in (0, 90]) beyond which a point cannot be in contact. Default 80.
+    #[serde(default = "eighty")]
+    pub safeguard_angle: Keyframed<f64>,
+    /// Distance (≥ 0, scene units) left between the two sides where they touch. `None`:
+    /// automatic.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_gap: Option<Keyframed<f64>>,
+}
+
+/// Default of [`SelfContactSpec::min_weight`].
+pub const DEFAULT_MIN_WEIGHT: f64 = 0.05;
+
+fn minus_one() -> Keyframed<f64> {
+    Keyframed::constant(-1.0)
+}
+
+fn eighty() -> Keyframed<f64> {
+    Keyframed::constant(80.0)
+}
+
+/// `direction = "joints" | [x, y, z] | keys of [x, y, z]` of an articulation.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum SelfContactDirection {
+    /// From the world positions of the parent joint, the joint, and the end of the child bone
+    /// at each frame (see `docs/scene-format.md`).
+    #[default]
+    Joints,
+    /// Given, from region 1 toward region 2 (normalized at each frame; must not vanish).
+    Fixed(Keyframed<DVec3>),
+}
+
+impl Serialize for SelfContactDirection {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Joints => s.serialize_str("joints"),
+            Self::Fixed(k) => k.serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for SelfContactDirection {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = SelfContactDirection;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("\"joints\", a vector [x, y, z], or keys [[frame, [x, y, z]], …]")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<SelfContactDirection, E> {
+                match v {
+                    "joints" => Ok(SelfContactDirection::Joints),
+                    _ => Err(unknown_word(v, &["joints"], "\"joints\" or a vector [x, y, z]")),
+                }
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<SelfContactDirection, A::Error> {
+                Ok(SelfContactDirection::Fixed(Keyframed::deserialize(de::value::SeqAccessDeserializer::new(seq))?))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SelfContactDirection, A::Error> {
+                Ok(SelfContactDirection::Fixed(Keyframed::deserialize(de::value::MapAccessDeserializer::new(map))?))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// The pseudo-stiffnesses `[k1, k2]` of an articulation's two sides; reads from a number (both
+/// sides) or `[k1, k2]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StiffnessPair(pub [f64; 2]);
+
+impl Default for StiffnessPair {
+    fn default() -> Self {
+        Self([1.0, 1.0])
+    }
+}
+
+impl KeyValue for StiffnessPair {
+    const COMPONENTS: usize = 2;
+    const DESCRIPTION: &'static str = "a stiffness (a number, or [k1, k2] for the two sides)";
+    fn component(&self, i: usize) -> f64 {
+        self.0[i]
+    }
+    fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
+        Self([f(0), f(1)])
+    }
+}
+
+impl Serialize for StiffnessPair {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for StiffnessPair {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = StiffnessPair;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or [k1, k2]")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<StiffnessPair, E> {
+                Ok(StiffnessPair([v as f64; 2]))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<StiffnessPair, E> {
+                Ok(StiffnessPair([v as f64; 2]))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<StiffnessPair, E> {
+                Ok(StiffnessPair([v; 2]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<StiffnessPair, A::Error> {
+                let k = <[f64; 2]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(StiffnessPair(k))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 fn one() -> Keyframed<f64> {

@@ -14,7 +14,10 @@ use squish::animation::{KeyInterpolation, KeyValue, Keyframed};
 
 use super::diagnostics::{Seg, SourceText, did_you_mean};
 use super::frames::FramePattern;
-use super::types::{ContactMethod, Direction, MeshSource, ObjectSpec, Region, Scale, SceneDescription};
+use super::types::{
+    ContactMethod, Direction, MeshSource, ObjectSpec, Region, Scale, SceneDescription, SelfContactDirection,
+    StiffnessPair,
+};
 use crate::IoError;
 
 /// Longest accepted shot: beyond this a frame range is surely a typo, and checking every frame
@@ -68,6 +71,10 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
             ));
         }
         validate_object(object, &frames, |key, m| src.error_at_key(&at(key), m))?;
+        validate_self_contact(object, &frames, |k, key, m| {
+            let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)];
+            src.error_at_key(&path, m)
+        })?;
     }
     let mut seen_pairs: HashMap<(usize, usize), usize> = HashMap::new();
     let object_names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
@@ -91,7 +98,7 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
         if a == b {
             return Err(src.error_at_key(
                 &at("objects"),
-                format!("pairs [\"{na}\", \"{nb}\"] names the same object twice; a pair is two different objects (self-contact is not supported)"),
+                format!("pairs [\"{na}\", \"{nb}\"] names the same object twice; a pair is two different objects (for an object folding onto itself, use [[objects.self_contact]])"),
             ));
         }
         if let Some(first) = seen_pairs.insert((a.min(b), a.max(b)), i) {
@@ -202,6 +209,139 @@ fn validate_object(
     check_scale(&t.scale).map_err(|m| err("transform", format!("scale {m}")))?;
     check_frames(&t.rotate, frames, |r| r.degrees == 0.0 || r.axis.length() > 1e-12, "about a non-zero axis")
         .map_err(|m| err("transform", format!("rotate {m}")))?;
+    Ok(())
+}
+
+/// Checks the `[[objects.self_contact]]` entries of an object; `err(entry, key, message)`
+/// locates a message at a key of an entry.
+fn validate_self_contact(
+    object: &ObjectSpec,
+    frames: &[f64],
+    err: impl Fn(usize, &'static str, String) -> IoError,
+) -> Result<(), IoError> {
+    let mut names: HashMap<&str, usize> = HashMap::new();
+    for (k, entry) in object.self_contact.iter().enumerate() {
+        let err = |key: &'static str, m: String| err(k, key, m);
+        let name = &entry.name;
+        if name.trim().is_empty() {
+            return Err(err("name", "the name is empty; name each articulation (e.g. \"left knee\")".into()));
+        }
+        if let Some(first) = names.insert(name, k) {
+            return Err(err(
+                "name",
+                format!(
+                    "the name \"{name}\" is already used by self_contact entry #{} of this object; articulation names must be unique within an object",
+                    first + 1
+                ),
+            ));
+        }
+        if object.rigid {
+            return Err(err(
+                "name",
+                format!(
+                    "object \"{}\" is rigid, so it never deforms and its articulation \"{name}\" would be ignored; set rigid = false or remove the [[objects.self_contact]] entries",
+                    object.name
+                ),
+            ));
+        }
+        match (&entry.joints, &entry.masks) {
+            (Some(_), Some(_)) => {
+                return Err(err(
+                    "masks",
+                    format!(
+                        "articulation \"{name}\" gives both joints and masks; keep one of them (joints read the regions from the skin weights)"
+                    ),
+                ));
+            }
+            (None, None) => {
+                return Err(err(
+                    "name",
+                    format!(
+                        "articulation \"{name}\" needs its two regions: joints = [\"parent joint\", \"child joint\"] (a skinned glTF) or masks = [mask1, mask2]"
+                    ),
+                ));
+            }
+            (Some([a, b]), None) => {
+                if !matches!(object.mesh, MeshSource::Gltf(_)) {
+                    return Err(err(
+                        "joints",
+                        format!(
+                            "articulation \"{name}\": joints need a skinned glTF mesh, but the mesh of \"{}\" is {}; use masks = [mask1, mask2] with direction = [x, y, z] instead",
+                            object.name,
+                            object.mesh.file().display()
+                        ),
+                    ));
+                }
+                if a.is_empty() || b.is_empty() || a == b {
+                    return Err(err(
+                        "joints",
+                        format!(
+                            "articulation \"{name}\": joints = [\"{a}\", \"{b}\"] must name two different joints: a joint and one of its children"
+                        ),
+                    ));
+                }
+            }
+            (None, Some(_)) => {
+                if entry.min_weight.is_some() {
+                    return Err(err(
+                        "min_weight",
+                        format!(
+                            "articulation \"{name}\": min_weight applies to regions read from joints, not to masks (a mask selects the vertices whose value is ≥ 0.5); remove it"
+                        ),
+                    ));
+                }
+                if entry.direction == SelfContactDirection::Joints {
+                    return Err(err(
+                        "direction",
+                        format!(
+                            "articulation \"{name}\" has masks but no joints to take its direction from; give direction = [x, y, z], pointing from region 1 toward region 2"
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(w) = entry.min_weight
+            && !(w > 0.0 && w <= 1.0)
+        {
+            return Err(err(
+                "min_weight",
+                format!("must lie in (0, 1] (a skinning weight; 0.05 is the default), got {w}"),
+            ));
+        }
+        if let SelfContactDirection::Fixed(d) = &entry.direction {
+            check_frames(
+                d,
+                frames,
+                |v| v.length() > 1e-12,
+                "a non-zero vector [x, y, z] (from region 1 toward region 2)",
+            )
+            .map_err(|m| err("direction", m))?;
+        }
+        check_range(&entry.contact_tau, |_| true, "a finite number").map_err(|m| err("contact_tau", m))?;
+        check_frames(
+            &entry.stiffness,
+            &[],
+            |StiffnessPair(k)| k.iter().all(|&k| k > 0.0),
+            "greater than 0 on both sides (a number, or [k1, k2])",
+        )
+        .map_err(|m| err("stiffness", m))?;
+        if let Some(extent) = &entry.extent {
+            check_range(extent, |d| d > 0.0, "greater than 0 (a distance in scene units), or removed for automatic")
+                .map_err(|m| err("extent", m))?;
+        }
+        check_range(&entry.cut_regional_weight, |w| w >= 0.0, "≥ 0 (1 is the default)")
+            .map_err(|m| err("cut_regional_weight", m))?;
+        check_range(
+            &entry.safeguard_angle,
+            |a| a > 0.0 && a <= 90.0,
+            "an angle in degrees within (0, 90] (80 is the default)",
+        )
+        .map_err(|m| err("safeguard_angle", m))?;
+        if let Some(gap) = &entry.contact_gap {
+            check_range(gap, |g| g >= 0.0, "≥ 0 (a distance in scene units), or removed for automatic")
+                .map_err(|m| err("contact_gap", m))?;
+        }
+    }
     Ok(())
 }
 

@@ -1,0 +1,404 @@
+//! `[[objects.self_contact]]` in scene files: parsing with and without the optional keys,
+//! located errors (unknown keys, joint names, joints that are not consecutive, meshes without a
+//! skin), and per-frame evaluation (regions from the skin weights, joint positions following the
+//! animation and the object's transform, keyframed directions and parameters). The skinned mesh
+//! is a procedural glTF cylinder written by the test.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+use common::*;
+use glam::{DMat4, DQuat, DVec3};
+use serde_json::json;
+use squish::mesh::shapes;
+use squish::skinning::{ArticulationDirection, ArticulationParams};
+use squish_io::scene::*;
+use squish_io::{IoError, write_obj};
+
+/// A closed cylinder along x from −1 to 1 (radius 0.25, `rings` rings of 12 vertices and two cap
+/// centres), skinned to three joints in a chain: "root" at x = −1, "elbow" at x = 0 and "tip" at
+/// x = 1 (a leaf). Vertices with x < −0.2 follow the root, −0.2 < x < 0.2 blend root and elbow
+/// linearly, then the elbow alone up to x = 0.6, and the elbow and the tip blend up to x = 1.
+/// The animation "bend" turns the elbow about z from 0 at t = 0 to 150° at t = 1 s.
+pub fn skinned_cylinder() -> Fixture {
+    let (rings, segments) = (21usize, 12usize);
+    let mut positions = Vec::new();
+    let mut weights = Vec::new();
+    // (joints, weights) of a vertex at x.
+    let weight = |x: f64| {
+        if x <= 0.6 {
+            let w = ((x + 0.2) / 0.4).clamp(0.0, 1.0);
+            ([0.0, 1.0], [1.0 - w, w])
+        } else {
+            let w = ((x - 0.6) / 0.4).clamp(0.0, 1.0);
+            ([1.0, 2.0], [1.0 - w, w])
+        }
+    };
+    for r in 0..rings {
+        let x = -1.0 + 2.0 * r as f64 / (rings - 1) as f64;
+        for s in 0..segments {
+            let a = 2.0 * PI * s as f64 / segments as f64;
+            positions.extend_from_slice(&[x, 0.25 * a.cos(), 0.25 * a.sin()]);
+            weights.push(weight(x));
+        }
+    }
+    positions.extend_from_slice(&[-1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    weights.push(weight(-1.0));
+    weights.push(weight(1.0));
+    let mut indices = Vec::new();
+    let v = |r: usize, s: usize| (r * segments + s % segments) as f64;
+    for r in 0..rings - 1 {
+        for s in 0..segments {
+            indices.extend_from_slice(&[v(r, s), v(r + 1, s + 1), v(r + 1, s), v(r, s), v(r, s + 1), v(r + 1, s + 1)]);
+        }
+    }
+    let (c0, c1) = ((rings * segments) as f64, (rings * segments + 1) as f64);
+    for s in 0..segments {
+        indices.extend_from_slice(&[c0, v(0, s + 1), v(0, s)]);
+        indices.extend_from_slice(&[c1, v(rings - 1, s), v(rings - 1, s + 1)]);
+    }
+    let mut f = Fixture::new();
+    let pos = f.accessor(F32, "VEC3", &positions);
+    let idx = f.accessor(U32, "SCALAR", &indices);
+    let j: Vec<f64> = weights.iter().flat_map(|(j, _)| [j[0], j[1], 0.0, 0.0]).collect();
+    let joints = f.accessor(U8, "VEC4", &j);
+    let w: Vec<f64> = weights.iter().flat_map(|(_, w)| [w[0], w[1], 0.0, 0.0]).collect();
+    let w = f.accessor(F32, "VEC4", &w);
+    let mut ibm = Vec::new();
+    for x in [-1.0, 0.0, 1.0] {
+        ibm.extend_from_slice(&DMat4::from_translation(DVec3::new(-x, 0.0, 0.0)).to_cols_array());
+    }
+    let ibm = f.accessor(F32, "MAT4", &ibm);
+    let times = f.accessor(F32, "SCALAR", &[0.0, 1.0]);
+    let q = DQuat::from_rotation_z(150f64.to_radians());
+    let rotations = f.accessor(F32, "VEC4", &[0.0, 0.0, 0.0, 1.0, q.x, q.y, q.z, q.w]);
+    f.root = json!({
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "name": "body", "mesh": 0, "skin": 0 },
+            { "name": "root", "translation": [-1.0, 0.0, 0.0], "children": [2] },
+            { "name": "elbow", "translation": [1.0, 0.0, 0.0], "children": [3] },
+            { "name": "tip", "translation": [1.0, 0.0, 0.0] },
+        ],
+        "meshes": [{ "name": "cylinder", "primitives": [{
+            "attributes": { "POSITION": pos, "JOINTS_0": joints, "WEIGHTS_0": w }, "indices": idx,
+        }] }],
+        "skins": [{ "name": "arm", "joints": [1, 2, 3], "inverseBindMatrices": ibm }],
+        "animations": [{
+            "name": "bend",
+            "samplers": [{ "input": times, "output": rotations, "interpolation": "LINEAR" }],
+            "channels": [{ "sampler": 0, "target": { "node": 2, "path": "rotation" } }],
+        }],
+    });
+    f
+}
+
+/// A folder with the cylinder (`arm.glb`) and a ball (`ball.obj`).
+struct Shot {
+    dir: tempfile::TempDir,
+}
+
+impl Shot {
+    fn new() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        skinned_cylinder().write_glb(dir.path(), "arm");
+        write_obj(&dir.path().join("ball.obj"), &shapes::icosphere(1.0, 1)).unwrap();
+        Self { dir }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// A scene of frames 1–25 (the bend at 24 fps) with the arm and `entries` after its table.
+    fn scene(&self, object_keys: &str, entries: &str) -> PathBuf {
+        let text = format!(
+            "frames = {{ start = 1, end = 25, fps = 24 }}\n\n[[objects]]\nname = \"arm\"\nmesh = \"arm.glb\"\n{object_keys}\n{entries}"
+        );
+        let path = self.path("scene.toml");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn load(&self, object_keys: &str, entries: &str) -> Result<Scene, IoError> {
+        Scene::load(&self.scene(object_keys, entries))
+    }
+
+    fn error(&self, object_keys: &str, entries: &str) -> String {
+        match self.load(object_keys, entries) {
+            Ok(_) => panic!("the scene loaded, but an error was expected:\n{entries}"),
+            Err(e) => {
+                eprintln!("{e}");
+                e.to_string()
+            }
+        }
+    }
+}
+
+const ELBOW: &str = "[[objects.self_contact]]\nname = \"elbow\"\njoints = [\"root\", \"elbow\"]\n";
+
+fn close(a: DVec3, b: DVec3) -> bool {
+    (a - b).length() < 1e-5
+}
+
+fn joints(direction: ArticulationDirection) -> [DVec3; 3] {
+    match direction {
+        ArticulationDirection::Joints(q) => q,
+        other => panic!("expected joints, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_minimal_entry_takes_the_defaults_and_the_regions_of_the_skin() {
+    let shot = Shot::new();
+    let scene = shot.load("", ELBOW).unwrap();
+    let entry = &scene.description().objects[0].self_contact[0];
+    assert_eq!(entry.name, "elbow");
+    assert_eq!(entry.min_weight, None);
+    assert_eq!(entry.direction, SelfContactDirection::Joints);
+    assert_eq!(entry.contact_tau.at(1.0), -1.0);
+    assert_eq!(entry.stiffness.at(1.0), StiffnessPair([1.0, 1.0]));
+
+    let frame = scene.evaluate(1.0).unwrap();
+    let object = &frame.objects[0];
+    let n = object.mesh.num_vertices();
+    assert_eq!(n, 21 * 12 + 2);
+    let rest = object.rest_positions.as_deref().unwrap();
+    assert_eq!(rest.len(), n);
+    assert!(close(rest[0], DVec3::new(-1.0, 0.25, 0.0)));
+    let [a] = object.self_contact.as_slice() else { panic!("one articulation") };
+    assert_eq!(a.params, ArticulationParams::default());
+    let [w1, w2] = &*a.regions;
+    // Region 1: the root's influence ≥ 0.05 (x < 0.18); region 2: the elbow's (x > −0.18).
+    let xs = |r: &[u32]| r.iter().map(|&v| rest[v as usize].x).collect::<Vec<_>>();
+    assert!(xs(w1).iter().all(|&x| x < 0.19) && xs(w1).contains(&-1.0));
+    assert!(xs(w2).iter().all(|&x| x > -0.19) && xs(w2).contains(&1.0));
+    let shared = w1.iter().filter(|v| w2.contains(v)).count();
+    assert_eq!(shared, 3 * 12, "the blend rings x = −0.1, 0, 0.1 are in both");
+    // At rest the joints are in a line along x.
+    let q = joints(a.direction);
+    assert!(close(q[0], DVec3::new(-1.0, 0.0, 0.0)) && close(q[1], DVec3::ZERO) && close(q[2], DVec3::X), "{q:?}");
+    // The description (and so report.json's scene) writes the entry back.
+    let json = scene.to_json().unwrap();
+    assert!(json.contains("\"self_contact\"") && json.contains("\"joints\""), "{json}");
+}
+
+#[test]
+fn every_optional_key_is_read_and_keyframed() {
+    let shot = Shot::new();
+    let entry = r#"[[objects.self_contact]]
+name = "elbow"
+joints = ["root", "elbow"]
+min_weight = 0.5
+direction = [[1, [0, 1, 0]], [25, [1, 0, 0]]]
+contact_tau = [[1, -1.0], [25, 0.5]]
+stiffness = [2.0, 0.5]
+extent = 0.3
+cut_regional_weight = { keys = [[1, 0.0], [25, 2.0]], interpolation = "step" }
+safeguard_angle = 70
+contact_gap = 0.001
+"#;
+    let scene = shot.load("", entry).unwrap();
+    let at = |f: f64| scene.evaluate(f).unwrap().objects[0].self_contact[0].clone();
+    let a = at(13.0);
+    let d = match a.direction {
+        ArticulationDirection::Fixed(d) => d,
+        other => panic!("{other:?}"),
+    };
+    assert!(close(d, DVec3::new(1.0, 1.0, 0.0).normalize()), "keyed direction, normalized: {d}");
+    assert!((a.params.contact_tau - (-0.25)).abs() < 1e-12);
+    assert_eq!(a.params.stiffness, [2.0, 0.5]);
+    assert_eq!(a.params.extent, Some(0.3));
+    assert_eq!(a.params.cut_regional_weight, 0.0, "step holds the first key");
+    assert_eq!(at(25.0).params.cut_regional_weight, 2.0);
+    assert_eq!(a.params.safeguard_angle_degrees, 70.0);
+    assert_eq!(a.params.contact_gap, Some(0.001));
+    // A larger min_weight gives smaller regions that no longer overlap much.
+    let [w1, w2] = &*a.regions;
+    let default = shot.load("", ELBOW).unwrap();
+    let d = default.evaluate(1.0).unwrap();
+    let [d1, d2] = &*d.objects[0].self_contact[0].regions;
+    assert!(w1.len() < d1.len() && w2.len() < d2.len());
+    // A single stiffness applies to both sides; a keyed one interpolates per side.
+    let scene = shot.load("", &format!("{ELBOW}stiffness = [[1, [1, 3]], [25, 2]]\n")).unwrap();
+    let k = scene.evaluate(13.0).unwrap().objects[0].self_contact[0].params.stiffness;
+    assert_eq!(k, [1.5, 2.5]);
+}
+
+#[test]
+fn the_joints_follow_the_animation_and_the_object_transform() {
+    let shot = Shot::new();
+    let scene = shot.load("transform = { translate = [0, 0, 2] }", ELBOW).unwrap();
+    let frame = scene.evaluate(25.0).unwrap();
+    let q = joints(frame.objects[0].self_contact[0].direction);
+    let bent = DVec3::new(150f64.to_radians().cos(), 150f64.to_radians().sin(), 0.0);
+    let up = DVec3::new(0.0, 0.0, 2.0);
+    assert!(close(q[0], DVec3::new(-1.0, 0.0, 0.0) + up) && close(q[1], up) && close(q[2], bent + up), "{q:?}");
+    // The mesh went through the same transform: the tip's cap centre is at the child joint's end.
+    let tip = frame.objects[0].mesh.positions[21 * 12 + 1];
+    assert!(close(tip, q[2]), "{tip} vs {}", q[2]);
+    // The library's articulation carries the same values.
+    let lib = frame.objects[0].self_contact[0].to_articulation();
+    assert_eq!(lib.name, "elbow");
+    assert_eq!(lib.direction, ArticulationDirection::Joints(q));
+}
+
+#[test]
+fn a_leaf_joint_extends_its_parent_bone() {
+    // "tip" has no child joint: the end of its bone continues the elbow's bone at rest and moves
+    // with the tip (here rigidly with the elbow, which turns by 150° at frame 25).
+    let shot = Shot::new();
+    let scene = shot.load("", "[[objects.self_contact]]\nname = \"wrist\"\njoints = [\"elbow\", \"tip\"]\n").unwrap();
+    let bent = DVec3::new(150f64.to_radians().cos(), 150f64.to_radians().sin(), 0.0);
+    let q = joints(scene.evaluate(25.0).unwrap().objects[0].self_contact[0].direction);
+    assert!(close(q[0], DVec3::ZERO) && close(q[1], bent) && close(q[2], 2.0 * bent), "{q:?}");
+    let q = joints(scene.evaluate(1.0).unwrap().objects[0].self_contact[0].direction);
+    assert!(close(q[2], DVec3::new(2.0, 0.0, 0.0)), "{q:?}");
+}
+
+#[test]
+fn unknown_keys_are_errors_naming_the_key() {
+    let shot = Shot::new();
+    let e = shot.error("", &format!("{ELBOW}stifness = 2\n"));
+    assert!(e.contains("unknown key \"stifness\"") && e.contains("did you mean \"stiffness\""), "{e}");
+    assert!(e.contains("scene.toml:10") && e.contains("[[objects]] \"arm\" self_contact \"elbow\""), "located: {e}");
+    let e = shot.error("", &format!("{ELBOW}direction = \"joint\"\n"));
+    assert!(e.contains("unknown value \"joint\"") && e.contains("did you mean \"joints\""), "{e}");
+}
+
+#[test]
+fn a_bad_joint_name_lists_the_joints() {
+    let shot = Shot::new();
+    let e = shot.error("", "[[objects.self_contact]]\nname = \"elbow\"\njoints = [\"root\", \"elbo\"]\n");
+    for part in [
+        "\"arm\"",
+        "articulation \"elbow\"",
+        "no joint named \"elbo\"",
+        "did you mean \"elbow\"",
+        "\"root\", \"elbow\", \"tip\"",
+    ] {
+        assert!(e.contains(part), "{part} in {e}");
+    }
+    assert!(e.contains("scene.toml:"), "located: {e}");
+}
+
+#[test]
+fn joints_must_be_consecutive() {
+    let shot = Shot::new();
+    let e = shot.error("", "[[objects.self_contact]]\nname = \"arm\"\njoints = [\"root\", \"tip\"]\n");
+    assert!(e.contains("not consecutive") && e.contains("the parent of \"tip\" is \"elbow\""), "{e}");
+    assert!(e.contains("the children of \"root\" are \"elbow\""), "{e}");
+    let e = shot.error("", "[[objects.self_contact]]\nname = \"arm\"\njoints = [\"elbow\", \"root\"]\n");
+    assert!(e.contains("\"root\" is a root of the skin"), "{e}");
+}
+
+#[test]
+fn entries_are_checked_when_the_scene_is_read() {
+    let shot = Shot::new();
+    let cases: &[(&str, &str, &[&str])] = &[
+        ("", &format!("{ELBOW}{ELBOW}"), &["already used", "unique"]),
+        ("rigid = true", ELBOW, &["rigid", "never deforms"]),
+        ("", "[[objects.self_contact]]\nname = \"elbow\"\n", &["joints", "masks"]),
+        ("", &format!("{ELBOW}masks = [\"a.txt\", \"b.txt\"]\n"), &["both joints and masks"]),
+        ("", &format!("{ELBOW}min_weight = 0\n"), &["min_weight", "(0, 1]"]),
+        ("", &format!("{ELBOW}stiffness = [1, 0]\n"), &["stiffness", "greater than 0"]),
+        ("", &format!("{ELBOW}safeguard_angle = 95\n"), &["safeguard_angle", "(0, 90]"]),
+        ("", &format!("{ELBOW}extent = -1\n"), &["extent", "greater than 0"]),
+        ("", &format!("{ELBOW}contact_gap = -1\n"), &["contact_gap", "≥ 0"]),
+        ("", &format!("{ELBOW}cut_regional_weight = -1\n"), &["cut_regional_weight", "≥ 0"]),
+        ("", &format!("{ELBOW}direction = [0, 0, 0]\n"), &["direction", "non-zero"]),
+        ("", &format!("{ELBOW}direction = [[1, [1, 0, 0]], [25, [-1, 0, 0]]]\n"), &["direction", "frame 13"]),
+    ];
+    for (object_keys, entries, parts) in cases {
+        let e = shot.error(object_keys, entries);
+        for part in *parts {
+            assert!(e.contains(part), "{part} in {e}");
+        }
+        assert!(e.contains("scene.toml"), "{e}");
+    }
+}
+
+/// A scene with the ball (an OBJ) as the object.
+fn ball_scene(shot: &Shot, entries: &str) -> Result<Scene, IoError> {
+    let text =
+        format!("frames = {{ start = 1, end = 3 }}\n\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\n{entries}");
+    let path = shot.path("ball.toml");
+    std::fs::write(&path, text).unwrap();
+    Scene::load(&path)
+}
+
+#[test]
+fn masks_give_the_regions_of_any_mesh() {
+    let shot = Shot::new();
+    let n = shapes::icosphere(1.0, 1).num_vertices();
+    let ball = shapes::icosphere(1.0, 1);
+    let mask = |side: f64| -> String {
+        ball.positions.iter().map(|p| if p.z * side > -0.2 { "1\n" } else { "0\n" }).collect()
+    };
+    std::fs::write(shot.path("top.txt"), mask(1.0)).unwrap();
+    std::fs::write(shot.path("bottom.txt"), mask(-1.0)).unwrap();
+    let entry =
+        "[[objects.self_contact]]\nname = \"lips\"\nmasks = [\"top.txt\", \"bottom.txt\"]\ndirection = [0, 0, -2]\n";
+    let scene = ball_scene(&shot, entry).unwrap();
+    let frame = scene.evaluate(2.0).unwrap();
+    let object = &frame.objects[0];
+    assert_eq!(object.rest_positions, None, "an OBJ's rest pose is the frame's mesh");
+    let a = &object.self_contact[0];
+    assert_eq!(a.direction, ArticulationDirection::Fixed(DVec3::new(0.0, 0.0, -1.0)));
+    let [w1, w2] = &*a.regions;
+    assert!(w1.iter().all(|&v| ball.positions[v as usize].z > -0.2));
+    assert!(w2.iter().all(|&v| ball.positions[v as usize].z < 0.2));
+    assert!(w1.len() < n && w2.len() < n);
+
+    // Joints need a skinned glTF; masks need a direction; an empty mask is an error.
+    let e = ball_scene(&shot, "[[objects.self_contact]]\nname = \"x\"\njoints = [\"a\", \"b\"]\n").err().unwrap();
+    assert!(e.to_string().contains("skinned glTF"), "{e}");
+    let e = ball_scene(&shot, "[[objects.self_contact]]\nname = \"x\"\nmasks = [\"top.txt\", \"bottom.txt\"]\n")
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("direction = [x, y, z]"), "{e}");
+    std::fs::write(shot.path("none.txt"), "0\n".repeat(n)).unwrap();
+    let e = ball_scene(
+        &shot,
+        "[[objects.self_contact]]\nname = \"x\"\nmasks = [\"top.txt\", \"none.txt\"]\ndirection = [0, 0, 1]\n",
+    )
+    .err()
+    .unwrap();
+    assert!(e.to_string().contains("mask 2 selects no vertex"), "{e}");
+    let e = ball_scene(
+        &shot,
+        "[[objects.self_contact]]\nname = \"x\"\nmasks = [\"top.txt\", \"missing.txt\"]\ndirection = [0, 0, 1]\n",
+    )
+    .err()
+    .unwrap();
+    assert!(e.to_string().contains("missing.txt") && e.to_string().contains("does not exist"), "{e}");
+}
+
+#[test]
+fn objects_without_self_contact_are_unchanged() {
+    let shot = Shot::new();
+    let scene = shot.load("", "").unwrap();
+    let frame = scene.evaluate(1.0).unwrap();
+    assert!(frame.objects[0].self_contact.is_empty());
+    assert_eq!(frame.objects[0].rest_positions, None);
+    assert!(!scene.to_json().unwrap().contains("self_contact"));
+}
+
+#[test]
+fn the_documented_example_parses() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-format.md")).unwrap();
+    let section = doc.split("### `[[objects.self_contact]]`").nth(1).unwrap();
+    let toml = section.split("```toml").nth(1).unwrap().split("```").next().unwrap();
+    let text = format!("frames = {{ start = 1, end = 24 }}\n{toml}");
+    let description = SceneDescription::parse(&text, std::path::Path::new("/shots/scene.toml")).unwrap();
+    let [man, head] = description.objects.as_slice() else { panic!("two objects") };
+    assert_eq!(man.self_contact.len(), 2);
+    assert_eq!(man.self_contact[1].stiffness.at(1.0), StiffnessPair([1.0, 2.0]));
+    assert_eq!(man.self_contact[1].min_weight, Some(0.1));
+    assert_eq!(head.self_contact[0].direction, SelfContactDirection::Fixed(DVec3::new(0.0, -1.0, 0.0).into()));
+}
