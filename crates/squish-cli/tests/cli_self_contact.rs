@@ -180,9 +180,7 @@ fn articulations(report: &Value, name: &str, object: &str) -> Vec<Value> {
         .iter()
         .map(|f| {
             let list = f["articulations"].as_array().unwrap_or_else(|| panic!("no articulations in {f}"));
-            assert_eq!(list.len(), 1);
-            let a = &list[0];
-            assert_eq!(a["name"], name);
+            let a = list.iter().find(|a| a["name"] == name).unwrap_or_else(|| panic!("no articulation {name} in {f}"));
             assert_eq!(a["object"], object);
             for key in [
                 "in_contact",
@@ -238,7 +236,8 @@ joints = ["root", "elbow"]
     assert_eq!(summary["self_intersecting_faces_before"], before);
     assert_eq!(summary["self_intersecting_faces_after"], after);
     eprintln!("bending cylinder, frames 19–25: self-intersecting faces {before} → {after}");
-    assert!(after < before, "the self-contact removes self-intersections: {before} → {after}");
+    assert!(before > 0);
+    assert_eq!(after, 0, "the self-contact removes every self-intersection: {before} → {after}");
     for frame in report["per_frame"].as_array().unwrap() {
         let dv = frame["objects"][0]["relative_volume_change"].as_f64().unwrap();
         assert!(dv.abs() < 1e-6, "the volume is preserved: {dv} at frame {}", frame["frame"]);
@@ -275,12 +274,63 @@ joints = ["Root.001", "Root.002"]
     )
     .unwrap();
     let out = dir.path().join("out");
-    let output = run(&scene, &out, &["--frames", "80:83"]);
+    let output = run(&scene, &out, &[]);
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(stdout.contains("cylinder/middle: self-intersecting faces"), "{stdout}");
     let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["run"]["status"], "complete");
     let figures = articulations(&report, "middle", "cylinder");
-    assert_eq!(figures.len(), 4);
-    assert_eq!(report["summary"]["articulations"][0]["frames"], 4);
+    assert_eq!(figures.len(), 160);
+    let summary = &report["summary"]["articulations"][0];
+    assert_eq!(summary["frames"], 160);
+    // The file's own animation bends the cylinder gently: its skin never passes through itself,
+    // and the self-contact then leaves every frame as the skinning gave it.
+    assert_eq!(summary["self_intersecting_faces_before"], 0, "{summary}");
+    assert_eq!(summary["self_intersecting_faces_after"], 0, "{summary}");
+    for frame in report["per_frame"].as_array().unwrap() {
+        let object = &frame["objects"][0];
+        assert_eq!(object["relative_volume_change"].as_f64().unwrap(), 0.0, "{object}");
+        assert_eq!(object["output_step"], object["input_step"], "{object}");
+    }
+}
+
+/// The glTF sample CesiumMan walking (examples/cesium_man.toml: knees, hips and elbows). Measured
+/// with this test: the skin of each knee passes through itself on 9 and 8 frames of the walk
+/// (149 and 129 self-intersecting faces over the shot) and none remain; the elbows never fold
+/// enough to touch. The hips' counts take the faces of the pelvis and of the whole leg, knees
+/// included: what remains there (≤ 5 faces on frames 35–39) is inside the pelvis region, between
+/// faces of the hip's first region only, not across the hip's crease.
+#[test]
+fn cesium_man_walks_with_self_contact_at_its_knees_hips_and_elbows() {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cesium_man.toml");
+    if !shared_data().join("rigged/CesiumMan.glb").is_file() {
+        eprintln!("note: {} not found; skipping this test", shared_data().display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    run(&scene, &out, &[]);
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["run"]["status"], "complete");
+    assert_eq!(report["summary"]["frames_computed"], 48);
+    assert!(report["summary"]["max_volume_change"]["value"].as_f64().unwrap() < 1e-12, "{}", report["summary"]);
+    assert!(report["summary"]["max_step_ratio"]["value"].as_f64().unwrap() <= 5.0, "{}", report["summary"]);
+    for knee in ["left knee", "right knee"] {
+        let figures = articulations(&report, knee, "cesium_man");
+        let before: u64 = figures.iter().map(|a| a["self_intersecting_faces_before"].as_u64().unwrap()).sum();
+        assert!(before > 100, "{knee}: the walk folds the knee ({before} faces)");
+        for a in &figures {
+            assert_eq!(a["self_intersecting_faces_after"], 0, "{knee}: {a}");
+        }
+    }
+    for elbow in ["left elbow", "right elbow"] {
+        for a in &articulations(&report, elbow, "cesium_man") {
+            assert_eq!(a["self_intersecting_faces_after"], 0, "{elbow}: {a}");
+        }
+    }
+    for hip in ["left hip", "right hip"] {
+        for a in &articulations(&report, hip, "cesium_man") {
+            assert!(a["self_intersecting_faces_after"].as_u64().unwrap() <= 5, "{hip}: {a}");
+        }
+    }
 }

@@ -33,7 +33,9 @@
 //!
 //! **Given interior.** A caller may decide which vertices are inside the other side
 //! ([`ContactSide::interior`]); tags and flood fill are then skipped for that side and ℐ is those
-//! vertices, bounded on each crossed edge by its crossing nearest to the inside vertex as above.
+//! vertices — the parts of them connected to a crossed edge, a part no crossing reaches being
+//! inside something else — bounded on each crossed edge by its crossing nearest to the inside
+//! vertex as above.
 //! Self-contact needs it (ch. 6): its two sides are the two halves of one closed mesh cut along
 //! the crease, so each intersection curve ends near the cut instead of closing, and a flood fill
 //! leaks around its end into the whole side.
@@ -188,7 +190,7 @@ fn intersection_region(
     let edges = topology.edges();
     let nv = topology.num_vertices();
     let inside = match side.interior {
-        Some(given) => given.to_vec(),
+        Some(given) => touching_crossings(side, hits, given),
         None => match flood_interior(side, other, hits, stats) {
             Some(inside) => inside,
             None => return Ok(EdgeRegion::empty(topology)),
@@ -224,6 +226,38 @@ fn intersection_region(
     });
     stats.edges_without_crossing += without_crossing;
     Ok(region)
+}
+
+/// The given interior vertices that are connected (through interior vertices) to an edge that
+/// crosses the other side: a part of the given set that no crossing reaches lies inside
+/// something else than the other side (a thigh inside the other thigh, when the given flags are
+/// "inside another part of the same body"), and is dropped.
+fn touching_crossings(side: &ContactSide, hits: &EdgeHits, given: &[bool]) -> Vec<bool> {
+    let nv = side.topology.num_vertices();
+    let flagged = |v: u32| given.get(v as usize).copied().unwrap_or(false);
+    let edges = side.topology.edges();
+    let mut inside = vec![false; nv];
+    let mut stack = Vec::new();
+    for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
+        if list.is_empty() {
+            continue;
+        }
+        for v in edges[e as usize] {
+            if flagged(v) && !inside[v as usize] {
+                inside[v as usize] = true;
+                stack.push(v);
+            }
+        }
+    }
+    while let Some(v) = stack.pop() {
+        for w in side.topology.vertex_neighbors(v) {
+            if flagged(w) && !inside[w as usize] {
+                inside[w as usize] = true;
+                stack.push(w);
+            }
+        }
+    }
+    inside
 }
 
 /// The interior vertices of `side` from the tags of its crossed edges and a flood fill (see the

@@ -323,16 +323,24 @@ impl Truncated {
 }
 
 /// Per object vertex of `vertices`: true if it lies inside another part of the object. The
-/// object is closed, so its winding number (exact signed ray crossings) just inside its surface,
-/// at `p − ε·n`, is 1 where the skin encloses only its own body and 2 where it also lies inside
-/// another part — the other side of the fold. ε = 10⁻⁴·h keeps the point on the right side of
-/// its own faces without reaching other layers.
+/// object is closed, so its winding number (exact signed ray crossings) just off its surface,
+/// at `p ± ε·n`, is 1 on the side of its own body and 0 on the other where the skin encloses
+/// nothing else; a vertex inside another part — the other side of the fold — is inside on
+/// *both* sides of its own surface: `min(w(p − εn), w(p + εn)) ≥ 1`. The test does not depend on
+/// the orientation of n: linear blend skinning crumples the skin in a crease, where the vertex
+/// normals point into the body and the counts are (1, 1) instead of (2, 1), and the former test
+/// `w(p − εn) ≥ 2` missed exactly the vertices that had gone through the other side
+/// (CesiumMan's knees, the frames they unbend). ε = 10⁻⁴·h keeps the points on the right side of
+/// their own faces without reaching other layers.
 fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertices: &[bool], epsilon: f64) -> Vec<bool> {
     use rayon::prelude::*;
     (0..mesh.num_vertices())
         .into_par_iter()
         .with_min_len(256)
-        .map(|v| vertices[v] && tree.winding_number(mesh.positions[v] - epsilon * normals[v]) >= 2)
+        .map(|v| {
+            let (p, offset) = (mesh.positions[v], epsilon * normals[v]);
+            vertices[v] && tree.winding_number(p - offset).min(tree.winding_number(p + offset)) >= 1
+        })
         .collect()
 }
 
@@ -506,7 +514,6 @@ pub fn plan_articulation(
         None => None,
     };
     stats.contact_time = t.elapsed();
-
     let mut plan = ArticulationPlan {
         displacement: AffineDisplacement::none(n),
         extent: f64::NAN,
