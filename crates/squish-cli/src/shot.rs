@@ -119,11 +119,36 @@ impl PreviewFrame {
                 .zip(&result.positions)
                 .map(|(o, p)| TriMesh { positions: p.clone(), triangles: o.mesh.triangles.clone() })
                 .collect(),
-            contact: deformations.iter().map(|d| d.as_ref().map(|d| d.contact.clone())).collect(),
-            deformable: deformations.iter().map(|d| d.as_ref().map(|d| d.deformable.clone())).collect(),
+            contact: deformations
+                .iter()
+                .zip(&result.self_contact)
+                .map(|(d, s)| merged_flags(d.as_ref().map(|d| &d.contact), s.as_ref().map(|s| s.contact.clone())))
+                .collect(),
+            deformable: deformations
+                .iter()
+                .zip(&result.self_contact)
+                .map(|(d, s)| {
+                    let moved = s.as_ref().map(|s| s.moved.iter().zip(&s.contact).map(|(&m, &c)| m && !c).collect());
+                    merged_flags(d.as_ref().map(|d| &d.deformable), moved)
+                })
+                .collect(),
             u: deformations.iter().map(|d| d.as_ref().map(|d| d.u.clone())).collect(),
             intersection,
         }
+    }
+}
+
+/// Per-vertex flags of the contacts between objects and of the self-contacts (ch. 6), or'ed.
+fn merged_flags(between: Option<&Vec<bool>>, own: Option<Vec<bool>>) -> Option<Vec<bool>> {
+    match (between, own) {
+        (Some(b), Some(mut o)) => {
+            for (x, &y) in o.iter_mut().zip(b) {
+                *x |= y;
+            }
+            Some(o)
+        }
+        (Some(b), None) => Some(b.clone()),
+        (None, own) => own,
     }
 }
 
