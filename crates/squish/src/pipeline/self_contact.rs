@@ -164,3 +164,7 @@ fn resolve_object(
     }
     Ok((SelfContactResult { positions: after.positions, contact, moved, cuts }, stats))
 }
+
+#[cfg(test)]
+#[path = "self_contact_tests.rs"]
+mod tests;

@@ -1,0 +1,114 @@
+//! The self-contact stage inside the whole pipeline: a skinned arm folded at its elbow and pressed
+//! by a ball at its hand, in one frame.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use glam::{DMat3, DVec3};
+
+use super::super::tests::deepest_penetration;
+use super::super::*;
+use crate::mesh::shapes;
+use crate::skinning::{Articulation, ArticulationDirection, ArticulationParams};
+
+/// A capsule along z (radius 0.5, length 6) bent by linear blend skinning by `degrees` about −x
+/// at the origin (weights blended over |z| ≤ 1), its articulation, and its rest pose.
+fn bent_arm(degrees: f64) -> (TriMesh, ObjectParams) {
+    let rest = shapes::capsule(0.5, 6.0, 32, 8, 48);
+    let weight: Vec<f64> = rest
+        .positions
+        .iter()
+        .map(|p| {
+            let x = ((p.z + 1.0) / 2.0).clamp(0.0, 1.0);
+            x * x * (3.0 - 2.0 * x)
+        })
+        .collect();
+    let rotation = DMat3::from_axis_angle(DVec3::NEG_X, degrees.to_radians());
+    let mesh = TriMesh {
+        positions: rest.positions.iter().zip(&weight).map(|(p, &w)| (1.0 - w) * *p + w * (rotation * *p)).collect(),
+        triangles: rest.triangles.clone(),
+    };
+    let side = |child: bool| -> Vec<u32> {
+        (0..rest.num_vertices() as u32)
+            .filter(|&v| {
+                let w = weight[v as usize];
+                (if child { w } else { 1.0 - w }) >= 0.05
+            })
+            .collect()
+    };
+    let elbow = Articulation {
+        name: "elbow".into(),
+        regions: [side(false), side(true)],
+        direction: ArticulationDirection::Joints([
+            DVec3::new(0.0, 0.0, -3.0),
+            DVec3::ZERO,
+            rotation * DVec3::new(0.0, 0.0, 3.0),
+        ]),
+        params: ArticulationParams::default(),
+    };
+    let params = ObjectParams {
+        anisotropy: true,
+        self_contact: vec![elbow],
+        rest_positions: Some(rest.positions.clone()),
+        ..ObjectParams::default()
+    };
+    (mesh, params)
+}
+
+/// The ball against the tip of the bent forearm, 0.15 deep.
+fn ball_at_the_hand(arm: &TriMesh) -> TriMesh {
+    // The forearm's tip: the vertex farthest from the elbow.
+    let tip = arm.positions.iter().copied().fold(DVec3::ZERO, |a, p| if p.length() > a.length() { p } else { a });
+    let center = tip + tip.normalize() * (0.8 - 0.15);
+    let mut ball = shapes::icosphere(0.8, 4);
+    for p in &mut ball.positions {
+        *p += center;
+    }
+    ball
+}
+
+#[test]
+fn a_folded_arm_pressed_by_a_ball_is_clean_at_the_elbow_and_at_the_hand_with_its_volume() {
+    let (arm, arm_params) = bent_arm(130.0);
+    let ball = ball_at_the_hand(&arm);
+    let ball_params = ObjectParams::default();
+    let frame = Frame {
+        objects: vec![
+            FrameObject { name: "arm", mesh: &arm, params: &arm_params },
+            FrameObject { name: "ball", mesh: &ball, params: &ball_params },
+        ],
+        pairs: vec![FramePair { objects: [0, 1], params: crate::contact::PairParams::default() }],
+    };
+    let before = deepest_penetration(&arm, &ball);
+    assert!(before > 0.1);
+    let result = Deformer::new().deform(&frame).unwrap();
+
+    // The elbow: its self-intersections are gone.
+    let [elbow] = result.stats.articulations.as_slice() else { panic!("one articulation") };
+    assert!(elbow.in_contact);
+    assert!(elbow.self_intersecting_faces_before > 50, "{elbow:?}");
+    assert_eq!(elbow.self_intersecting_faces_after, 0, "{elbow:?}");
+    let own = result.self_contact[0].as_ref().unwrap();
+    assert!(own.contact.iter().any(|&c| c));
+
+    // The hand: the ball's contact is resolved on the arm that came out of the self-contact.
+    let arm_out = TriMesh { positions: result.positions[0].clone(), triangles: arm.triangles.clone() };
+    let ball_out = TriMesh { positions: result.positions[1].clone(), triangles: ball.triangles.clone() };
+    let after = deepest_penetration(&arm_out, &ball_out);
+    assert!(after <= 0.02 * before, "residual penetration {after} of {before}");
+
+    // Volume: both stages preserve it, so the frame does, relative to the skinned input.
+    for (i, object) in result.stats.objects.iter().enumerate() {
+        assert!(object.relative_volume_change.abs() < 1e-9, "object {i}: {}", object.relative_volume_change);
+    }
+    let relative =
+        (crate::mesh::signed_volume(&arm_out) - crate::mesh::signed_volume(&arm)) / crate::mesh::signed_volume(&arm);
+    assert!(relative.abs() < 1e-9, "{relative}");
+
+    // Deterministic whatever the thread count.
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let single = pool.install(|| Deformer::new().deform(&frame).unwrap());
+    let bits = |v: &Vec<DVec3>| v.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect::<Vec<_>>();
+    for (x, y) in result.positions.iter().zip(&single.positions) {
+        assert_eq!(bits(x), bits(y));
+    }
+}
