@@ -622,3 +622,38 @@ fn random_and_degenerate_configurations_give_finite_results() {
     println!("{non_empty} of {} configurations have a contact zone", cases.len());
     assert!(non_empty >= 10);
 }
+
+/// The threshold's floor and cap (self-contact's settings): ε_c = min(max(m + τσ, −P), max).
+#[test]
+fn the_threshold_floor_and_cap_bound_the_criterion() {
+    let (a, b) = two_spheres(3);
+    let free = run(&a, &b, &PairParams { contact_tau: -3.0, ..PairParams::default() });
+    assert_eq!(free.criterion.penetration, 0.0, "computed only with a floor");
+    let floored =
+        run(&a, &b, &PairParams { contact_tau: -3.0, contact_threshold_floor: Some(0.25), ..PairParams::default() });
+    let depth = floored.criterion.penetration;
+    println!(
+        "τ = −3: ε_c {:.5}; typical penetration P {depth:.5}; floored ε_c {:.5}",
+        free.threshold(),
+        floored.threshold()
+    );
+    assert!(depth > 0.0);
+    assert!(free.threshold() < -0.25 * depth, "the test needs a threshold below −P/4");
+    assert_eq!(floored.threshold(), -0.25 * depth);
+    println!("contact areas: τ = −3 {:.5}, floored {:.5}", free.contact_area, floored.contact_area);
+    assert!(floored.contact_area <= free.contact_area);
+    let tighter =
+        run(&a, &b, &PairParams { contact_tau: -3.0, contact_threshold_floor: Some(0.1), ..PairParams::default() });
+    assert_eq!(tighter.threshold(), -0.1 * tighter.criterion.penetration);
+    assert!(tighter.contact_area <= floored.contact_area);
+    let capped =
+        run(&a, &b, &PairParams { contact_tau: 2.0, max_contact_threshold: Some(0.0), ..PairParams::default() });
+    let uncapped = run(&a, &b, &PairParams { contact_tau: 2.0, ..PairParams::default() });
+    assert!(uncapped.threshold() > 0.0, "the test needs a positive threshold");
+    assert_eq!(capped.threshold(), 0.0);
+    assert!(capped.contact_area > uncapped.contact_area);
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let params = PairParams { contact_threshold_floor: Some(bad), ..PairParams::default() };
+        assert!(contact_pair(&a.side(), &b.side(), &params).is_err(), "floor {bad}");
+    }
+}

@@ -375,6 +375,8 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let surfaces = [0, 1].map(|l| side_surface(sides[l], &mappings[l], toward[l], k[l], k[1 - l]));
     let mut crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
     if let Some(floor) = params.contact_threshold_floor {
+        crit.penetration =
+            super::zone::typical_penetration(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]]);
         crit.threshold = crit.threshold.max(-floor * crit.penetration);
     }
     if let Some(max) = params.max_contact_threshold {

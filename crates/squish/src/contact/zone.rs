@@ -45,7 +45,8 @@ pub struct CriterionStats {
     /// ε_c = m_𝒮 + τσ_𝒮.
     pub threshold: f64,
     /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without
-    /// penetration): continuous, and 0 when the contact starts.
+    /// penetration): continuous, and 0 when the contact starts. Computed only for a pair with a
+    /// threshold floor ([`super::PairParams::contact_threshold_floor`]), 0 otherwise.
     pub penetration: f64,
 }
 
@@ -88,14 +89,19 @@ pub fn criterion(
         spread += s;
     }
     let std_dev = (spread / area).max(0.0).sqrt();
+    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev, penetration: 0.0 }
+}
+
+/// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without penetration),
+/// for [`super::PairParams::contact_threshold_floor`].
+pub fn typical_penetration(sides: [&ContactSide; 2], mappings: [&SideMapping; 2], surfaces: [&SideSurface; 2]) -> f64 {
     let (mut first, mut second) = (0.0, 0.0);
     for l in 0..2 {
         let depth = |s| depth_at(mappings[l], surfaces[l], s).max(0.0);
         first += mappings[l].region.integrate(sides[l].mesh, sides[l].topology, depth, |c: f64| c).1;
         second += mappings[l].region.integrate(sides[l].mesh, sides[l].topology, depth, |c: f64| c * c).1;
     }
-    let penetration = if first > 0.0 { second / first } else { 0.0 };
-    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev, penetration }
+    if first > 0.0 { second / first } else { 0.0 }
 }
 
 /// The safeguard value min(−toward·n, toward·n″) of a sample.
