@@ -8,6 +8,8 @@
 //!   contact to the deepest press and back;
 //! - `squeeze`: a soft ball squeezed between two stiffer ones (three objects, two pairs);
 //! - `two-balls`: two balls of different sizes pushed together;
+//! - `elbow`: an arm bending to 150° at its elbow, whose skin folds onto itself (self-contact,
+//!   thesis ch. 6);
 //! - `capsules`: two crossed capsules pushed together.
 
 use std::collections::BTreeSet;
@@ -78,7 +80,8 @@ struct DemoScene {
     title: &'static str,
     detail: Detail,
     frames: RangeInclusive<i64>,
-    /// Overlap depth at a frame (world units, negative: a gap).
+    /// The animated value at a frame: the overlap depth (world units, negative: a gap), or the
+    /// bend of the elbow in degrees.
     depth: Box<dyn Fn(i64) -> f64 + Sync>,
     build: Box<dyn Fn(f64) -> ProceduralScene + Sync>,
 }
@@ -136,6 +139,15 @@ fn demo_scenes(detail: Detail) -> Vec<DemoScene> {
             frames: 1..=short,
             depth: Box::new(move |f| 0.1 + 0.25 * phase(f, short)),
             build: Box::new(move |depth| scenes::two_balls(depth, d.subdivisions)),
+        },
+        DemoScene {
+            slug: "elbow",
+            title: "an arm bending to 150° at its elbow until its skin folds onto itself (self-contact)",
+            detail: d,
+            frames: 1..=long,
+            // Here the animated value is the bend in degrees.
+            depth: Box::new(move |f| 150.0 * phase(f, long)),
+            build: Box::new(move |degrees| scenes::bent_arm(degrees, d.capsule_segments)),
         },
         DemoScene {
             slug: "capsules",
@@ -356,10 +368,16 @@ fn run_scene(
 /// The figures of a scene in one line: volume error, residual penetration, largest step, time.
 fn demo_line(s: &ShotSummary) -> String {
     let volume = s.max_volume_change.as_ref().map_or(0.0, |e| e.value);
-    let penetration = s.max_penetration_ratio.as_ref().map_or_else(
+    let mut penetration = s.max_penetration_ratio.as_ref().map_or_else(
         || "no penetration".to_string(),
         |p| format!("residual penetration {} of the input's", percent(p.value)),
     );
+    for a in &s.articulations {
+        penetration = format!(
+            "{}: self-intersecting faces {} → {}",
+            a.name, a.self_intersecting_faces_before, a.self_intersecting_faces_after
+        );
+    }
     let step = s.max_step_ratio.as_ref().map_or_else(
         || "one frame".to_string(),
         |e| format!("largest frame-to-frame step {:.2}× the input's", e.value),

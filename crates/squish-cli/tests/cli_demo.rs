@@ -19,7 +19,7 @@ fn the_quick_demo_writes_every_scene_and_preserves_volumes() {
         .skip(1)
         .map(|rest| rest.split_whitespace().next().unwrap().parse().unwrap())
         .collect();
-    assert_eq!(volumes.len(), 4, "{stdout}");
+    assert_eq!(volumes.len(), 5, "{stdout}");
     assert!(volumes.iter().all(|v| *v <= 1e-9), "{stdout}");
 
     for file in ["summary.json", "overview.png"] {
@@ -29,7 +29,7 @@ fn the_quick_demo_writes_every_scene_and_preserves_volumes() {
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let scenes = summary["scenes"].as_array().unwrap();
     let names: Vec<&str> = scenes.iter().map(|s| s["name"].as_str().unwrap()).collect();
-    assert_eq!(names, ["press", "squeeze", "two-balls", "capsules"]);
+    assert_eq!(names, ["press", "squeeze", "two-balls", "elbow", "capsules"]);
     for scene in scenes {
         let name = scene["name"].as_str().unwrap();
         let dir = out.join(name);
@@ -57,6 +57,13 @@ fn the_quick_demo_writes_every_scene_and_preserves_volumes() {
         }
         assert!(deformed > 0, "{name}: nothing was deformed");
         assert!(report["summary"]["max_volume_change"]["value"].as_f64().unwrap() <= 1e-9);
+        if name == "elbow" {
+            // The arm's skin passes through itself at the deepest bends; none of it remains.
+            let elbow = &report["summary"]["articulations"][0];
+            assert!(elbow["self_intersecting_faces_before"].as_u64().unwrap() > 0, "{elbow}");
+            assert_eq!(elbow["self_intersecting_faces_after"], 0, "{elbow}");
+            continue;
+        }
         // Contacts are clean: what penetrated is (mostly) gone.
         assert!(report["summary"]["max_penetration_ratio"]["value"].as_f64().unwrap() < 0.25, "{name}");
     }

@@ -1,5 +1,5 @@
 //! Procedural scenes for the demo, the tests and the benchmarks: soft balls pressed into soft
-//! ground, balls of different sizes, crossed capsules. z is up; every object is closed.
+//! ground, balls of different sizes, crossed capsules, fingers, an arm folding at its elbow. z is up; every object is closed.
 //!
 //! Each builder takes the penetration `depth` (how far the objects overlap along the contact
 //! axis, in world units; negative for a gap) so that an animation is a sweep of depths.
@@ -124,6 +124,60 @@ pub fn crossed_capsules(depth: f64, segments: u32) -> ProceduralScene {
     let l = scene.push("lower", lower);
     scene.pair(u, l);
     scene
+}
+
+/// An arm: a capsule of radius 0.5 and length 6 along z, centred at the origin, bent at the
+/// origin (its elbow) by `degrees` toward +y by linear blend skinning of two bones (weights
+/// blended smoothly over |z| ≤ 1, two radii each side), with the elbow's articulation (regions
+/// from the weights at 0.05, d̂ from the joints at (0, 0, −3), the origin and the hand) and its
+/// rest pose; anisotropic bulge (thesis ch. 6; see [`crate::skinning::self_contact`]). Past about
+/// 105° the inner skin passes through itself. No pair.
+pub fn bent_arm(degrees: f64, segments: u32) -> ProceduralScene {
+    use crate::skinning::{Articulation, ArticulationDirection, ArticulationParams};
+    let segments = segments.max(8);
+    let rest = shapes::capsule(0.5, 6.0, segments, segments / 4, segments * 3 / 2);
+    let weight: Vec<f64> = rest
+        .positions
+        .iter()
+        .map(|p| {
+            let x = ((p.z + 1.0) / 2.0).clamp(0.0, 1.0);
+            x * x * (3.0 - 2.0 * x)
+        })
+        .collect();
+    let rotation = DQuat::from_axis_angle(DVec3::NEG_X, degrees.to_radians());
+    let mesh = TriMesh {
+        positions: rest.positions.iter().zip(&weight).map(|(p, &w)| (1.0 - w) * *p + w * (rotation * *p)).collect(),
+        triangles: rest.triangles.clone(),
+    };
+    let side = |child: bool| -> Vec<u32> {
+        (0..rest.num_vertices() as u32)
+            .filter(|&v| {
+                let w = weight[v as usize];
+                (if child { w } else { 1.0 - w }) >= 0.05
+            })
+            .collect()
+    };
+    let elbow = Articulation {
+        name: "elbow".into(),
+        regions: [side(false), side(true)],
+        direction: ArticulationDirection::Joints([
+            DVec3::new(0.0, 0.0, -3.0),
+            DVec3::ZERO,
+            rotation * DVec3::new(0.0, 0.0, 3.0),
+        ]),
+        params: ArticulationParams::default(),
+    };
+    let params = ObjectParams {
+        anisotropy: true,
+        self_contact: vec![elbow],
+        rest_positions: Some(rest.positions),
+        ..ObjectParams::default()
+    };
+    ProceduralScene {
+        name: "bent arm".into(),
+        objects: vec![SceneObject { name: "arm".into(), mesh, params }],
+        pairs: Vec::new(),
+    }
 }
 
 /// Radius of the fingers of [`fingers_on_ball`] and [`fingers_on_slab`].

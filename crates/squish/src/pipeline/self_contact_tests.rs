@@ -3,55 +3,17 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use super::super::tests::deepest_penetration;
 use super::super::*;
 use crate::mesh::shapes;
-use crate::skinning::{Articulation, ArticulationDirection, ArticulationParams};
 
-/// A capsule along z (radius 0.5, length 6) bent by linear blend skinning by `degrees` about −x
-/// at the origin (weights blended over |z| ≤ 1), its articulation, and its rest pose.
+/// The arm of [`super::super::scenes::bent_arm`] at `degrees`.
 fn bent_arm(degrees: f64) -> (TriMesh, ObjectParams) {
-    let rest = shapes::capsule(0.5, 6.0, 32, 8, 48);
-    let weight: Vec<f64> = rest
-        .positions
-        .iter()
-        .map(|p| {
-            let x = ((p.z + 1.0) / 2.0).clamp(0.0, 1.0);
-            x * x * (3.0 - 2.0 * x)
-        })
-        .collect();
-    let rotation = DMat3::from_axis_angle(DVec3::NEG_X, degrees.to_radians());
-    let mesh = TriMesh {
-        positions: rest.positions.iter().zip(&weight).map(|(p, &w)| (1.0 - w) * *p + w * (rotation * *p)).collect(),
-        triangles: rest.triangles.clone(),
-    };
-    let side = |child: bool| -> Vec<u32> {
-        (0..rest.num_vertices() as u32)
-            .filter(|&v| {
-                let w = weight[v as usize];
-                (if child { w } else { 1.0 - w }) >= 0.05
-            })
-            .collect()
-    };
-    let elbow = Articulation {
-        name: "elbow".into(),
-        regions: [side(false), side(true)],
-        direction: ArticulationDirection::Joints([
-            DVec3::new(0.0, 0.0, -3.0),
-            DVec3::ZERO,
-            rotation * DVec3::new(0.0, 0.0, 3.0),
-        ]),
-        params: ArticulationParams::default(),
-    };
-    let params = ObjectParams {
-        anisotropy: true,
-        self_contact: vec![elbow],
-        rest_positions: Some(rest.positions.clone()),
-        ..ObjectParams::default()
-    };
-    (mesh, params)
+    let mut scene = super::super::scenes::bent_arm(degrees, 32);
+    let arm = scene.objects.remove(0);
+    (arm.mesh, arm.params)
 }
 
 /// The ball against the tip of the bent forearm, 0.15 deep.
