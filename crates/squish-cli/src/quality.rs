@@ -187,6 +187,10 @@ pub struct ArticulationQuality {
     /// tests), in the input and in the result.
     pub self_intersecting_faces_before: usize,
     pub self_intersecting_faces_after: usize,
+    /// Of those, the faces of pairs joining the articulation's two sides (the rest lie within
+    /// one side: another fold of the body).
+    pub self_intersecting_faces_across_before: usize,
+    pub self_intersecting_faces_across_after: usize,
     pub contact_area: f64,
     /// h_v solved for volume preservation, γ·h_v applied, and whether h_v solves the volume
     /// equation exactly.
@@ -221,6 +225,8 @@ pub fn articulation_figures(record: &FrameRecord) -> Vec<ArticulationQuality> {
             in_contact: a.in_contact,
             self_intersecting_faces_before: a.self_intersecting_faces_before,
             self_intersecting_faces_after: a.self_intersecting_faces_after,
+            self_intersecting_faces_across_before: a.self_intersecting_faces_across_before,
+            self_intersecting_faces_across_after: a.self_intersecting_faces_across_after,
             contact_area: a.contact_area,
             bulge_height: a.bulge_height,
             applied_bulge_height: a.applied_bulge_height,
@@ -245,9 +251,12 @@ pub struct ArticulationSummary {
     pub name: String,
     pub frames: usize,
     pub frames_in_contact: usize,
-    /// Self-intersecting faces of the regions, summed over the frames, before and after.
+    /// Self-intersecting faces of the regions, summed over the frames, before and after; and
+    /// those of pairs joining the two sides.
     pub self_intersecting_faces_before: usize,
     pub self_intersecting_faces_after: usize,
+    pub self_intersecting_faces_across_before: usize,
+    pub self_intersecting_faces_across_after: usize,
     /// The frame with the most self-intersecting faces left, if any are left.
     pub worst_after: Option<Extreme>,
     /// Frames whose bulge height does not solve the volume equation exactly.
@@ -273,6 +282,8 @@ impl ArticulationSummary {
                             frames_in_contact: 0,
                             self_intersecting_faces_before: 0,
                             self_intersecting_faces_after: 0,
+                            self_intersecting_faces_across_before: 0,
+                            self_intersecting_faces_across_after: 0,
                             worst_after: None,
                             frames_volume_inexact: 0,
                             total_time_ms: 0.0,
@@ -287,6 +298,8 @@ impl ArticulationSummary {
                 s.frames_in_contact += usize::from(a.in_contact);
                 s.self_intersecting_faces_before += a.self_intersecting_faces_before;
                 s.self_intersecting_faces_after += a.self_intersecting_faces_after;
+                s.self_intersecting_faces_across_before += a.self_intersecting_faces_across_before;
+                s.self_intersecting_faces_across_after += a.self_intersecting_faces_across_after;
                 if a.self_intersecting_faces_after > 0 {
                     keep_max(&mut s.worst_after, a.self_intersecting_faces_after as f64, r.frame, || {
                         format!("{}/{}", a.object, a.name)
@@ -308,11 +321,14 @@ impl ArticulationSummary {
     /// One line for people.
     pub fn line(&self) -> String {
         let mut line = format!(
-            "{}/{}: self-intersecting faces {} → {} over {} frame{} (in contact on {}), {:.1} ms per frame (max {:.1})",
+            "{}/{}: self-intersecting faces {} → {} ({} → {} across the joint) over {} frame{} (in contact on {}), \
+             {:.1} ms per frame (max {:.1})",
             self.object,
             self.name,
             self.self_intersecting_faces_before,
             self.self_intersecting_faces_after,
+            self.self_intersecting_faces_across_before,
+            self.self_intersecting_faces_across_after,
             self.frames,
             if self.frames == 1 { "" } else { "s" },
             self.frames_in_contact,

@@ -299,7 +299,8 @@ joints = ["Root.001", "Root.002"]
 /// (149 and 129 self-intersecting faces over the shot) and none remain; the elbows never fold
 /// enough to touch. The hips' counts take the faces of the pelvis and of the whole leg, knees
 /// included: what remains there (≤ 5 faces on frames 35–39) is inside the pelvis region, between
-/// faces of the hip's first region only, not across the hip's crease.
+/// faces of the hip's first region only; across the hips' creases the walk never intersects
+/// (0 → 0), and across every configured joint nothing remains.
 #[test]
 fn cesium_man_walks_with_self_contact_at_its_knees_hips_and_elbows() {
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cesium_man.toml");
@@ -332,5 +333,14 @@ fn cesium_man_walks_with_self_contact_at_its_knees_hips_and_elbows() {
         for a in &articulations(&report, hip, "cesium_man") {
             assert!(a["self_intersecting_faces_after"].as_u64().unwrap() <= 5, "{hip}: {a}");
         }
+    }
+    // Across every configured joint (pairs joining its two sides), nothing remains.
+    for summary in report["summary"]["articulations"].as_array().unwrap() {
+        assert_eq!(summary["self_intersecting_faces_across_after"], 0, "{summary}");
+    }
+    for knee in ["left knee", "right knee"] {
+        let summary =
+            report["summary"]["articulations"].as_array().unwrap().iter().find(|a| a["name"] == knee).unwrap();
+        assert_eq!(summary["self_intersecting_faces_across_before"], summary["self_intersecting_faces_before"]);
     }
 }

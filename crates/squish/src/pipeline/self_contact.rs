@@ -20,7 +20,7 @@ use super::{Frame, ObjectParams, PipelineError};
 use crate::mesh::{Topology, TriMesh, vertex_normals};
 use crate::skinning::{
     ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, count_self_intersections,
-    plan_articulation,
+    count_self_intersections_across, plan_articulation,
 };
 
 /// What the deformer keeps about an object's articulations between frames.
@@ -158,6 +158,10 @@ fn resolve_object(
             let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
             s.self_intersecting_faces_before = count_self_intersections(mesh, setup.faces()).map_err(spatial)?;
             s.self_intersecting_faces_after = count_self_intersections(&after, setup.faces()).map_err(spatial)?;
+            s.self_intersecting_faces_across_before =
+                count_self_intersections_across(mesh, setup, &plan.labels).map_err(spatial)?;
+            s.self_intersecting_faces_across_after =
+                count_self_intersections_across(&after, setup, &plan.labels).map_err(spatial)?;
             cuts.push((setup.shared().vertices.clone(), plan.labels));
         }
         stats.push(s);

@@ -49,6 +49,9 @@ fn a_folded_arm_pressed_by_a_ball_is_clean_at_the_elbow_and_at_the_hand_with_its
     assert!(elbow.in_contact);
     assert!(elbow.self_intersecting_faces_before > 50, "{elbow:?}");
     assert_eq!(elbow.self_intersecting_faces_after, 0, "{elbow:?}");
+    // At the elbow every intersecting pair joins the two sides.
+    assert_eq!(elbow.self_intersecting_faces_across_before, elbow.self_intersecting_faces_before, "{elbow:?}");
+    assert_eq!(elbow.self_intersecting_faces_across_after, 0);
     let own = result.self_contact[0].as_ref().unwrap();
     assert!(own.contact.iter().any(|&c| c));
 

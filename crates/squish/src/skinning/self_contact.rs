@@ -104,6 +104,12 @@ pub struct ArticulationStats {
     /// caller that measures them, see [`count_self_intersections`]).
     pub self_intersecting_faces_before: usize,
     pub self_intersecting_faces_after: usize,
+    /// Of those, the faces of intersecting pairs that join the articulation's two sides (see
+    /// [`count_self_intersections_across`]): what the articulation is there to resolve; the
+    /// rest lie within one side (another fold of the body, e.g. a crotch inside a hip's first
+    /// region).
+    pub self_intersecting_faces_across_before: usize,
+    pub self_intersecting_faces_across_after: usize,
     /// Wall-clock times: crease cut, contact definition, the two deformations, total.
     pub cut_time: Duration,
     pub contact_time: Duration,
@@ -724,6 +730,42 @@ pub fn count_self_intersections(mesh: &TriMesh, faces: &[u32]) -> Result<usize, 
         return Ok(0);
     }
     Ok(TriangleBvh::with_faces(mesh, faces.iter().copied())?.self_intersections().faces.len())
+}
+
+/// Self-intersecting faces among the faces of an articulation's regions that belong to a pair
+/// joining its two sides. A vertex is on side 1 in 𝒲₁ \ ℛ, on side 2 in 𝒲₂ \ ℛ, and on the side
+/// of its crease-cut label in ℛ (`labels`, in the order of [`SharedRegion::vertices`], true = 1);
+/// a pair joins the sides when its six vertices include both sides.
+pub fn count_self_intersections_across(
+    mesh: &TriMesh,
+    setup: &ArticulationSetup,
+    labels: &[bool],
+) -> Result<usize, SpatialError> {
+    if setup.faces.is_empty() {
+        return Ok(0);
+    }
+    let shared = &setup.shared;
+    let mut side: Vec<u8> = shared
+        .membership
+        .iter()
+        .map(|m| match m {
+            [true, false] => 1,
+            [false, true] => 2,
+            _ => 0,
+        })
+        .collect();
+    for (&v, &first) in shared.vertices.iter().zip(labels) {
+        side[v as usize] = if first { 1 } else { 2 };
+    }
+    let sides_of = |f: u32| -> u8 {
+        mesh.triangles[f as usize].iter().fold(0u8, |mask, &v| mask | side.get(v as usize).copied().unwrap_or(0))
+    };
+    let pairs = TriangleBvh::with_faces(mesh, setup.faces.iter().copied())?.self_intersections().pairs;
+    let mut faces: Vec<u32> =
+        pairs.iter().filter(|[f, g]| sides_of(*f) | sides_of(*g) == 3).flat_map(|&[f, g]| [f, g]).collect();
+    faces.sort_unstable();
+    faces.dedup();
+    Ok(faces.len())
 }
 
 #[cfg(test)]
