@@ -54,7 +54,7 @@ pub use profile::{ProfileShape, Wrinkles};
 pub use solver::RegionSolver;
 
 use crate::contact::ContactZone;
-use crate::mesh::{Topology, TriMesh, vertex_normals};
+use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
 use bulge::{AnisotropyParams, bulge_map};
 use direction_field::{DirectionParams, direction_field};
 use guide::{GuideParams, guide_fields};
@@ -288,11 +288,6 @@ impl RegionPlan {
             stats,
         }
     }
-}
-
-/// The mean of the vertices (the reference point of the region's volume figures).
-fn vertex_centroid(positions: &[DVec3]) -> DVec3 {
-    positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / positions.len().max(1) as f64
 }
 
 /// Runs chapter 5 on a region up to, not including, the choice of the bulge height: contact set,

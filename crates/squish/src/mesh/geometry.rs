@@ -134,6 +134,12 @@ impl Aabb3 {
     }
 }
 
+/// The mean of the points (0 for none): the reference point of volume figures, the centre of a
+/// vertex set.
+pub fn vertex_centroid(positions: &[DVec3]) -> DVec3 {
+    positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / positions.len().max(1) as f64
+}
+
 /// Bounding box of the mesh's vertices.
 pub fn bounding_box(mesh: &TriMesh) -> Aabb3 {
     Aabb3::from_points(mesh.positions.iter().copied())

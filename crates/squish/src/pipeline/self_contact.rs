@@ -19,8 +19,8 @@ use rayon::prelude::*;
 use super::{Frame, ObjectParams, PipelineError};
 use crate::mesh::{Topology, TriMesh, vertex_normals};
 use crate::skinning::{
-    ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, count_self_intersections,
-    count_self_intersections_across, plan_articulation,
+    ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, plan_articulation,
+    self_intersection_counts,
 };
 
 /// What the deformer keeps about an object's articulations between frames.
@@ -156,12 +156,12 @@ fn resolve_object(
         s.volume_exact = exact;
         if let Some(setup) = setup {
             let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
-            s.self_intersecting_faces_before = count_self_intersections(mesh, setup.faces()).map_err(spatial)?;
-            s.self_intersecting_faces_after = count_self_intersections(&after, setup.faces()).map_err(spatial)?;
-            s.self_intersecting_faces_across_before =
-                count_self_intersections_across(mesh, setup, &plan.labels).map_err(spatial)?;
-            s.self_intersecting_faces_across_after =
-                count_self_intersections_across(&after, setup, &plan.labels).map_err(spatial)?;
+            let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
+            let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
+            s.self_intersecting_faces_before = before.all;
+            s.self_intersecting_faces_after = after.all;
+            s.self_intersecting_faces_across_before = before.across;
+            s.self_intersecting_faces_across_after = after.across;
             cuts.push((setup.shared().vertices.clone(), plan.labels));
         }
         stats.push(s);

@@ -17,5 +17,5 @@ pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinnin
 pub use partition::{Seed, SharedRegion};
 pub use self_contact::{
     AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, SelfContactError,
-    apply_articulations, count_self_intersections, count_self_intersections_across, plan_articulation,
+    SelfIntersectionCounts, apply_articulations, plan_articulation, self_intersection_counts,
 };

@@ -51,7 +51,7 @@ use crate::deform::{
     AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic, plan_region,
     solve_bulge_height,
 };
-use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume};
+use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
 use crate::spatial::{SpatialError, TriangleBvh};
 
 /// Why an articulation failed at a frame.
@@ -101,11 +101,11 @@ pub struct ArticulationStats {
     /// Whether h_v is a root of the volume cubic.
     pub volume_exact: bool,
     /// Self-intersecting faces among the faces of 𝒲₁ ∪ 𝒲₂, before and after (set by the
-    /// caller that measures them, see [`count_self_intersections`]).
+    /// caller that measures them, see [`self_intersection_counts`]).
     pub self_intersecting_faces_before: usize,
     pub self_intersecting_faces_after: usize,
     /// Of those, the faces of intersecting pairs that join the articulation's two sides (see
-    /// [`count_self_intersections_across`]): what the articulation is there to resolve; the
+    /// [`self_intersection_counts`]): what the articulation is there to resolve; the
     /// rest lie within one side (another fold of the body, e.g. a crotch inside a hip's first
     /// region).
     pub self_intersecting_faces_across_before: usize,
@@ -139,6 +139,8 @@ pub struct ArticulationSetup {
     sides: [RegionSide; 2],
     /// Faces of 𝒲₁ ∪ 𝒲₂ (object ids, increasing).
     faces: Vec<u32>,
+    /// Per object vertex: in 𝒲₁ ∪ 𝒲₂ (the vertices the interior test runs on).
+    in_regions: Vec<bool>,
     /// RMS radius of ℛ on the rest pose.
     size: f64,
     /// Tree over the whole object (refitted per frame) for the interior test.
@@ -198,7 +200,9 @@ impl ArticulationSetup {
         let tree = TriangleBvh::new(mesh)?;
         let edge_length = crate::mesh::mean_edge_length(rest, topology);
         let size = shared_size(rest, &shared);
+        let in_regions = shared.membership.iter().map(|m| m[0] || m[1]).collect();
         Ok(Self {
+            in_regions,
             tree,
             epsilon: 1e-4 * edge_length,
             edge_length,
@@ -246,7 +250,7 @@ impl ArticulationSetup {
 fn shared_size(rest: &TriMesh, shared: &SharedRegion) -> f64 {
     let points: Vec<DVec3> = shared.vertices.iter().map(|&v| rest.positions[v as usize]).collect();
     let count = points.len().max(1) as f64;
-    let centroid = points.iter().fold(DVec3::ZERO, |s, p| s + *p) / count;
+    let centroid = vertex_centroid(&points);
     (points.iter().map(|p| (*p - centroid).length_squared()).sum::<f64>() / count).sqrt()
 }
 
@@ -493,9 +497,8 @@ pub fn plan_articulation(
         side.sub.update_positions(&mesh.positions);
     }
     let shared = &setup.shared;
-    let in_regions: Vec<bool> = shared.membership.iter().map(|m| m[0] || m[1]).collect();
     setup.tree.refit(&mesh.positions)?;
-    let interior = interior_flags(mesh, normals, &setup.tree, &in_regions, setup.epsilon);
+    let interior = interior_flags(mesh, normals, &setup.tree, &setup.in_regions, setup.epsilon);
     let truncated = match (
         Truncated::new(mesh, topology, &masks[0], &setup.sides[0], &interior, d)?,
         Truncated::new(mesh, topology, &masks[1], &setup.sides[1], &interior, -d)?,
@@ -552,7 +555,8 @@ pub fn plan_articulation(
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
     let fields: [Vec<DVec3>; 2] = [0, 1]
         .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
-    let automatic = (1.2 * setup.size).max(1.5 * (contact.contact_area.max(0.0) / std::f64::consts::PI).sqrt());
+    // The pipeline's rule with the limb as both objects.
+    let automatic = crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     let mut plans: Vec<RegionPlan> = Vec::with_capacity(2);
     for attempt in 0..2 {
@@ -695,7 +699,7 @@ pub fn apply_articulations(
     let mut rounds = 0;
     if preserve_volume && active.iter().any(|&a| a) {
         let target = signed_volume(mesh);
-        let reference = mesh.positions.iter().fold(DVec3::ZERO, |s, p| s + *p) / mesh.num_vertices().max(1) as f64;
+        let reference = vertex_centroid(&mesh.positions);
         // Moving faces of each plan, to know whether one round is exact.
         let moving: Vec<Vec<bool>> = plans
             .iter()
@@ -724,25 +728,25 @@ pub fn apply_articulations(
     Ok(AppliedArticulations { positions: positions_with(&heights, None, bulge), heights, rounds })
 }
 
-/// Self-intersecting faces among `faces` of `mesh` (the faces of an articulation's regions).
-pub fn count_self_intersections(mesh: &TriMesh, faces: &[u32]) -> Result<usize, SpatialError> {
-    if faces.is_empty() {
-        return Ok(0);
-    }
-    Ok(TriangleBvh::with_faces(mesh, faces.iter().copied())?.self_intersections().faces.len())
+/// Self-intersecting faces among the faces of an articulation's regions (exact triangle–triangle
+/// tests, one query): all of them, and those of pairs joining its two sides.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SelfIntersectionCounts {
+    pub all: usize,
+    pub across: usize,
 }
 
-/// Self-intersecting faces among the faces of an articulation's regions that belong to a pair
-/// joining its two sides. A vertex is on side 1 in 𝒲₁ \ ℛ, on side 2 in 𝒲₂ \ ℛ, and on the side
-/// of its crease-cut label in ℛ (`labels`, in the order of [`SharedRegion::vertices`], true = 1);
-/// a pair joins the sides when its six vertices include both sides.
-pub fn count_self_intersections_across(
+/// [`SelfIntersectionCounts`] of `mesh` (the object at this frame, input or result) for the
+/// articulation of `setup`. A vertex is on side 1 in 𝒲₁ \ ℛ, on side 2 in 𝒲₂ \ ℛ, and on the
+/// side of its crease-cut label in ℛ (`labels`, in the order of [`SharedRegion::vertices`],
+/// true = 1); a pair joins the sides when its six vertices include both sides.
+pub fn self_intersection_counts(
     mesh: &TriMesh,
     setup: &ArticulationSetup,
     labels: &[bool],
-) -> Result<usize, SpatialError> {
+) -> Result<SelfIntersectionCounts, SpatialError> {
     if setup.faces.is_empty() {
-        return Ok(0);
+        return Ok(SelfIntersectionCounts::default());
     }
     let shared = &setup.shared;
     let mut side: Vec<u8> = shared
@@ -760,12 +764,12 @@ pub fn count_self_intersections_across(
     let sides_of = |f: u32| -> u8 {
         mesh.triangles[f as usize].iter().fold(0u8, |mask, &v| mask | side.get(v as usize).copied().unwrap_or(0))
     };
-    let pairs = TriangleBvh::with_faces(mesh, setup.faces.iter().copied())?.self_intersections().pairs;
-    let mut faces: Vec<u32> =
-        pairs.iter().filter(|[f, g]| sides_of(*f) | sides_of(*g) == 3).flat_map(|&[f, g]| [f, g]).collect();
-    faces.sort_unstable();
-    faces.dedup();
-    Ok(faces.len())
+    let found = TriangleBvh::with_faces(mesh, setup.faces.iter().copied())?.self_intersections();
+    let mut across: Vec<u32> =
+        found.pairs.iter().filter(|[f, g]| sides_of(*f) | sides_of(*g) == 3).flat_map(|&[f, g]| [f, g]).collect();
+    across.sort_unstable();
+    across.dedup();
+    Ok(SelfIntersectionCounts { all: found.faces.len(), across: across.len() })
 }
 
 #[cfg(test)]

@@ -140,8 +140,8 @@ fn sweep(blend: f64, max_degrees: f64, frames: usize) -> Vec<SweepFrame> {
             });
         out_frames.push(SweepFrame {
             angle: angle.to_degrees(),
-            before: count_self_intersections(&mesh, setup.faces()).unwrap(),
-            after: count_self_intersections(&result, setup.faces()).unwrap(),
+            before: self_intersection_counts(&mesh, &setup, &plan.labels).unwrap().all,
+            after: self_intersection_counts(&result, &setup, &plan.labels).unwrap().all,
             inverted_before: capsule.inverted_faces(&mesh, angle),
             inverted_after: capsule.inverted_faces(&result, angle),
             newly_inverted: capsule
