@@ -94,8 +94,10 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
     let contact_set = ContactSet::new(mesh, topology, &zones).expect("contact set");
     let parametrize_params = ParametrizeParams {
         extent: deform_params.extent,
+        domain_radius: deform_params.domain_radius(),
         heat_time_factor: deform_params.heat_time_factor,
         constraint_weight_factor: deform_params.constraint_weight_factor,
+        edge_length: None,
     };
     let direction_params = DirectionParams {
         method: deform_params.direction_method,

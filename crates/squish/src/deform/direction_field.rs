@@ -204,7 +204,7 @@ mod tests {
         normalize_diffused: bool,
     ) -> (ContactSet, Parametrization, DirectionField) {
         let contact = ContactSet::new(mesh, topology, zones).unwrap();
-        let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
+        let params = ParametrizeParams::new(extent);
         let p = parametrize(mesh, topology, solver, &contact, &params).unwrap();
         let normals = vertex_normals(mesh);
         let options =

@@ -57,7 +57,7 @@ use super::parametrize::Parametrization;
 use super::{DeformError, RegionSolver};
 use crate::contact::EdgeRegion;
 use crate::linalg::{SolveError, cut_face_weights};
-use crate::mesh::{Topology, TriMesh, mean_edge_length};
+use crate::mesh::{Topology, TriMesh};
 
 /// u below which the slope division is clamped (see the module doc).
 pub const MIN_SLOPE_U: f64 = 1e-6;
@@ -185,13 +185,8 @@ fn smoothstep(x: f64) -> f64 {
 
 /// Blends each vertex slope toward the confidence-weighted mean of all of them, by how far the
 /// vertex lies from ∂𝒞 (see the module doc, "Slope confidence").
-fn confident_slopes(
-    mesh: &TriMesh,
-    topology: &Topology,
-    parametrization: &Parametrization,
-    constraints: &mut [BoundaryVertex],
-) {
-    let h = mean_edge_length(mesh, topology);
+fn confident_slopes(parametrization: &Parametrization, constraints: &mut [BoundaryVertex]) {
+    let h = parametrization.edge_length;
     if h.is_nan() || h <= 0.0 {
         return;
     }
@@ -273,7 +268,7 @@ pub fn guide_fields(
         })
         .collect();
     let mut slope_constraints = boundary_averages(n, contact, &boundary_slope);
-    confident_slopes(mesh, topology, parametrization, &mut slope_constraints);
+    confident_slopes(parametrization, &mut slope_constraints);
     for c in &slope_constraints {
         if parametrization.u[c.vertex as usize] < MIN_SLOPE_U {
             clamped_slopes += 1;
@@ -318,7 +313,7 @@ mod tests {
         let topology = Topology::new(mesh);
         let mut solver = RegionSolver::new(mesh, &topology).unwrap();
         let contact = ContactSet::new(mesh, &topology, zones).unwrap();
-        let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
+        let params = ParametrizeParams::new(extent);
         let p = parametrize(mesh, &topology, &mut solver, &contact, &params).unwrap();
         let options =
             DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused: true, mapping_field: None };

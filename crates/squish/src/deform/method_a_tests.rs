@@ -177,7 +177,7 @@ fn methods_a_and_b_agree_where_both_apply() {
 fn transport_constraint_angles(object: &Object, zones: &[ContactZone], extent: f64) -> (f64, f64) {
     let mut solver = RegionSolver::new(&object.mesh, &object.topology).unwrap();
     let contact = ContactSet::new(&object.mesh, &object.topology, zones).unwrap();
-    let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
+    let params = ParametrizeParams::new(extent);
     let p = parametrize(&object.mesh, &object.topology, &mut solver, &contact, &params).unwrap();
     let normals = vertex_normals(&object.mesh);
     let field = transport_field(&object.mesh, &mut solver, &contact, &p, &normals).unwrap();

@@ -49,7 +49,7 @@ use rayon::prelude::*;
 
 pub use contact_set::ContactSet;
 pub use error::DeformError;
-pub use params::{DeformParams, DirectionFieldMethod};
+pub use params::{DEFAULT_DOMAIN_FACTOR, DeformParams, DirectionFieldMethod};
 pub use profile::{ProfileShape, Wrinkles};
 pub use solver::RegionSolver;
 
@@ -131,8 +131,12 @@ pub struct DeformStats {
 pub struct RegionDeformation {
     /// New positions: targets on 𝒮 for 𝒞, Eq. 5.1 for 𝒟, the input (bit-identical) elsewhere.
     pub positions: Vec<DVec3>,
-    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable).
+    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable and beyond the
+    /// parametrization domain 𝒫).
     pub u: Vec<f64>,
+    /// Per vertex: within the radius of the parametrization domain 𝒫 (edge-path distance from
+    /// ∂𝒞, [`mod@parametrize`]).
+    pub domain: Vec<bool>,
     /// The deformable region 𝒟.
     pub deformable: Vec<bool>,
     /// The contact region 𝒞 (union of the zones).
@@ -212,8 +216,12 @@ pub struct RegionOverrides<'a> {
 pub struct RegionPlan {
     /// The affine displacement of every region vertex.
     pub displacement: AffineDisplacement,
-    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable).
+    /// The radial parameter u (0 in 𝒞, +∞ where no contact boundary is reachable and beyond the
+    /// parametrization domain 𝒫).
     pub u: Vec<f64>,
+    /// Per vertex: within the radius of the parametrization domain 𝒫 (edge-path distance from
+    /// ∂𝒞, [`mod@parametrize`]).
+    pub domain: Vec<bool>,
     /// The deformable region 𝒟.
     pub deformable: Vec<bool>,
     /// The contact region 𝒞.
@@ -278,6 +286,7 @@ impl RegionPlan {
         RegionDeformation {
             positions,
             u: self.u,
+            domain: self.domain,
             deformable: self.deformable,
             contact: self.contact,
             directions: self.directions,
@@ -321,8 +330,10 @@ pub fn plan_region(
     let contact = ContactSet::new(mesh, topology, zones)?;
     let parametrize_params = ParametrizeParams {
         extent: params.extent,
+        domain_radius: params.domain_radius(),
         heat_time_factor: params.heat_time_factor,
         constraint_weight_factor: params.constraint_weight_factor,
+        edge_length: params.edge_length,
     };
     let parametrization = parametrize(mesh, topology, solver, &contact, &parametrize_params)?;
     timings.parametrization = stage.elapsed();
@@ -425,6 +436,7 @@ pub fn plan_region(
     Ok(RegionPlan {
         displacement,
         u: parametrization.u,
+        domain: parametrization.in_domain,
         deformable: parametrization.deformable,
         contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
         directions: field.directions,

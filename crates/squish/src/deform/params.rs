@@ -61,11 +61,30 @@ pub struct DeformParams {
     /// The heat step's time as a multiple of the squared mean edge length, `t = factor·h²`
     /// (§5.1). Default 10.
     pub heat_time_factor: f64,
+    /// h, the length scale of the heat time `t = heat_time_factor·h²`, of the slope confidence
+    /// (§5.3) and of the transport field's target blend (§5.2.1). `None` (default): the region's
+    /// mean edge length. The pipeline gives a region cut from an object the object's h, so that
+    /// where the cut falls does not change the result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_length: Option<f64>,
     /// Least-squares constraint weight factor `λ = factor × operator scale` (App. B). Default 100.
     pub constraint_weight_factor: f64,
     /// How the direction field is built. Default [`DirectionFieldMethod::Blended`].
     pub direction_method: DirectionFieldMethod,
+    /// The radius of the parametrization domain 𝒫 as a multiple of φ_max (see
+    /// [`mod@super::parametrize`]): φ is solved on the faces within `domain_factor·φ_max` of ∂𝒞
+    /// along edges, so the result does not depend on the rest of the region. At least 1;
+    /// `f64::INFINITY` solves on the whole region as the thesis does. Default 2.
+    pub domain_factor: f64,
+    /// The domain radius in world units, overriding `domain_factor·extent` when set. The pipeline
+    /// sets it when it re-solves a region with a clamped extent, so that the second solve sees
+    /// the same domain, hence the same φ. Default `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub domain_radius: Option<f64>,
 }
+
+/// Default [`DeformParams::domain_factor`].
+pub const DEFAULT_DOMAIN_FACTOR: f64 = 2.0;
 
 /// True for an unset (NaN) extent, which serde leaves out.
 fn is_unset(extent: &f64) -> bool {
@@ -87,8 +106,11 @@ impl Default for DeformParams {
             bulge_map: None,
             normalize_diffused: true,
             heat_time_factor: 10.0,
+            edge_length: None,
             constraint_weight_factor: DEFAULT_CONSTRAINT_WEIGHT_FACTOR,
             direction_method: DirectionFieldMethod::Blended,
+            domain_factor: DEFAULT_DOMAIN_FACTOR,
+            domain_radius: None,
         }
     }
 }
@@ -173,6 +195,17 @@ impl DeformParams {
         self
     }
 
+    /// With another parametrization-domain factor.
+    pub fn with_domain_factor(mut self, factor: f64) -> Self {
+        self.domain_factor = factor;
+        self
+    }
+
+    /// The radius of the parametrization domain in world units.
+    pub fn domain_radius(&self) -> f64 {
+        self.domain_radius.unwrap_or(self.domain_factor * self.extent)
+    }
+
     /// With another direction-field method.
     pub fn with_direction_method(mut self, method: DirectionFieldMethod) -> Self {
         self.direction_method = method;
@@ -218,6 +251,27 @@ impl DeformParams {
             self.constraint_weight_factor,
             "the constraint weight factor must be finite and positive (default 100)",
         )?;
+        if let Some(h) = self.edge_length.filter(|&h| !(h.is_finite() && h > 0.0)) {
+            return Err(DeformError::InvalidParameter {
+                name: "edge_length",
+                value: h,
+                hint: "the length scale h must be finite and positive (leave it unset for the region's mean edge length)",
+            });
+        }
+        if self.domain_factor.is_nan() || self.domain_factor < 1.0 {
+            return Err(DeformError::InvalidParameter {
+                name: "domain_factor",
+                value: self.domain_factor,
+                hint: "the parametrization domain must hold the deformable region: at least 1 (default 2, inf = the whole region)",
+            });
+        }
+        if let Some(radius) = self.domain_radius.filter(|&r| r.is_nan() || r < self.extent) {
+            return Err(DeformError::InvalidParameter {
+                name: "domain_radius",
+                value: radius,
+                hint: "the parametrization domain must hold the deformable region: radius ≥ the extent",
+            });
+        }
         if let Some((vertex, &value)) = self.bulge_map.iter().flatten().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(DeformError::NonFiniteBulgeMap { vertex, value });
         }
@@ -256,6 +310,10 @@ mod tests {
             base.clone().with_wrinkles(f64::INFINITY, 1.0),
             base.clone().with_bulge_map(vec![1.0, f64::NAN]),
             base.clone().with_profile(ProfileShape { x2: 0.9, x3: 0.5, x4: 0.95 }),
+            base.clone().with_domain_factor(0.5),
+            base.clone().with_domain_factor(f64::NAN),
+            DeformParams { domain_radius: Some(0.5), ..base.clone() },
+            DeformParams { edge_length: Some(0.0), ..base.clone() },
         ];
         for params in cases {
             let err = params.validate().unwrap_err();

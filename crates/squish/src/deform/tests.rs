@@ -594,7 +594,7 @@ fn no_zone_leaves_the_region_untouched_and_bad_input_is_an_error() {
     assert!(matches!(err, DeformError::RegionMismatch { .. }), "{err}");
     // Stage functions given inputs of another region report it instead of panicking.
     let contact = ContactSet::new(&press.mesh, &press.topology, std::slice::from_ref(&zone)).unwrap();
-    let pp = parametrize::ParametrizeParams { extent: 0.5, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
+    let pp = parametrize::ParametrizeParams::new(0.5);
     let p = parametrize::parametrize(&press.mesh, &press.topology, &mut press.solver, &contact, &pp).unwrap();
     let options = direction_field::DirectionParams {
         method: DirectionFieldMethod::Blended,

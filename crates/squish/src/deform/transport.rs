@@ -91,7 +91,7 @@ use crate::linalg::{
     ConstrainedSolver, ConstraintParams, DEFAULT_CONSTRAINT_WEIGHT_FACTOR, EdgeConstraint, Operator, RightHandSide,
     SolveError, SparsePattern,
 };
-use crate::mesh::{Topology, TriMesh, mean_edge_length};
+use crate::mesh::{Topology, TriMesh};
 use crate::spatial::ProjectionPlane;
 
 /// Largest u/u′ correction factor (see the module doc).
@@ -350,7 +350,7 @@ fn solve(
     let (u, deformable) = (&parametrization.u, &parametrization.deformable);
     let frames = &field.frames;
     let weights = deformable_face_weights(mesh, &cache.topology, contact, parametrization)?;
-    let h = mean_edge_length(mesh, &cache.topology);
+    let h = parametrization.edge_length;
     let epsilon = TARGET_BLEND * if h.is_finite() { h } else { 0.0 };
 
     // Constraint rows (complex) and the matching rows of u′ (real).
@@ -538,7 +538,7 @@ mod tests {
         extent: f64,
     ) -> (ContactSet, Parametrization, TransportField) {
         let contact = ContactSet::new(mesh, topology, zones).unwrap();
-        let params = ParametrizeParams { extent, heat_time_factor: 10.0, constraint_weight_factor: 100.0 };
+        let params = ParametrizeParams::new(extent);
         let p = parametrize(mesh, topology, solver, &contact, &params).unwrap();
         let normals = vertex_normals(mesh);
         let field = transport_field(mesh, solver, &contact, &p, &normals).unwrap();

@@ -20,7 +20,9 @@ pub use geometry::{
     Aabb3, bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length, signed_volume,
     triangle_area, vertex_areas, vertex_centroid, vertex_normals,
 };
-pub use region::{close_pinches, cut_border, edge_path_distances, face_set_pieces, region_vertex_normals};
+pub use region::{
+    close_pinches, cut_border, edge_path_distances, edge_path_distances_from, face_set_pieces, region_vertex_normals,
+};
 pub use submesh::{NOT_IN_SUBMESH, SubMesh};
 pub use topology::{NO_FACE, Topology};
 

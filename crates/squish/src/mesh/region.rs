@@ -126,13 +126,26 @@ impl PartialOrd for Visit {
 /// geodesic distance on the surface, so every vertex returned is within `limit` along the surface
 /// (and every vertex within `limit / c` geodesically is returned, c ≈ 1.1–1.3 on usual meshes).
 pub fn edge_path_distances(mesh: &TriMesh, topology: &Topology, sources: &[u32], limit: f64) -> Vec<(u32, f64)> {
+    let seeds: Vec<(u32, f64)> = sources.iter().map(|&s| (s, 0.0)).collect();
+    edge_path_distances_from(mesh, topology, &seeds, limit)
+}
+
+/// [`edge_path_distances`] from seeds with starting distances `(vertex, distance)` (a vertex
+/// seeded twice keeps its smaller distance; seeds beyond `limit` or out of range are ignored):
+/// the distance from points lying on edges, such as the boundary points of a contact zone.
+pub fn edge_path_distances_from(
+    mesh: &TriMesh,
+    topology: &Topology,
+    seeds: &[(u32, f64)],
+    limit: f64,
+) -> Vec<(u32, f64)> {
     let n = mesh.num_vertices();
     let mut distance = vec![f64::INFINITY; n];
     let mut heap = BinaryHeap::new();
-    for &s in sources {
-        if (s as usize) < n && distance[s as usize] > 0.0 {
-            distance[s as usize] = 0.0;
-            heap.push(Visit { distance: 0.0, vertex: s });
+    for &(s, d) in seeds {
+        if (s as usize) < n && d <= limit && d < distance[s as usize] {
+            distance[s as usize] = d;
+            heap.push(Visit { distance: d, vertex: s });
         }
     }
     let mut reached = Vec::new();

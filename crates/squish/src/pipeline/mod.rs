@@ -44,7 +44,7 @@ pub use self_contact::SelfContactResult;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
-use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, mean_edge_length, signed_volume, vertex_areas, vertex_normals};
+use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, vertex_areas, vertex_normals};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
@@ -235,6 +235,12 @@ pub struct RegionStats {
     pub extent: f64,
     /// True if φ_max was clamped so that 𝒟 stays inside the region.
     pub extent_clamped: bool,
+    /// True if the parametrization domain 𝒫 (within `domain_factor·φ_max` of ∂𝒞 along edges)
+    /// reached the region's cut, so the cut limited it: the result then differs slightly from
+    /// the whole object's. False otherwise, and the result is the whole object's up to round-off.
+    pub domain_reaches_cut: bool,
+    /// Vertices within the parametrization domain's radius.
+    pub domain_vertices: usize,
     pub bulge_height: f64,
     pub applied_bulge_height: f64,
     pub contact_vertices: usize,
@@ -396,6 +402,8 @@ struct RegionOutcome {
     deformation: RegionDeformation,
     extent: f64,
     clamped: bool,
+    /// Whether 𝒫 reached the region's cut.
+    domain_reaches_cut: bool,
     time: Duration,
     /// Whether this frame built the region's solver (one symbolic analysis).
     new_solver: bool,
@@ -873,6 +881,8 @@ impl Deformer {
                     rs.deformed = true;
                     rs.extent = outcome.extent;
                     rs.extent_clamped = outcome.clamped;
+                    rs.domain_reaches_cut = outcome.domain_reaches_cut;
+                    rs.domain_vertices = outcome.deformation.domain.iter().filter(|&&d| d).count();
                     rs.bulge_height = s.bulge_height;
                     rs.applied_bulge_height = s.applied_bulge_height;
                     rs.contact_vertices = s.num_contact;
@@ -993,14 +1003,11 @@ fn deform_one(
         let gathered = sub.sub.gather(map);
         params.bulge_map = Some(gathered);
     }
-    if border.is_some() {
-        // The heat step's time t = factor·h² uses the object's h (of the components the region
-        // touches), not the region's: the parametrization must not depend on where the cut falls,
-        // which automatic regions move from frame to frame.
-        let region_edge_length = mean_edge_length(mesh, topology);
-        if region_edge_length > 0.0 && object_edge_length > 0.0 {
-            params.heat_time_factor *= (object_edge_length / region_edge_length).powi(2);
-        }
+    if border.is_some() && object_edge_length > 0.0 {
+        // The length scale h (heat time, slope confidence) is the object's (of the components
+        // the region touches), not the region's: the result must not depend on where the cut
+        // falls, which automatic regions move from frame to frame.
+        params.edge_length = Some(object_edge_length);
     }
     let mut deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
     let mut clamped = false;
@@ -1018,6 +1025,8 @@ fn deform_one(
             if !(fitted.is_finite() && fitted > 0.0) {
                 return Err(too_small(format!("its deformable region reaches the cut border at φ = {reach:.3e}")));
             }
+            // The same domain as the first solve, so the same φ.
+            params.domain_radius = Some(params.domain_radius());
             params.extent = fitted;
             deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
             clamped = true;
@@ -1028,7 +1037,19 @@ fn deform_one(
             }
         }
     }
-    Ok(RegionOutcome { deformation, extent: params.extent, clamped, time: start.elapsed(), new_solver })
+    let domain_reaches_cut = border.is_some_and(|border| {
+        // Every vertex within the radius in the whole object is in the region, at the same
+        // distance, unless a shortest path crosses the cut: then a cut vertex is within it.
+        border.iter().zip(&deformation.domain).any(|(&on_cut, &within)| on_cut && within)
+    });
+    Ok(RegionOutcome {
+        deformation,
+        extent: params.extent,
+        clamped,
+        domain_reaches_cut,
+        time: start.elapsed(),
+        new_solver,
+    })
 }
 
 /// Writes the regions' deformations into one object-sized deformation (`None` if none).
@@ -1049,6 +1070,7 @@ fn combine(
     let mut out = RegionDeformation {
         positions: input.to_vec(),
         u: vec![f64::INFINITY; n],
+        domain: vec![false; n],
         deformable: vec![false; n],
         contact: vec![false; n],
         directions: vec![DVec3::ZERO; n],
@@ -1064,6 +1086,7 @@ fn combine(
         let map = &sub.sub;
         map.scatter(&d.positions, &mut out.positions);
         map.scatter(&d.u, &mut out.u);
+        map.scatter(&d.domain, &mut out.domain);
         map.scatter(&d.deformable, &mut out.deformable);
         map.scatter(&d.contact, &mut out.contact);
         map.scatter(&d.directions, &mut out.directions);

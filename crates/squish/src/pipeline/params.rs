@@ -49,6 +49,11 @@ pub struct ObjectParams {
     pub normalize_diffused_direction: bool,
     /// Heat-method time step as a multiple of the squared mean edge length (§5.1). Default 10.
     pub heat_time_factor: f64,
+    /// Radius of the parametrization domain as a multiple of the extent: the heat method runs
+    /// on the faces within `domain_factor·φ_max` of the contact boundary (§5.1; see
+    /// [`crate::deform::parametrize`]). At least 1; `inf` solves on the whole working region as
+    /// the thesis does. Default 2.
+    pub domain_factor: f64,
     /// How the displacement direction field d is built: method B's blend with the normal (§5.2)
     /// or method A's parallel transport (§5.2 of the 2020 paper). Default blended.
     pub direction_field: DirectionFieldMethod,
@@ -87,6 +92,7 @@ impl Default for ObjectParams {
             bulge_map: None,
             normalize_diffused_direction: deform.normalize_diffused,
             heat_time_factor: deform.heat_time_factor,
+            domain_factor: deform.domain_factor,
             direction_field: deform.direction_method,
             uvs: None,
             region: WorkingRegion::Whole,
@@ -147,6 +153,7 @@ impl ObjectParams {
             bulge_map: self.bulge_map.clone(),
             normalize_diffused: self.normalize_diffused_direction,
             heat_time_factor: self.heat_time_factor,
+            domain_factor: self.domain_factor,
             direction_method: self.direction_field,
             ..DeformParams::default()
         }

@@ -31,21 +31,20 @@
 //!    triangle–triangle tests) and the vertices inside a partner (exact winding number for a
 //!    closed partner, fast generalized winding number ≥ ½ for an open one). Partners are the other
 //!    objects of the object's pairs, taken whole.
-//! 2. **Band width**: `g = max(d, 1.5·φ̃)`, φ̃ being the object's fixed extent or an over-estimate of
+//! 2. **Band width**: `g = max(d, 2·φ̃)`, φ̃ being the object's fixed extent or an over-estimate of
 //!    its automatic extent ([`super::automatic_extent`] with the sizes of the components the core
 //!    touches, the sizes of the partner components near the core, and the core's area in place of
 //!    the contact area). 𝒟 lies within φ_max of ∂𝒞 along the surface and ∂𝒞 lies in the core or
-//!    next to it; edge paths are longer than geodesics: the cut is 1.5·φ̃ away, so 𝒟 does not
-//!    reach it. If it still does (a coarse mesh, a contact zone far beyond the intersection), the
+//!    next to it; edge paths are longer than geodesics: the cut is 2·φ̃ away — the radius of the
+//!    parametrization domain 𝒫 (below) — so neither 𝒟 nor 𝒫 reaches it. If 𝒟 still does (a coarse mesh, a contact zone far beyond the intersection), the
 //!    deformation clamps the extent (below) and reports it.
 //! 3. **Growth**: every face with a vertex within edge-path distance `g` of the core
 //!    ([`edge_path_distances`]); pinches closed ([`close_pinches`]); split into connected pieces.
 //!
 //! The rule depends on this frame only (never on earlier frames), so results do not depend on the
 //! frames processed before. A region's face set changes when faces cross the band's edge; its
-//! caches are then rebuilt (below). The change moves the region's outer border, 1.5·φ̃ away from the
-//! contact, where the heat step of §5.1 has its Dirichlet condition: the parametrization inside 𝒟
-//! changes by a small amount, not a jump (measured by the sliding-ball test).
+//! caches are then rebuilt (below). The change moves the region's outer border, 2·φ̃ away from the
+//! contact, beyond 𝒫: the result does not change (up to round-off).
 //!
 //! # Regions too small for the extent
 //! A region's cut border (its vertices shared with faces outside it) must not move: faces outside
@@ -63,22 +62,23 @@
 //! With these, the volume of a closed object deformed on a region is preserved exactly.
 //!
 //! # Regions versus the whole object
-//! The heat step of a cut region uses the time t = 10h² of the whole object (h: the mean edge
-//! length of the components the region touches), not of the region (the constraint weights do
-//! not depend on the region either), so the only difference with processing the whole object is
-//! the heat step's Dirichlet condition on the cut — which the Poisson solve of §5.1 carries into
-//! 𝒟: measured on a ball pressing a slab (extent 0.8), 2.1·10⁻³ of the largest displacement with
-//! the cut at u ≈ 1.5, 5·10⁻⁴ at u ≈ 2, 1.6·10⁻³ for the automatic band (tests). It is not
-//! round-off, and it
-//! is the §7.5 trade-off: larger regions, parametrizations closer to the whole object's. A region
-//! that covers the whole object *is* the whole object: bit-identical results, and `Whole` gives
-//! bit-identical results to the pipeline before regions existed.
+//! The parametrization of §5.1 is solved on the domain 𝒫, the faces within 2·φ_max of ∂𝒞 along
+//! edges ([`mod@crate::deform::parametrize`]), and a cut region uses the object's length scale h
+//! (of the components it touches: heat time, slope confidence), not its own; the constraint
+//! weights do not depend on the region either. So a region that holds 𝒫 gives the whole object's
+//! result up to round-off: ≤ 1.1·10⁻¹⁵ on a ball pressing a slab (masks holding 𝒫, the automatic
+//! band), ≤ 1.9·10⁻¹⁵ on the `press-100k` benchmark scene (tests). The band's width (2·φ̃ from the intersection,
+//! φ̃ ≥ φ_max) is the domain's radius measured from a slightly smaller set, so the band holds 𝒫
+//! in practice; when 𝒫 reaches a region's cut (a tight mask, a coarse mesh), the region reports it
+//! ([`super::RegionStats::domain_reaches_cut`]) and its φ differs (3.4·10⁻³ of the
+//! displacement for a mask of u ≤ 1.25 and φ_max = 0.8, 3.5·10⁻² for φ_max = 0.5). A region that covers the whole object *is* the whole
+//! object: bit-identical results.
 //!
 //! # Cost (thesis §7.5)
-//! The larger a region, the closer the heat-method parametrization gets to a geodesic distance and
-//! the less the cut influences it — and the more the intersection and parametrization cost: the
-//! factorizations are over the whole region, not only 𝒟. `Distance` keeps regions about 1.5× the
-//! extent around the contact; `Whole` is the reference.
+//! The factorizations run over the whole region (𝒫's complement is decoupled but stays in the
+//! pattern), so smaller regions are cheaper: `Distance` keeps regions about 2× the extent around
+//! the contact. On `squish bench`'s `press-100k` (a ball pressing a 100k-vertex sphere) the
+//! automatic region is 3.6× faster per frame than the whole object (1 thread).
 //!
 //! # Caches
 //! Each region keeps its sub-mesh, topology, cut-border flags, triangle tree (refitted every frame)
@@ -113,7 +113,7 @@ pub enum WorkingRegion {
     Mask(Vec<bool>),
     /// Several masks, each as [`WorkingRegion::Mask`]; no face may be in two of them.
     Masks(Vec<Vec<bool>>),
-    /// Automatic: the faces within this edge-path distance (world units, widened to 1.5 × the
+    /// Automatic: the faces within this edge-path distance (world units, widened to 2 × the
     /// extent) of the intersection with the paired objects; each connected piece is a region.
     Distance(f64),
 }
@@ -406,7 +406,7 @@ fn distance_pieces(
         return Vec::new();
     }
 
-    // Band width: the user's distance, widened to 1.5 × an over-estimate of the extent.
+    // Band width: the user's distance, widened to 2 × an over-estimate of the extent.
     let extent = match params.extent {
         Some(extent) => extent,
         None => {
@@ -439,7 +439,8 @@ fn distance_pieces(
             automatic_extent(size, partner_size, core_area)
         }
     };
-    let width = distance.max(1.5 * extent);
+    // The parametrization domain's radius, so that the band holds 𝒫 (see the module doc).
+    let width = distance.max(crate::deform::DEFAULT_DOMAIN_FACTOR * extent);
 
     let mut selected = vec![false; mesh.num_triangles()];
     for (v, _) in edge_path_distances(mesh, topology, &sources, width) {

@@ -558,6 +558,8 @@ pub fn plan_articulation(
     // The pipeline's rule with the limb as both objects.
     let automatic = crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
+    // Fixed by the first extent, so that a clamped second attempt sees the same φ.
+    let domain_radius = params.domain_radius.unwrap_or(params.domain_factor * extent);
     let mut plans: Vec<RegionPlan> = Vec::with_capacity(2);
     for attempt in 0..2 {
         plans.clear();
@@ -565,6 +567,7 @@ pub fn plan_articulation(
         for l in 0..2 {
             let side = &mut setup.sides[l];
             let mut region_params = params.clone().with_extent(extent);
+            region_params.domain_radius = Some(domain_radius);
             if let Some(map) = params.bulge_map.as_ref() {
                 if map.len() != n {
                     return Err(DeformError::BulgeMapLength { expected: n, actual: map.len() }.into());
