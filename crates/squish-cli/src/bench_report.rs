@@ -25,6 +25,9 @@ pub struct BenchReport {
     pub machine_before: MachineReport,
     pub machine_after: MachineReport,
     pub scenes: Vec<SceneReport>,
+    /// Single-thread median frame of `press-100k` (whole objects) over `press-100k-automatic`
+    /// (automatic working regions, same result up to round-off).
+    pub automatic_region_speedup: Option<f64>,
     pub shot: Option<ShotReport>,
 }
 
@@ -447,6 +450,10 @@ pub fn print_table(report: &BenchReport) {
     println!(
         "(fact. = numeric factorizations per frame; symbolic = analyses in the warm-up frame + in all timed frames)"
     );
+    if let Some(speedup) = report.automatic_region_speedup {
+        println!();
+        println!("automatic working regions: press-100k-automatic is ×{speedup:.2} faster than press-100k (1 thread)");
+    }
     if let Some(shot) = &report.shot {
         println!();
         println!(

@@ -117,6 +117,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         memory_method: memory::METHOD.to_string(),
         machine_before,
         machine_after: MachineReport::now(available, threads, size),
+        automatic_region_speedup: automatic_region_speedup(&scenes),
         scenes,
         shot,
     };
@@ -131,6 +132,14 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     }
     let failed: Vec<&str> = report.scenes.iter().filter(|s| s.error.is_some()).map(|s| s.name.as_str()).collect();
     if failed.is_empty() { Ok(()) } else { Err(CliError::failure(format!("scenes failed: {}", failed.join(", ")))) }
+}
+
+/// Single-thread median frame of `press-100k` (whole objects) over `press-100k-automatic`.
+fn automatic_region_speedup(scenes: &[SceneReport]) -> Option<f64> {
+    let median =
+        |name: &str| scenes.iter().find(|s| s.name == name).and_then(|s| s.single.as_ref()).map(|r| r.median_ms);
+    let (whole, automatic) = (median("press-100k")?, median("press-100k-automatic")?);
+    (automatic > 0.0).then(|| whole / automatic)
 }
 
 fn progress(args: &BenchArgs, message: &str) {
@@ -206,6 +215,8 @@ fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
         SceneEntry::procedural("hat-egg", Some(b::HAT_EGG), b::hat_egg, size),
         with_mesh("hand-pillow", b::HAND_PILLOW, &hand, b::hand_pillow),
         SceneEntry::procedural("stress-100k", None, b::stress_100k, size),
+        SceneEntry::procedural("press-100k", None, b::press_100k, size),
+        SceneEntry::procedural("press-100k-automatic", None, b::press_100k_automatic, size),
     ]
 }
 

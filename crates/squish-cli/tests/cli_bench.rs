@@ -7,7 +7,7 @@ use std::process::Command;
 use serde_json::Value;
 
 /// Every row of the table, in order.
-const SCENES: [&str; 10] = [
+const SCENES: [&str; 12] = [
     "fingers-ball",
     "fingers-palm",
     "sphere-plane",
@@ -18,6 +18,8 @@ const SCENES: [&str; 10] = [
     "hat-egg",
     "hand-pillow",
     "stress-100k",
+    "press-100k",
+    "press-100k-automatic",
 ];
 
 fn shared_data() -> PathBuf {
@@ -62,8 +64,14 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
             assert!(number(&r["min_ms"], "min_ms") <= median && median <= number(&r["max_ms"], "max_ms"));
             assert_eq!(r["frame_ms"].as_array().map(Vec::len), Some(2), "{name} {run}");
             assert!(number(&r["numeric_factorizations_per_frame"], "factorizations") >= 3.0, "{name} {run}");
-            // Caches are reused: the timed frames run no symbolic analysis.
-            assert_eq!(r["symbolic_analyses_timed_frames"], 0, "{name} {run}");
+            // Caches are reused: the timed frames run no symbolic analysis, except where automatic
+            // working regions follow the moving contact (a region whose face set changes is
+            // rebuilt, at most one analysis per region and frame).
+            if name.ends_with("-automatic") {
+                assert!(number(&r["symbolic_analyses_timed_frames"], "analyses") <= 2.0 * 2.0, "{name} {run}");
+            } else {
+                assert_eq!(r["symbolic_analyses_timed_frames"], 0, "{name} {run}");
+            }
         }
         // The single-thread breakdown adds up to the frame: stages are disjoint in time, so the
         // named stages cannot exceed the total, and what they miss (zone gathering, statistics)
