@@ -179,6 +179,11 @@ pub struct ObjectStats {
     /// True if the extent of one of its regions was clamped to fit the region.
     #[serde(default)]
     pub extent_clamped: bool,
+    /// True if the parametrization domain of one of its regions reached the region's cut (see
+    /// [`RegionStats::domain_reaches_cut`]): the result may then differ slightly from the whole
+    /// object's.
+    #[serde(default)]
+    pub domain_reaches_cut: bool,
 }
 
 /// Figures of one region pair for one frame (one entry per pair of overlapping regions of a
@@ -895,6 +900,7 @@ impl Deformer {
                     }
                     stats.deformed = true;
                     stats.extent_clamped |= outcome.clamped;
+                    stats.domain_reaches_cut |= outcome.domain_reaches_cut;
                     stats.contact_vertices += s.num_contact;
                     stats.deformable_vertices += s.num_deformable;
                     stats.fallbacks += s.fallbacks.direction_blend

@@ -241,6 +241,7 @@ fn regions_holding_the_deformation_match_the_whole_object() {
             assert!(!region.whole && !region.extent_clamped, "{name}: {region:?}");
             assert_eq!(region.extent, whole.stats.objects[1].extent, "{name}: same extent");
             assert_eq!(region.domain_reaches_cut, cut, "{name}: {region:?}");
+            assert_eq!(result.stats.objects[1].domain_reaches_cut, cut, "{name}: the object's figure");
             let (worst, moved) = difference(&whole, &result, &scene);
             println!(
                 "extent {extent:?}, {name}: region of {} / {} vertices, 𝒫 {} vertices, reaches the cut: {}; \
