@@ -54,7 +54,7 @@ use super::{DeformError, RegionSolver};
 use crate::linalg::{
     ConstraintParams, EdgeConstraint, RightHandSide, cut_face_weights, face_gradients, integrated_divergence,
 };
-use crate::mesh::{Topology, TriMesh, edge_path_distances_from, mean_edge_length};
+use crate::mesh::{Topology, TriMesh, edge_path_distance_field, mean_edge_length};
 
 /// Parameters of the parametrization.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -253,10 +253,7 @@ fn restrict_to_domain(
             ]
         })
         .collect();
-    let mut distance = vec![f64::INFINITY; n];
-    for (v, d) in edge_path_distances_from(mesh, topology, &seeds, radius) {
-        distance[v as usize] = d;
-    }
+    let distance = edge_path_distance_field(mesh, topology, &seeds, radius);
     let start = DOMAIN_TAPER_START * radius;
     for (tri, w) in mesh.triangles.iter().zip(weights.iter_mut()) {
         let farthest = tri.iter().map(|&v| distance[v as usize]).fold(0.0, f64::max);

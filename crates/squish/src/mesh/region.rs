@@ -127,18 +127,19 @@ impl PartialOrd for Visit {
 /// (and every vertex within `limit / c` geodesically is returned, c ≈ 1.1–1.3 on usual meshes).
 pub fn edge_path_distances(mesh: &TriMesh, topology: &Topology, sources: &[u32], limit: f64) -> Vec<(u32, f64)> {
     let seeds: Vec<(u32, f64)> = sources.iter().map(|&s| (s, 0.0)).collect();
-    edge_path_distances_from(mesh, topology, &seeds, limit)
+    edge_path_distance_field(mesh, topology, &seeds, limit)
+        .into_iter()
+        .enumerate()
+        .filter(|(_, d)| d.is_finite())
+        .map(|(v, d)| (v as u32, d))
+        .collect()
 }
 
-/// [`edge_path_distances`] from seeds with starting distances `(vertex, distance)` (a vertex
-/// seeded twice keeps its smaller distance; seeds beyond `limit` or out of range are ignored):
-/// the distance from points lying on edges, such as the boundary points of a contact zone.
-pub fn edge_path_distances_from(
-    mesh: &TriMesh,
-    topology: &Topology,
-    seeds: &[(u32, f64)],
-    limit: f64,
-) -> Vec<(u32, f64)> {
+/// Shortest edge-path distances from seeds with starting distances `(vertex, distance)` (a
+/// vertex seeded twice keeps its smaller distance; seeds beyond `limit` or out of range are
+/// ignored), one per vertex, `f64::INFINITY` beyond `limit`: the distance from points lying on
+/// edges, such as the boundary points of a contact zone.
+pub fn edge_path_distance_field(mesh: &TriMesh, topology: &Topology, seeds: &[(u32, f64)], limit: f64) -> Vec<f64> {
     let n = mesh.num_vertices();
     let mut distance = vec![f64::INFINITY; n];
     let mut heap = BinaryHeap::new();
@@ -148,12 +149,10 @@ pub fn edge_path_distances_from(
             heap.push(Visit { distance: d, vertex: s });
         }
     }
-    let mut reached = Vec::new();
     while let Some(Visit { distance: d, vertex: v }) = heap.pop() {
         if d > distance[v as usize] {
             continue;
         }
-        reached.push((v, d));
         let p = mesh.positions[v as usize];
         for w in topology.vertex_neighbors(v) {
             let candidate = d + (mesh.positions[w as usize] - p).length();
@@ -163,8 +162,7 @@ pub fn edge_path_distances_from(
             }
         }
     }
-    reached.sort_unstable_by_key(|&(v, _)| v);
-    reached
+    distance
 }
 
 /// Per region vertex (`vertices`: parent ids): true when it is shared with a parent face outside
