@@ -262,7 +262,7 @@ impl DeformParams {
             return Err(DeformError::InvalidParameter {
                 name: "domain_factor",
                 value: self.domain_factor,
-                hint: "the parametrization domain must hold the deformable region: at least 1 (default 2, inf = the whole region)",
+                hint: "the parametrization domain must hold the deformable region: at least 1 (default 2; a huge factor such as 1e9 solves on the whole region)",
             });
         }
         if let Some(radius) = self.domain_radius.filter(|&r| r.is_nan() || r < self.extent) {

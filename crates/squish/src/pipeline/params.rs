@@ -51,8 +51,9 @@ pub struct ObjectParams {
     pub heat_time_factor: f64,
     /// Radius of the parametrization domain as a multiple of the extent: the heat method runs
     /// on the faces within `domain_factor·φ_max` of the contact boundary (§5.1; see
-    /// [`crate::deform::parametrize`]). At least 1; `inf` solves on the whole working region as
-    /// the thesis does. Default 2.
+    /// [`crate::deform::parametrize`]). At least 1; a huge factor (`f64::INFINITY`, or `1e9` from a
+    /// JSON/TOML file, which cannot hold infinity) solves on the whole working region as the thesis
+    /// does. Default 2.
     pub domain_factor: f64,
     /// How the displacement direction field d is built: method B's blend with the normal (§5.2)
     /// or method A's parallel transport (§5.2 of the 2020 paper). Default blended.
