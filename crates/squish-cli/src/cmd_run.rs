@@ -151,6 +151,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     for articulation in &summary.articulations {
         say!("  {}", articulation.line());
     }
+    for tight in &summary.tight_regions {
+        say!("  {}", tight.line());
+    }
     say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
     if !previews.is_empty() {
         say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());

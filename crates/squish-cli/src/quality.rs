@@ -385,6 +385,66 @@ pub struct ShotSummary {
     /// Per articulation with self-contact: totals over the shot.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub articulations: Vec<ArticulationSummary>,
+    /// Objects whose working regions were too tight on some frames.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub tight_regions: Vec<TightRegionSummary>,
+}
+
+/// An object whose working region limited the deformation on some frames: its extent was
+/// clamped so that 𝒟 stays inside, or its parametrization domain reached the region's cut (the
+/// result then differs slightly from the whole object's).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TightRegionSummary {
+    pub object: String,
+    /// Frames with a clamped extent, and with the parametrization domain cut by the region.
+    pub extent_clamped_frames: usize,
+    pub domain_cut_frames: usize,
+    /// The first such frame.
+    pub first_frame: i64,
+}
+
+impl TightRegionSummary {
+    /// The objects with a tight region over the records, in object order.
+    pub fn of(records: &[FrameRecord]) -> Vec<Self> {
+        let mut out: Vec<Self> = Vec::new();
+        for r in records {
+            for o in &r.stats.objects {
+                if !(o.extent_clamped || o.domain_reaches_cut) {
+                    continue;
+                }
+                let entry = match out.iter().position(|e| e.object == o.name) {
+                    Some(i) => &mut out[i],
+                    None => {
+                        out.push(Self {
+                            object: o.name.clone(),
+                            extent_clamped_frames: 0,
+                            domain_cut_frames: 0,
+                            first_frame: r.frame,
+                        });
+                        let last = out.len() - 1;
+                        &mut out[last]
+                    }
+                };
+                entry.extent_clamped_frames += usize::from(o.extent_clamped);
+                entry.domain_cut_frames += usize::from(o.domain_reaches_cut);
+                entry.first_frame = entry.first_frame.min(r.frame);
+            }
+        }
+        out
+    }
+
+    /// One line for people.
+    pub fn line(&self) -> String {
+        format!(
+            "{}: working region too tight (extent clamped on {} frame{}, parametrization domain cut on {}; \
+             first at frame {}): the result differs from the whole object's; widen `region` or lower `extent`",
+            self.object,
+            self.extent_clamped_frames,
+            if self.extent_clamped_frames == 1 { "" } else { "s" },
+            self.domain_cut_frames,
+            self.first_frame
+        )
+    }
 }
 
 /// The largest output and input steps of a frame over its objects, and their ratio.
@@ -417,6 +477,7 @@ impl ShotSummary {
             frames_per_second: 0.0,
             threads: outcome.threads,
             articulations: ArticulationSummary::of(&outcome.records),
+            tight_regions: TightRegionSummary::of(&outcome.records),
         };
         for r in &outcome.records {
             let ms = r.stats.total.as_secs_f64() * 1e3;
@@ -703,6 +764,38 @@ fn stacked_svg(plots: &[Plot], columns: usize) -> String {
 #[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
+
+    #[test]
+    fn tight_regions_are_counted_per_object() {
+        let record = |frame: i64, clamped: bool, cut: bool| FrameRecord {
+            frame,
+            stats: squish::pipeline::FrameStats {
+                objects: vec![
+                    squish::pipeline::ObjectStats { name: "ball".into(), ..Default::default() },
+                    squish::pipeline::ObjectStats {
+                        name: "ground".into(),
+                        extent_clamped: clamped,
+                        domain_reaches_cut: cut,
+                        ..Default::default()
+                    },
+                ],
+                ..Default::default()
+            },
+            objects: Vec::new(),
+            pairs: Vec::new(),
+            support: Vec::new(),
+        };
+        let records = [record(3, false, false), record(4, false, true), record(5, true, true), record(6, false, true)];
+        let tight = TightRegionSummary::of(&records);
+        assert_eq!(tight.len(), 1);
+        let t = &tight[0];
+        assert_eq!(
+            (t.object.as_str(), t.extent_clamped_frames, t.domain_cut_frames, t.first_frame),
+            ("ground", 1, 3, 4)
+        );
+        assert!(t.line().contains("ground") && t.line().contains("widen `region`"), "{}", t.line());
+        assert!(TightRegionSummary::of(&records[..1]).is_empty());
+    }
 
     #[test]
     fn step_ratio_is_undefined_for_a_still_input() {
