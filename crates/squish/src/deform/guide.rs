@@ -3,11 +3,17 @@
 //! it and diffused over 𝒟.
 //!
 //! Decisions:
-//! - **Signed amplitudes.** `a_ij = (p_ij − p′_ij)·d_ij`, with `d_ij` the direction at the boundary
-//!   point (the diffused d̄ interpolated there, normalized), so that `−a·d_ij = p′_ij − p_ij`
-//!   exactly when the target lies along d_ij (a single mapping direction). `a > 0` is a
-//!   penetration the zone pushes back; `a < 0` a gap it closes by moving outward. (The thesis'
-//!   `‖p_ij − p′_ij‖` loses the sign.)
+//! - **Signed amplitudes.** `a_ij = ‖p_ij − p′_ij‖·clamp(cos θ / ½, −1, 1)`, θ the angle between
+//!   `p_ij − p′_ij` and `d_ij`, the direction at the boundary point (the diffused d̄ interpolated
+//!   there, normalized) — [`boundary_amplitude_of`]. Within 60° of d_ij it is the thesis'
+//!   `‖p_ij − p′_ij‖` with a sign: `a > 0` is a penetration the zone pushes back, `a < 0` a gap it
+//!   closes by moving outward (the thesis' norm loses the sign). With a single mapping direction
+//!   the target lies along d_ij and `−a·d_ij = p′_ij − p_ij` exactly. Towards 90° it fades to 0
+//!   continuously (a sign switch would jump). The plain projection `(p_ij − p′_ij)·d_ij` we used
+//!   before shortens the amplitude wherever d_ij leaves the target's direction: at a fold's crease
+//!   (ch. 6), where d̄ = (2β − 1)d̂ is short and d_ij turns to the normal, the vertices next to
+//!   ∂𝒞 then moved half as far as their contact neighbours and thin faces turned over (bent
+//!   capsule: 2 faces newly inverted at every frame from 142.5°; now only at 150°).
 //! - **Vertex values.** Every vertex j outside 𝒞 on a boundary edge ij gets `a_j = Σ_i α_ij a_ij /
 //!   Σ_i α_ij` (α from the inside vertex, so the points nearest to j weigh most), likewise s_j.
 //! - **Soft, fading constraints (continuity).** a_j and s_j are least-squares vertex constraints of
@@ -102,6 +108,24 @@ pub struct GuideFields {
     pub deformable_weights: Vec<f64>,
     /// Number of boundary vertices whose slope division was clamped (u < 10⁻⁶).
     pub clamped_slopes: usize,
+}
+
+/// Below this cosine between `p − p′` and the direction at a boundary point, the amplitude fades
+/// from the whole distance ‖p − p′‖ to 0 (see [`boundary_amplitude_of`]).
+pub const FULL_AMPLITUDE_COSINE: f64 = 0.5;
+
+/// The amplitude a_ij of a boundary point whose target is `p′ = p − offset` and whose
+/// direction is the unit `d` (see the module doc, "Signed amplitudes"):
+/// `‖offset‖ · clamp(cos θ / c, −1, 1)` with θ the angle between `offset` and `d` and
+/// c = [`FULL_AMPLITUDE_COSINE`]. Within 60° of d it is the thesis' ‖p − p′‖ with the sign of
+/// the penetration; towards 90° it fades continuously to 0 (a sign switch at 90° would jump).
+/// With a single mapping direction, offset ∥ d and this is `offset·d` exactly.
+pub fn boundary_amplitude_of(offset: DVec3, d: DVec3) -> f64 {
+    let length = offset.length();
+    if length == 0.0 || !length.is_finite() {
+        return offset.dot(d);
+    }
+    length * (offset.dot(d) / (length * FULL_AMPLITUDE_COSINE)).clamp(-1.0, 1.0)
 }
 
 /// The α-weighted averages of per-boundary-point `values` onto the outside vertices of ∂𝒞, in
@@ -226,8 +250,12 @@ pub fn guide_fields(
     DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
     DeformError::check_len("direction field", n, field.directions.len())?;
     DeformError::check_len("boundary directions", contact.boundary.len(), field.boundary.len())?;
-    let boundary_amplitude: Vec<f64> =
-        contact.boundary.iter().zip(&field.boundary).map(|(b, d)| (b.position - b.target).dot(*d)).collect();
+    let boundary_amplitude: Vec<f64> = contact
+        .boundary
+        .iter()
+        .zip(&field.boundary)
+        .map(|(b, d)| boundary_amplitude_of(b.position - b.target, *d))
+        .collect();
     let amplitude_constraints = boundary_averages(n, contact, &boundary_amplitude);
     let deformable_weights = deformable_face_weights(mesh, topology, contact, parametrization)?;
     if amplitude_constraints.is_empty() {
@@ -329,6 +357,33 @@ mod tests {
         )
         .unwrap();
         (contact, p, guide)
+    }
+
+    #[test]
+    fn boundary_amplitudes_are_the_distance_near_the_direction_and_fade_continuously_to_zero() {
+        let d = DVec3::Z;
+        // Along d: the signed projection, exactly.
+        assert_eq!(boundary_amplitude_of(DVec3::new(0.0, 0.0, 0.3), d), 0.3);
+        assert_eq!(boundary_amplitude_of(DVec3::new(0.0, 0.0, -0.3), d), -0.3);
+        // Within 60°: the whole distance, with the sign of the projection.
+        for degrees in [0.0f64, 20.0, 45.0, 59.9] {
+            let (s, c) = degrees.to_radians().sin_cos();
+            let a = boundary_amplitude_of(0.3 * DVec3::new(s, 0.0, c), d);
+            assert!((a - 0.3).abs() < 1e-12, "{degrees}°: {a}");
+            let b = boundary_amplitude_of(0.3 * DVec3::new(s, 0.0, -c), d);
+            assert!((b + 0.3).abs() < 1e-12, "{degrees}°: {b}");
+        }
+        // Continuous through 90° (0 there) and through 60°.
+        let at = |degrees: f64| {
+            let (s, c) = degrees.to_radians().sin_cos();
+            boundary_amplitude_of(0.3 * DVec3::new(s, 0.0, c), d)
+        };
+        assert!(at(90.0).abs() < 1e-12);
+        for x in [60.0, 90.0] {
+            assert!((at(x + 1e-6) - at(x - 1e-6)).abs() < 1e-6, "jump at {x}°");
+        }
+        assert!(at(75.0) > 0.0 && at(75.0) < 0.3 && at(105.0) < 0.0);
+        assert_eq!(boundary_amplitude_of(DVec3::ZERO, d), 0.0);
     }
 
     #[test]
