@@ -244,6 +244,19 @@ pub fn articulation_figures(record: &FrameRecord) -> Vec<ArticulationQuality> {
         .collect()
 }
 
+/// The element of `list` that `matches`, appended from `make` if there is none (keeps the order of
+/// first appearance).
+fn entry<T>(list: &mut Vec<T>, matches: impl Fn(&T) -> bool, make: impl FnOnce() -> T) -> &mut T {
+    let i = match list.iter().position(matches) {
+        Some(i) => i,
+        None => {
+            list.push(make());
+            list.len() - 1
+        }
+    };
+    &mut list[i]
+}
+
 /// One articulation over a shot.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ArticulationSummary {
@@ -272,28 +285,25 @@ impl ArticulationSummary {
         let mut out: Vec<Self> = Vec::new();
         for r in records {
             for a in articulation_figures(r) {
-                let i = match out.iter().position(|s| s.object == a.object && s.name == a.name) {
-                    Some(i) => i,
-                    None => {
-                        out.push(Self {
-                            object: a.object.clone(),
-                            name: a.name.clone(),
-                            frames: 0,
-                            frames_in_contact: 0,
-                            self_intersecting_faces_before: 0,
-                            self_intersecting_faces_after: 0,
-                            self_intersecting_faces_across_before: 0,
-                            self_intersecting_faces_across_after: 0,
-                            worst_after: None,
-                            frames_volume_inexact: 0,
-                            total_time_ms: 0.0,
-                            mean_time_ms: 0.0,
-                            max_time_ms: 0.0,
-                        });
-                        out.len() - 1
-                    }
-                };
-                let s = &mut out[i];
+                let s = entry(
+                    &mut out,
+                    |s| s.object == a.object && s.name == a.name,
+                    || Self {
+                        object: a.object.clone(),
+                        name: a.name.clone(),
+                        frames: 0,
+                        frames_in_contact: 0,
+                        self_intersecting_faces_before: 0,
+                        self_intersecting_faces_after: 0,
+                        self_intersecting_faces_across_before: 0,
+                        self_intersecting_faces_across_after: 0,
+                        worst_after: None,
+                        frames_volume_inexact: 0,
+                        total_time_ms: 0.0,
+                        mean_time_ms: 0.0,
+                        max_time_ms: 0.0,
+                    },
+                );
                 s.frames += 1;
                 s.frames_in_contact += usize::from(a.in_contact);
                 s.self_intersecting_faces_before += a.self_intersecting_faces_before;
@@ -412,19 +422,16 @@ impl TightRegionSummary {
                 if !(o.extent_clamped || o.domain_reaches_cut) {
                     continue;
                 }
-                let entry = match out.iter().position(|e| e.object == o.name) {
-                    Some(i) => &mut out[i],
-                    None => {
-                        out.push(Self {
-                            object: o.name.clone(),
-                            extent_clamped_frames: 0,
-                            domain_cut_frames: 0,
-                            first_frame: r.frame,
-                        });
-                        let last = out.len() - 1;
-                        &mut out[last]
-                    }
-                };
+                let entry = entry(
+                    &mut out,
+                    |e| e.object == o.name,
+                    || Self {
+                        object: o.name.clone(),
+                        extent_clamped_frames: 0,
+                        domain_cut_frames: 0,
+                        first_frame: r.frame,
+                    },
+                );
                 entry.extent_clamped_frames += usize::from(o.extent_clamped);
                 entry.domain_cut_frames += usize::from(o.domain_reaches_cut);
                 entry.first_frame = entry.first_frame.min(r.frame);

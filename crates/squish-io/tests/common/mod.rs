@@ -194,3 +194,73 @@ pub fn square_fixture(index_type: u32, mode: u32) -> Fixture {
     });
     f
 }
+
+/// A closed cylinder along x from −1 to 1 (radius 0.25, `rings` rings of `segments` vertices and
+/// two cap centres), skinned to three joints in a chain: "root" at x = −1, "elbow" at x = 0 and
+/// "tip" at x = 1 (a leaf). `weight(x)` gives the two joints (indices into the chain) and their
+/// weights of a vertex at x. The animation "bend" turns the elbow about z from 0 at t = 0 to 150°
+/// at t = 1 s, so that the inner side of the bend passes through itself.
+pub fn bending_cylinder(rings: usize, segments: usize, weight: impl Fn(f64) -> ([f64; 2], [f64; 2])) -> Fixture {
+    use glam::{DMat4, DQuat, DVec3};
+    use std::f64::consts::PI;
+    let mut positions = Vec::new();
+    let mut weights = Vec::new();
+    for r in 0..rings {
+        let x = -1.0 + 2.0 * r as f64 / (rings - 1) as f64;
+        for s in 0..segments {
+            let a = 2.0 * PI * s as f64 / segments as f64;
+            positions.extend_from_slice(&[x, 0.25 * a.cos(), 0.25 * a.sin()]);
+            weights.push(weight(x));
+        }
+    }
+    positions.extend_from_slice(&[-1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    weights.push(weight(-1.0));
+    weights.push(weight(1.0));
+    let mut indices = Vec::new();
+    let v = |r: usize, s: usize| (r * segments + s % segments) as f64;
+    for r in 0..rings - 1 {
+        for s in 0..segments {
+            indices.extend_from_slice(&[v(r, s), v(r + 1, s + 1), v(r + 1, s), v(r, s), v(r, s + 1), v(r + 1, s + 1)]);
+        }
+    }
+    let (c0, c1) = ((rings * segments) as f64, (rings * segments + 1) as f64);
+    for s in 0..segments {
+        indices.extend_from_slice(&[c0, v(0, s + 1), v(0, s)]);
+        indices.extend_from_slice(&[c1, v(rings - 1, s), v(rings - 1, s + 1)]);
+    }
+    let mut f = Fixture::new();
+    let pos = f.accessor(F32, "VEC3", &positions);
+    let idx = f.accessor(U32, "SCALAR", &indices);
+    let j: Vec<f64> = weights.iter().flat_map(|(j, _)| [j[0], j[1], 0.0, 0.0]).collect();
+    let joints = f.accessor(U8, "VEC4", &j);
+    let w: Vec<f64> = weights.iter().flat_map(|(_, w)| [w[0], w[1], 0.0, 0.0]).collect();
+    let w = f.accessor(F32, "VEC4", &w);
+    let mut ibm = Vec::new();
+    for x in [-1.0, 0.0, 1.0] {
+        ibm.extend_from_slice(&DMat4::from_translation(DVec3::new(-x, 0.0, 0.0)).to_cols_array());
+    }
+    let ibm = f.accessor(F32, "MAT4", &ibm);
+    let times = f.accessor(F32, "SCALAR", &[0.0, 1.0]);
+    let q = DQuat::from_rotation_z(150f64.to_radians());
+    let rotations = f.accessor(F32, "VEC4", &[0.0, 0.0, 0.0, 1.0, q.x, q.y, q.z, q.w]);
+    f.root = json!({
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "name": "body", "mesh": 0, "skin": 0 },
+            { "name": "root", "translation": [-1.0, 0.0, 0.0], "children": [2] },
+            { "name": "elbow", "translation": [1.0, 0.0, 0.0], "children": [3] },
+            { "name": "tip", "translation": [1.0, 0.0, 0.0] },
+        ],
+        "meshes": [{ "name": "cylinder", "primitives": [{
+            "attributes": { "POSITION": pos, "JOINTS_0": joints, "WEIGHTS_0": w }, "indices": idx,
+        }] }],
+        "skins": [{ "name": "arm", "joints": [1, 2, 3], "inverseBindMatrices": ibm }],
+        "animations": [{
+            "name": "bend",
+            "samplers": [{ "input": times, "output": rotations, "interpolation": "LINEAR" }],
+            "channels": [{ "sampler": 0, "target": { "node": 2, "path": "rotation" } }],
+        }],
+    });
+    f
+}
