@@ -1009,10 +1009,10 @@ fn deform_one(
         let gathered = sub.sub.gather(map);
         params.bulge_map = Some(gathered);
     }
-    if border.is_some() && object_edge_length > 0.0 {
+    if object_edge_length > 0.0 {
         // The length scale h (heat time, slope confidence) is the object's (of the components
-        // the region touches), not the region's: the result must not depend on where the cut
-        // falls, which automatic regions move from frame to frame.
+        // the region touches, from the frame's figures), whole or cut: the result must not
+        // depend on where a cut falls, which automatic regions move from frame to frame.
         params.edge_length = Some(object_edge_length);
     }
     let mut deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
