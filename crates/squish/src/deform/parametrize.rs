@@ -36,7 +36,7 @@
 //!   inside 𝒟 jumped by 4.4× the step of a zone sliding across a grid, with the fade by 1.3×. The fading faces insulate (a natural condition), so the heat step sees no Dirichlet
 //!   condition there. `f64::INFINITY` solves on all of 𝒲.
 //! - **h.** The heat time uses the given length scale (the pipeline passes the object's mean edge
-//!   length for a cut region) or the region's mean edge length; it is returned in
+//!   length, for whole and cut regions alike) or the region's mean edge length; it is returned in
 //!   [`Parametrization::edge_length`] for the later stages.
 //! - **u near ∂𝒞.** The least-squares constraints leave φ slightly negative at some vertices just
 //!   outside ∂𝒞. Such a vertex is still in 𝒟 with `u = 0` (φ is clamped at 0), so it moves by

@@ -63,7 +63,7 @@ pub struct DeformParams {
     pub heat_time_factor: f64,
     /// h, the length scale of the heat time `t = heat_time_factor·h²`, of the slope confidence
     /// (§5.3) and of the transport field's target blend (§5.2.1). `None` (default): the region's
-    /// mean edge length. The pipeline gives a region cut from an object the object's h, so that
+    /// mean edge length. The pipeline gives every region its object's h, so that
     /// where the cut falls does not change the result.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_length: Option<f64>,
