@@ -173,6 +173,12 @@ pub struct RunReport {
     pub breakdown_percent: Breakdown,
     /// Numeric factorizations in the median frame (3 per deformed object: heat, Poisson, guide).
     pub numeric_factorizations_per_frame: usize,
+    /// Rows those factorizations ran on, summed: the regions' sizes when factorized whole, fewer
+    /// when the rows outside 𝒫 or 𝒟 are decoupled and left out.
+    pub factorized_rows_per_frame: usize,
+    /// Symbolic analyses of those coupled-row submatrices over all timed frames (one each time a
+    /// system's coupled rows change).
+    pub reduced_analyses_timed_frames: usize,
     /// Symbolic analyses in the warm-up frame and in all timed frames (0: reused).
     pub symbolic_analyses_first_frame: usize,
     pub symbolic_analyses_timed_frames: usize,
@@ -184,6 +190,8 @@ pub struct RunFigures<'a> {
     pub stats: &'a [FrameStats],
     pub first_frame: Duration,
     pub numeric_factorizations: &'a [usize],
+    pub factorized_rows: &'a [usize],
+    pub reduced_analyses_timed_frames: usize,
     pub symbolic_analyses_first_frame: usize,
     pub symbolic_analyses_timed_frames: usize,
 }
@@ -206,6 +214,8 @@ impl RunReport {
             frame_ms,
             median_frame: median,
             numeric_factorizations_per_frame: figures.numeric_factorizations.get(median).copied().unwrap_or(0),
+            factorized_rows_per_frame: figures.factorized_rows.get(median).copied().unwrap_or(0),
+            reduced_analyses_timed_frames: figures.reduced_analyses_timed_frames,
             symbolic_analyses_first_frame: figures.symbolic_analyses_first_frame,
             symbolic_analyses_timed_frames: figures.symbolic_analyses_timed_frames,
         }
@@ -423,14 +433,29 @@ pub fn print_table(report: &BenchReport) {
         "single-thread breakdown of the median frame, % (the thesis' columns; s. = factorizations, part of p./di./g.)"
     );
     println!(
-        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9}",
-        "scene", "setup", "i.", "m.", "c.", "p.", "di.", "g.", "de.", "other", "s.", "fact.", "symbolic", "peak MB"
+        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>9} {:>5} {:>9}",
+        "scene",
+        "setup",
+        "i.",
+        "m.",
+        "c.",
+        "p.",
+        "di.",
+        "g.",
+        "de.",
+        "other",
+        "s.",
+        "fact.",
+        "rows",
+        "symbolic",
+        "sub",
+        "peak MB"
     );
     for scene in &report.scenes {
         let Some(single) = &scene.single else { continue };
         let b = &single.breakdown_percent;
         println!(
-            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>9} {:>9}",
+            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>8} {:>9} {:>5} {:>9}",
             scene.name,
             b.setup,
             b.intersection,
@@ -443,12 +468,15 @@ pub fn print_table(report: &BenchReport) {
             b.other,
             b.factorization,
             single.numeric_factorizations_per_frame,
+            single.factorized_rows_per_frame,
             format!("{}+{}", single.symbolic_analyses_first_frame, single.symbolic_analyses_timed_frames),
+            single.reduced_analyses_timed_frames,
             opt(scene.peak_memory_mb, 0),
         );
     }
     println!(
-        "(fact. = numeric factorizations per frame; symbolic = analyses in the warm-up frame + in all timed frames)"
+        "(fact. = numeric factorizations per frame, rows = the rows they ran on; symbolic = the regions' analyses in \
+         the warm-up frame + in all timed frames; sub = analyses of coupled-row submatrices in all timed frames)"
     );
     if let Some(speedup) = report.automatic_region_speedup {
         println!();

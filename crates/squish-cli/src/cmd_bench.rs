@@ -226,6 +226,10 @@ struct Run {
     stats: Vec<FrameStats>,
     /// Numeric factorizations per timed frame (summed over objects).
     numeric_factorizations: Vec<usize>,
+    /// Rows factorized per timed frame (summed over the factorizations and objects).
+    factorized_rows: Vec<usize>,
+    /// Symbolic analyses of coupled-row submatrices over the timed frames.
+    reduced_analyses_timed: usize,
     /// Symbolic analyses over the timed frames (0 when the caches are reused).
     symbolic_analyses_timed: usize,
     symbolic_analyses_warm_up: usize,
@@ -243,14 +247,18 @@ fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
         first_frame,
         stats: Vec::with_capacity(frames),
         numeric_factorizations: Vec::with_capacity(frames),
+        factorized_rows: Vec::with_capacity(frames),
+        reduced_analyses_timed: 0,
         symbolic_analyses_timed: 0,
         symbolic_analyses_warm_up,
     };
     for k in 0..frames {
         let pose = scene.pose(BenchScene::frame_time(k, frames));
         let result = deformer.deform(&pose.frame()).map_err(|e| format!("frame {k}: {e}"))?;
-        run.numeric_factorizations
-            .push(result.deformations.iter().flatten().map(|d| d.stats.numeric_factorizations).sum());
+        let deformations = || result.deformations.iter().flatten();
+        run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
+        run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
+        run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
         run.stats.push(result.stats);
     }
     run.symbolic_analyses_timed = deformer.symbolic_analyses() - symbolic_analyses_warm_up;
@@ -264,6 +272,8 @@ impl Run {
             stats: &self.stats,
             first_frame: self.first_frame,
             numeric_factorizations: &self.numeric_factorizations,
+            factorized_rows: &self.factorized_rows,
+            reduced_analyses_timed_frames: self.reduced_analyses_timed,
             symbolic_analyses_first_frame: self.symbolic_analyses_warm_up,
             symbolic_analyses_timed_frames: self.symbolic_analyses_timed,
         }

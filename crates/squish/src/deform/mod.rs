@@ -120,6 +120,15 @@ pub struct DeformStats {
     pub outer_boundary_moved: usize,
     /// Numeric factorizations run by this call.
     pub numeric_factorizations: usize,
+    /// Rows factorized by this call's heat, Poisson and guide factorizations, summed: the region's
+    /// size each when factorized whole, fewer when rows outside 𝒫 or 𝒟 are decoupled and left out
+    /// ([`crate::linalg::NumericFactor`]).
+    #[serde(default)]
+    pub factorized_rows: usize,
+    /// Symbolic analyses of coupled-row submatrices run by this call (0 while the coupled rows of
+    /// every system stay the same).
+    #[serde(default)]
+    pub reduced_analyses: usize,
     /// Per-stage timings.
     pub timings: StageTimings,
     /// Fallback counters.
@@ -321,6 +330,8 @@ pub fn plan_region(
         return Err(DeformError::NonFinitePosition { vertex, position: p.to_array() });
     }
     let factorizations_before = solver.numeric_factorizations();
+    let factorized_rows_before = solver.factorized_rows();
+    let reduced_analyses_before = solver.reduced_analyses();
     let factorization_time_before = solver.factorization_time();
     let mut timings = StageTimings::default();
     let mut fallbacks = FallbackCounters::default();
@@ -429,6 +440,8 @@ pub fn plan_region(
             .filter(|(on_boundary, moved)| **on_boundary && **moved)
             .count(),
         numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
+        factorized_rows: solver.factorized_rows() - factorized_rows_before,
+        reduced_analyses: solver.reduced_analyses() - reduced_analyses_before,
         timings,
         fallbacks,
         ..DeformStats::default()

@@ -44,6 +44,7 @@ pub struct RegionSolver {
     poisson_generation: u64,
     symbolic_analyses: usize,
     numeric_factorizations: usize,
+    factorized_rows: usize,
     factorization_time: Duration,
     /// The parallel-transport direction field's systems (method A, §5.2.1), built on first use.
     pub(crate) transport: Option<Box<super::transport::TransportCache>>,
@@ -69,6 +70,7 @@ impl RegionSolver {
             poisson_generation: 0,
             symbolic_analyses: 1,
             numeric_factorizations: 0,
+            factorized_rows: 0,
             factorization_time: Duration::ZERO,
             transport: None,
         })
@@ -94,6 +96,25 @@ impl RegionSolver {
     /// Number of numeric factorizations run so far (three per frame with a contact).
     pub fn numeric_factorizations(&self) -> usize {
         self.numeric_factorizations
+    }
+
+    /// Rows factorized so far by the heat, Poisson and guide systems, summed over their
+    /// factorizations: the region's size for a whole factorization, the coupled rows alone when
+    /// the rest of the region is decoupled ([`crate::linalg::NumericFactor`]).
+    pub fn factorized_rows(&self) -> usize {
+        self.factorized_rows
+    }
+
+    /// Symbolic analyses of coupled-row submatrices run so far by the heat, Poisson and guide
+    /// systems (one each time a system's set of coupled rows changes; the region's own analysis
+    /// is [`Self::symbolic_analyses`]).
+    pub fn reduced_analyses(&self) -> usize {
+        let factors = [
+            self.heat.as_ref().map(ConstrainedSolver::factor),
+            self.poisson.as_ref().map(ConstrainedSolver::factor),
+            self.guide.as_ref().map(|g| &g.factor),
+        ];
+        factors.into_iter().flatten().map(NumericFactor::reduced_analyses).sum()
     }
 
     /// Total time spent assembling constraints into and numerically factorizing the systems,
@@ -162,6 +183,11 @@ impl RegionSolver {
         );
         self.factorization_time += heat_time + poisson_time;
         self.numeric_factorizations += 2;
+        self.factorized_rows += [&self.heat, &self.poisson]
+            .into_iter()
+            .flatten()
+            .map(|solver| solver.factor().factorized_rows())
+            .sum::<usize>();
         heat_result.map_err(DeformError::solve("heat"))?;
         poisson_result.map_err(DeformError::solve("Poisson"))?;
         self.poisson_generation = self.generation;
@@ -208,6 +234,7 @@ impl RegionSolver {
         let result = system.factorize(operator, weighted, lambda);
         self.factorization_time += start.elapsed();
         self.numeric_factorizations += 1;
+        self.factorized_rows += system.factor.factorized_rows();
         result.map_err(DeformError::solve("guide"))?;
         self.guide.as_mut().ok_or(DeformError::Solve { stage: "guide", source: SolveError::NotFactorized })
     }

@@ -8,6 +8,20 @@
 //! A [`NumericFactor`] owns the values of `L` and its scratch memory and refactorizes in place when
 //! only the matrix values change: no allocation after the first factorization.
 //!
+//! **Decoupled rows.** Most systems of a frame are local: the faces outside the parametrization
+//! domain 𝒫 or outside 𝒟 weigh 0, so their vertices' rows hold only a diagonal (a pin) and are
+//! decoupled from every other row. Factorizing the region's whole pattern then spends most of its
+//! flops on zeros. When at most [`REDUCE_MAX_COUPLED_FRACTION`] of the rows are coupled (a row is
+//! coupled when one of its off-diagonal values is not exactly 0), [`NumericFactor`] factorizes only
+//! the coupled rows' principal submatrix and solves the decoupled rows as 1 × 1 blocks. This is the
+//! same linear system split into independent blocks, so the solution is the same up to round-off.
+//! The submatrix is ordered by the region's own AMD ordering restricted to its rows (a restriction
+//! of a fill-reducing ordering stays a good one, and it costs no new AMD run), so its symbolic
+//! analysis is only the elimination tree and the supernodal structure. That analysis is kept and
+//! reused as long as the same rows are coupled (a contact that does not move, the guide system of a
+//! frame, a still shot); it depends only on the set of rows, so a cached and a fresh analysis give
+//! bit-identical factors.
+//!
 //! Everything runs with `Par::Seq`: our systems are small (10³–10⁵ unknowns), where faer's
 //! multithreading costs more than it gains; the pipeline runs independent regions and frames in
 //! parallel with rayon instead. Sequential faer is deterministic: the same matrix gives
@@ -24,7 +38,7 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, simplicial, supernodal,
 };
 use faer::sparse::utils::permute_self_adjoint_to_unsorted;
-use faer::sparse::{FaerError, SparseColMatRef, SymbolicSparseColMat};
+use faer::sparse::{FaerError, SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use super::{SolveError, SparsePattern, SymmetricMatrix};
@@ -39,17 +53,25 @@ use super::{SolveError, SparsePattern, SymmetricMatrix};
 /// within a few microseconds; we keep faer's choice there.
 const SUPERNODAL_MIN_DIMENSION: usize = 1000;
 
-/// The symbolic Cholesky analysis of one region's pattern, shared by all its factorizations.
+/// The coupled rows are factorized alone when they are at most this fraction of the rows (see the
+/// module doc). Above it the saved flops no longer pay for the submatrix's symbolic analysis when
+/// the coupled set changes every frame.
+pub const REDUCE_MAX_COUPLED_FRACTION: f64 = 0.75;
+
+/// Systems with fewer rows are always factorized whole: their factorization costs about as much
+/// as the analysis of a submatrix.
+pub const REDUCE_MIN_DIMENSION: usize = 256;
+
+/// faer's symbolic Cholesky analysis of one symmetric structure, and where `PAPᵀ` puts each of its
+/// values.
 ///
-/// It also records where faer's symmetric permutation `PAPᵀ` puts each stored value, so that a
-/// numeric factorization gathers the values into that layout with one indexed copy and calls
-/// faer's numeric kernel directly, instead of having faer recompute the permuted pattern every
-/// time (`permute_self_adjoint_to_unsorted` cost about a sixth of each factorization). The layout
-/// is computed by that same faer function, once, on the slot numbers, so the kernel receives
-/// exactly the matrix faer would have built: the factors are bit-identical.
+/// The layout lets a numeric factorization gather the values into the permuted order with one
+/// indexed copy and call faer's numeric kernel directly, instead of having faer recompute the
+/// permuted pattern every time (`permute_self_adjoint_to_unsorted` cost about a sixth of each
+/// factorization). It is computed by that same faer function, once, on the slot numbers, so the
+/// kernel receives exactly the matrix faer would have built: the factors are bit-identical.
 #[derive(Debug)]
-pub struct SymbolicFactor {
-    pattern: Arc<SparsePattern>,
+struct Analysis {
     symbolic: SymbolicCholesky<usize>,
     /// `PAPᵀ`'s pattern, in the triangle the numeric kernel reads (upper for simplicial, lower for
     /// supernodal), in faer's own entry order.
@@ -59,19 +81,25 @@ pub struct SymbolicFactor {
     factorize_scratch: StackReq,
 }
 
-impl SymbolicFactor {
-    /// Runs the symbolic analysis (AMD ordering + elimination tree) of `pattern`.
-    pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
-        let supernodal_flop_ratio_threshold = if pattern.num_vertices() >= SUPERNODAL_MIN_DIMENSION {
+impl Analysis {
+    /// Analyzes the lower-triangular `structure`, whose entry `k` holds the region's value slot
+    /// `entry_slot[k]` (`None`: slot `k`), in the given ordering.
+    fn new(
+        structure: SymbolicSparseColMatRef<'_, usize>,
+        entry_slot: Option<&[usize]>,
+        ordering: SymmetricOrdering<'_, usize>,
+    ) -> Result<Self, SolveError> {
+        let supernodal_flop_ratio_threshold = if structure.nrows() >= SUPERNODAL_MIN_DIMENSION {
             SupernodalThreshold::FORCE_SUPERNODAL
         } else {
             SupernodalThreshold::AUTO
         };
         let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold, ..Default::default() };
         let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
-        let symbolic = factorize_symbolic_cholesky(pattern.structure(), Side::Lower, SymmetricOrdering::Amd, params)
-            .map_err(|e| analysis_error(&e))?;
-        let (permuted, permuted_slot) = permuted_layout(pattern, &symbolic).map_err(|e| analysis_error(&e))?;
+        let symbolic =
+            factorize_symbolic_cholesky(structure, Side::Lower, ordering, params).map_err(|e| analysis_error(&e))?;
+        let (permuted, permuted_slot) =
+            permuted_layout(structure, entry_slot, &symbolic).map_err(|e| analysis_error(&e))?;
         let factorize_scratch = match symbolic.raw() {
             SymbolicCholeskyRaw::Simplicial(_) => {
                 simplicial::factorize_simplicial_numeric_llt_scratch::<usize, f64>(symbolic.nrows())
@@ -80,7 +108,22 @@ impl SymbolicFactor {
                 supernodal::factorize_supernodal_numeric_llt_scratch::<usize, f64>(raw, Par::Seq, Default::default())
             }
         };
-        Ok(Arc::new(Self { pattern: Arc::clone(pattern), symbolic, permuted, permuted_slot, factorize_scratch }))
+        Ok(Self { symbolic, permuted, permuted_slot, factorize_scratch })
+    }
+}
+
+/// The symbolic analysis of one region's pattern, shared by all its factorizations.
+#[derive(Debug)]
+pub struct SymbolicFactor {
+    pattern: Arc<SparsePattern>,
+    analysis: Analysis,
+}
+
+impl SymbolicFactor {
+    /// Runs the symbolic analysis (AMD ordering + elimination tree) of `pattern`.
+    pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
+        let analysis = Analysis::new(pattern.structure(), None, SymmetricOrdering::Amd)?;
+        Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis }))
     }
 
     /// The pattern this analysis belongs to.
@@ -90,28 +133,70 @@ impl SymbolicFactor {
 
     /// Number of rows.
     pub fn dimension(&self) -> usize {
-        self.symbolic.nrows()
+        self.analysis.symbolic.nrows()
     }
 
     /// Number of stored values of the factor `L` (fill-in included).
     pub fn factor_len(&self) -> usize {
-        self.symbolic.len_val()
+        self.analysis.symbolic.len_val()
     }
 
     /// True if faer chose its supernodal (blocked) algorithm for this pattern.
     pub fn is_supernodal(&self) -> bool {
-        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+        matches!(self.analysis.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
+    /// The analysis of the principal submatrix on `rows` (increasing region rows), ordered by this
+    /// analysis' ordering restricted to them. `local[v]` must be the position of row `v` in `rows`
+    /// for every row in `rows`.
+    fn analyze_rows(&self, rows: &[usize], local: &[usize], in_rows: &[bool]) -> Result<Analysis, SolveError> {
+        let m = rows.len();
+        let (col_ptr, row_idx) = (self.pattern.col_ptr(), self.pattern.row_idx());
+        let mut sub_col_ptr = Vec::with_capacity(m + 1);
+        let mut sub_row_idx = Vec::new();
+        let mut entry_slot = Vec::new();
+        sub_col_ptr.push(0);
+        for &j in rows {
+            for slot in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[slot];
+                if in_rows[i] {
+                    // `rows` increases, so the lower triangle stays lower and rows stay sorted.
+                    sub_row_idx.push(local[i]);
+                    entry_slot.push(slot);
+                }
+            }
+            sub_col_ptr.push(sub_row_idx.len());
+        }
+        let structure = SymbolicSparseColMat::new_checked(m, m, sub_col_ptr, None, sub_row_idx);
+        // faer's convention: forward[new] = old, inverse[old] = new.
+        let n = self.dimension();
+        let identity: Vec<usize>;
+        let forward = match self.analysis.symbolic.perm() {
+            Some(perm) => perm.arrays().0,
+            None => {
+                identity = (0..n).collect();
+                &identity
+            }
+        };
+        let sub_forward: Vec<usize> = forward.iter().filter(|&&v| in_rows[v]).map(|&v| local[v]).collect();
+        let mut sub_inverse = vec![0usize; m];
+        for (position, &row) in sub_forward.iter().enumerate() {
+            sub_inverse[row] = position;
+        }
+        let ordering = SymmetricOrdering::Custom(PermRef::new_checked(&sub_forward, &sub_inverse, m));
+        Analysis::new(structure.as_ref(), Some(&entry_slot), ordering)
     }
 }
 
-/// `PAPᵀ`'s pattern as faer's numeric factorization builds it from the region's lower triangle,
-/// and the value slot of each of its entries (see [`SymbolicFactor`]).
+/// `PAPᵀ`'s pattern as faer's numeric factorization builds it from the lower triangle
+/// `structure`, and the value slot of each of its entries (see [`Analysis`]).
 fn permuted_layout(
-    pattern: &SparsePattern,
+    structure: SymbolicSparseColMatRef<'_, usize>,
+    entry_slot: Option<&[usize]>,
     symbolic: &SymbolicCholesky<usize>,
 ) -> Result<(SymbolicSparseColMat<usize>, Vec<usize>), FaerError> {
-    let n = pattern.num_vertices();
-    let nnz = pattern.nnz();
+    let n = structure.nrows();
+    let nnz = structure.row_idx().len();
     let out_side = match symbolic.raw() {
         SymbolicCholeskyRaw::Simplicial(_) => Side::Upper,
         SymbolicCholeskyRaw::Supernodal(_) => Side::Lower,
@@ -120,8 +205,11 @@ fn permuted_layout(
     let (forward, inverse) = symbolic.perm().map_or((&identity[..], &identity[..]), |p| p.arrays());
     let perm = PermRef::new_checked(forward, inverse, n);
     // Slot numbers travel as values (exact in f64 below 2⁵³).
-    let slots: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
-    let a = SparseColMatRef::new(pattern.structure(), &slots);
+    let slots: Vec<f64> = match entry_slot {
+        Some(entry_slot) => entry_slot.iter().map(|&k| k as f64).collect(),
+        None => (0..nnz).map(|k| k as f64).collect(),
+    };
+    let a = SparseColMatRef::new(structure, &slots);
     let (mut values, mut col_ptr, mut row_idx) = (vec![0.0; nnz], vec![0usize; n + 1], vec![0usize; nnz]);
     let mut buffer = MemBuffer::try_new(StackReq::new::<usize>(n)).map_err(|_| FaerError::OutOfMemory)?;
     permute_self_adjoint_to_unsorted(
@@ -140,47 +228,141 @@ fn permuted_layout(
     Ok((structure, permuted_slot))
 }
 
-/// A numeric `LLᵀ` factorization on a shared [`SymbolicFactor`], refactorizable in place.
-pub struct NumericFactor {
-    symbolic: Arc<SymbolicFactor>,
+fn alloc_buffer(req: StackReq) -> Result<MemBuffer, SolveError> {
+    MemBuffer::try_new(req)
+        .map_err(|_| SolveError::Analysis { reason: "out of memory for the factorization scratch".into() })
+}
+
+/// The numeric factor `L` of one [`Analysis`] and its scratch memory.
+struct Numeric {
     l_values: Vec<f64>,
-    /// The matrix's values in the permuted layout of [`SymbolicFactor`].
+    /// The matrix's values in the permuted layout of the analysis.
     permuted_values: Vec<f64>,
     factorize_buffer: MemBuffer,
     solve_buffer: MemBuffer,
     /// Number of right-hand-side columns `solve_buffer` is sized for.
     solve_columns: usize,
-    factorized: bool,
+}
+
+impl Numeric {
+    fn new(analysis: &Analysis) -> Result<Self, SolveError> {
+        let solve_columns = 1;
+        Ok(Self {
+            l_values: vec![0.0; analysis.symbolic.len_val()],
+            permuted_values: vec![0.0; analysis.permuted_slot.len()],
+            factorize_buffer: alloc_buffer(analysis.factorize_scratch)?,
+            solve_buffer: alloc_buffer(analysis.symbolic.solve_in_place_scratch::<f64>(solve_columns, Par::Seq))?,
+            solve_columns,
+        })
+    }
+
+    /// Factorizes the matrix whose value slots are `values` (what faer's `factorize_numeric_llt`
+    /// does, minus recomputing the permuted pattern).
+    fn factorize(&mut self, analysis: &Analysis, values: &[f64]) -> Result<(), LltError> {
+        for (permuted, &slot) in self.permuted_values.iter_mut().zip(&analysis.permuted_slot) {
+            *permuted = values[slot];
+        }
+        let a = SparseColMatRef::new(analysis.permuted.as_ref(), &self.permuted_values);
+        let stack = MemStack::new(&mut self.factorize_buffer);
+        match analysis.symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(raw) => simplicial::factorize_simplicial_numeric_llt(
+                &mut self.l_values,
+                a,
+                LltRegularization::default(),
+                raw,
+                stack,
+            )
+            .map(|_| ()),
+            SymbolicCholeskyRaw::Supernodal(raw) => supernodal::factorize_supernodal_numeric_llt(
+                &mut self.l_values,
+                a,
+                LltRegularization::default(),
+                raw,
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+            .map(|_| ()),
+        }
+    }
+
+    /// Solves in place for `columns` column-major right-hand sides of the analysis' dimension.
+    fn solve(&mut self, analysis: &Analysis, rhs: &mut [f64], columns: usize) -> Result<(), SolveError> {
+        if columns > self.solve_columns {
+            self.solve_buffer = alloc_buffer(analysis.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq))?;
+            self.solve_columns = columns;
+        }
+        let llt = LltRef::new(&analysis.symbolic, &self.l_values);
+        let b = MatMut::from_column_major_slice_mut(rhs, analysis.symbolic.nrows(), columns);
+        llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, MemStack::new(&mut self.solve_buffer));
+        Ok(())
+    }
+}
+
+/// The coupled rows' principal submatrix: its analysis (kept while the same rows are coupled) and
+/// its factor.
+struct ReducedSystem {
+    /// Per region row: in this system.
+    coupled: Vec<bool>,
+    /// The system's rows, increasing region rows.
+    rows: Vec<usize>,
+    analysis: Analysis,
+    numeric: Numeric,
+    /// Gathered right-hand sides.
+    rhs: Vec<f64>,
+}
+
+/// How the last successful factorization was done.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Layout {
+    /// Not factorized (or the last factorization failed).
+    None,
+    /// The region's whole pattern.
+    Whole,
+    /// The coupled rows alone ([`ReducedSystem`], absent when no row is coupled), the others as
+    /// 1 × 1 blocks.
+    Reduced,
+}
+
+/// A numeric `LLᵀ` factorization on a shared [`SymbolicFactor`], refactorizable in place.
+pub struct NumericFactor {
+    symbolic: Arc<SymbolicFactor>,
+    /// The factor on the whole pattern, allocated on first use.
+    whole: Option<Numeric>,
+    reduced: Option<ReducedSystem>,
+    layout: Layout,
+    /// Scratch of the coupled-row detection.
+    coupled: Vec<bool>,
+    /// The diagonal of the decoupled rows (their 1 × 1 blocks) in the reduced layout.
+    diagonal: Vec<f64>,
+    reduced_analyses: usize,
+    /// False: always factorize the whole pattern (tests compare the two layouts).
+    reduce: bool,
 }
 
 impl std::fmt::Debug for NumericFactor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NumericFactor")
             .field("dimension", &self.symbolic.dimension())
-            .field("factor_len", &self.l_values.len())
-            .field("solve_columns", &self.solve_columns)
-            .field("factorized", &self.factorized)
+            .field("layout", &self.layout)
+            .field("factorized_rows", &self.factorized_rows())
+            .field("reduced_analyses", &self.reduced_analyses)
             .finish()
     }
 }
 
-fn alloc_buffer(req: StackReq) -> Result<MemBuffer, SolveError> {
-    MemBuffer::try_new(req)
-        .map_err(|_| SolveError::Analysis { reason: "out of memory for the factorization scratch".into() })
-}
-
 impl NumericFactor {
-    /// Allocates the factor's storage (nothing is factorized yet).
+    /// Prepares a factor (nothing is factorized or allocated yet).
     pub fn new(symbolic: &Arc<SymbolicFactor>) -> Result<Self, SolveError> {
-        let solve_columns = 1;
         Ok(Self {
-            l_values: vec![0.0; symbolic.factor_len()],
-            permuted_values: vec![0.0; symbolic.permuted_slot.len()],
-            factorize_buffer: alloc_buffer(symbolic.factorize_scratch)?,
-            solve_buffer: alloc_buffer(symbolic.symbolic.solve_in_place_scratch::<f64>(solve_columns, Par::Seq))?,
-            solve_columns,
             symbolic: Arc::clone(symbolic),
-            factorized: false,
+            whole: None,
+            reduced: None,
+            layout: Layout::None,
+            coupled: Vec::new(),
+            diagonal: Vec::new(),
+            reduced_analyses: 0,
+            reduce: true,
         })
     }
 
@@ -198,59 +380,122 @@ impl NumericFactor {
 
     /// True after a successful factorization.
     pub fn is_factorized(&self) -> bool {
-        self.factorized
+        self.layout != Layout::None
+    }
+
+    /// Number of rows the last factorization ran the Cholesky kernel on: the region's dimension,
+    /// or the coupled rows alone (see the module doc); 0 when not factorized.
+    pub fn factorized_rows(&self) -> usize {
+        match self.layout {
+            Layout::None => 0,
+            Layout::Whole => self.symbolic.dimension(),
+            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.rows.len()),
+        }
+    }
+
+    /// Number of symbolic analyses of coupled-row submatrices run so far (one each time the set
+    /// of coupled rows changes).
+    pub fn reduced_analyses(&self) -> usize {
+        self.reduced_analyses
     }
 
     /// Factorizes `matrix` (on the same pattern as the symbolic analysis) in place, reusing the
     /// storage of any previous factorization. A matrix that is not positive definite, or has a
     /// non-finite value, is an error and leaves the factor unusable until the next success.
     pub fn factorize(&mut self, matrix: &SymmetricMatrix) -> Result<(), SolveError> {
-        self.factorized = false;
-        let pattern = &self.symbolic.pattern;
-        if !Arc::ptr_eq(matrix.pattern(), pattern) {
+        self.layout = Layout::None;
+        if !Arc::ptr_eq(matrix.pattern(), &self.symbolic.pattern) {
             return Err(SolveError::PatternMismatch);
         }
         if let Some((slot, value)) = matrix.first_non_finite() {
             return Err(SolveError::NonFiniteValue { what: "matrix", index: slot, value });
         }
-        // What faer's `factorize_numeric_llt` does, minus recomputing the permuted pattern.
         let values = matrix.values();
-        for (permuted, &slot) in self.permuted_values.iter_mut().zip(&self.symbolic.permuted_slot) {
-            *permuted = values[slot];
-        }
-        let a = SparseColMatRef::new(self.symbolic.permuted.as_ref(), &self.permuted_values);
-        let stack = MemStack::new(&mut self.factorize_buffer);
-        let result = match self.symbolic.symbolic.raw() {
-            SymbolicCholeskyRaw::Simplicial(raw) => simplicial::factorize_simplicial_numeric_llt(
-                &mut self.l_values,
-                a,
-                LltRegularization::default(),
-                raw,
-                stack,
-            ),
-            SymbolicCholeskyRaw::Supernodal(raw) => supernodal::factorize_supernodal_numeric_llt(
-                &mut self.l_values,
-                a,
-                LltRegularization::default(),
-                raw,
-                Par::Seq,
-                stack,
-                Default::default(),
-            ),
+        let coupled_rows = self.mark_coupled_rows(values);
+        let result = match coupled_rows {
+            Some(count) => self.factorize_reduced(values, count),
+            None => self.factorize_whole(values),
         };
         match result {
-            Ok(_) => {
-                self.factorized = true;
+            Ok(layout) => {
+                self.layout = layout;
                 Ok(())
             }
-            Err(LltError::NonPositivePivot { index }) => {
+            Err(FactorizeError::Solve(error)) => Err(error),
+            Err(FactorizeError::NotPositiveDefinite { pivot }) => {
                 let n = matrix.dimension();
                 let (vertex, min_diagonal) = (0..n as u32)
                     .map(|v| (v, matrix.diagonal(v)))
                     .fold((0, f64::INFINITY), |best, (v, d)| if d < best.1 { (v, d) } else { best });
-                Err(SolveError::NotPositiveDefinite { pivot: index, dimension: n, vertex, min_diagonal })
+                Err(SolveError::NotPositiveDefinite { pivot, dimension: n, vertex, min_diagonal })
             }
         }
+    }
+
+    /// Marks the rows with a non-zero off-diagonal value in `self.coupled`; returns their number
+    /// when the reduced layout should be used.
+    fn mark_coupled_rows(&mut self, values: &[f64]) -> Option<usize> {
+        let pattern = &self.symbolic.pattern;
+        let n = pattern.num_vertices();
+        if n < REDUCE_MIN_DIMENSION || !self.reduce {
+            return None;
+        }
+        self.coupled.clear();
+        self.coupled.resize(n, false);
+        let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+        for j in 0..n {
+            for slot in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[slot];
+                if i != j && values[slot] != 0.0 {
+                    self.coupled[i] = true;
+                    self.coupled[j] = true;
+                }
+            }
+        }
+        let count = self.coupled.iter().filter(|&&c| c).count();
+        (count as f64 <= REDUCE_MAX_COUPLED_FRACTION * n as f64).then_some(count)
+    }
+
+    fn factorize_whole(&mut self, values: &[f64]) -> Result<Layout, FactorizeError> {
+        let analysis = &self.symbolic.analysis;
+        let whole = match &mut self.whole {
+            Some(whole) => whole,
+            None => self.whole.insert(Numeric::new(analysis)?),
+        };
+        whole.factorize(analysis, values)?;
+        Ok(Layout::Whole)
+    }
+
+    fn factorize_reduced(&mut self, values: &[f64], coupled_rows: usize) -> Result<Layout, FactorizeError> {
+        let pattern = Arc::clone(&self.symbolic.pattern);
+        self.diagonal.clear();
+        for (v, &coupled) in self.coupled.iter().enumerate() {
+            let d = values[pattern.diag_slot(v as u32)];
+            if !coupled && d <= 0.0 {
+                return Err(FactorizeError::NotPositiveDefinite { pivot: v });
+            }
+            self.diagonal.push(if coupled { 0.0 } else { d });
+        }
+        if coupled_rows == 0 {
+            self.reduced = None;
+            return Ok(Layout::Reduced);
+        }
+        let reusable = self.reduced.as_ref().is_some_and(|r| r.coupled == self.coupled);
+        if !reusable {
+            let rows: Vec<usize> = (0..self.coupled.len()).filter(|&v| self.coupled[v]).collect();
+            let mut local = vec![usize::MAX; self.coupled.len()];
+            for (k, &v) in rows.iter().enumerate() {
+                local[v] = k;
+            }
+            let analysis = self.symbolic.analyze_rows(&rows, &local, &self.coupled)?;
+            let numeric = Numeric::new(&analysis)?;
+            self.reduced_analyses += 1;
+            self.reduced =
+                Some(ReducedSystem { coupled: self.coupled.clone(), rows, analysis, numeric, rhs: Vec::new() });
+        }
+        let reduced = self.reduced.as_mut().ok_or(SolveError::NotFactorized)?;
+        reduced.numeric.factorize(&reduced.analysis, values)?;
+        Ok(Layout::Reduced)
     }
 
     /// Solves `A x = rhs` in place (`rhs` has one entry per vertex).
@@ -261,7 +506,7 @@ impl NumericFactor {
     /// Solves `A X = B` in place for `columns` right-hand sides stored column after column in
     /// `rhs` (column-major, `dimension × columns`).
     pub fn solve_columns_in_place(&mut self, rhs: &mut [f64], columns: usize) -> Result<(), SolveError> {
-        if !self.factorized {
+        if self.layout == Layout::None {
             return Err(SolveError::NotFactorized);
         }
         let n = self.symbolic.dimension();
@@ -278,14 +523,34 @@ impl NumericFactor {
         if columns == 0 {
             return Ok(());
         }
-        if columns > self.solve_columns {
-            self.solve_buffer = alloc_buffer(self.symbolic.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq))?;
-            self.solve_columns = columns;
+        match self.layout {
+            Layout::Reduced => {
+                for column in rhs.chunks_exact_mut(n) {
+                    for (x, &d) in column.iter_mut().zip(&self.diagonal) {
+                        if d != 0.0 {
+                            *x /= d;
+                        }
+                    }
+                }
+                let Some(reduced) = self.reduced.as_mut() else { return Ok(()) };
+                let m = reduced.rows.len();
+                reduced.rhs.clear();
+                for column in rhs.chunks_exact(n) {
+                    reduced.rhs.extend(reduced.rows.iter().map(|&v| column[v]));
+                }
+                reduced.numeric.solve(&reduced.analysis, &mut reduced.rhs, columns)?;
+                for (column, solved) in rhs.chunks_exact_mut(n).zip(reduced.rhs.chunks_exact(m)) {
+                    for (&v, &x) in reduced.rows.iter().zip(solved) {
+                        column[v] = x;
+                    }
+                }
+                Ok(())
+            }
+            _ => {
+                let whole = self.whole.as_mut().ok_or(SolveError::NotFactorized)?;
+                whole.solve(&self.symbolic.analysis, rhs, columns)
+            }
         }
-        let llt = LltRef::new(&self.symbolic.symbolic, &self.l_values);
-        let b = MatMut::from_column_major_slice_mut(rhs, n, columns);
-        llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, MemStack::new(&mut self.solve_buffer));
-        Ok(())
     }
 
     /// Solves `A x = rhs` into a new vector.
@@ -293,6 +558,26 @@ impl NumericFactor {
         let mut x = rhs.to_vec();
         self.solve_in_place(&mut x)?;
         Ok(x)
+    }
+}
+
+/// Why a factorization failed, before the error is dressed with the matrix's figures.
+enum FactorizeError {
+    NotPositiveDefinite { pivot: usize },
+    Solve(SolveError),
+}
+
+impl From<SolveError> for FactorizeError {
+    fn from(error: SolveError) -> Self {
+        Self::Solve(error)
+    }
+}
+
+impl From<LltError> for FactorizeError {
+    fn from(error: LltError) -> Self {
+        match error {
+            LltError::NonPositivePivot { index } => Self::NotPositiveDefinite { pivot: index },
+        }
     }
 }
 
@@ -332,9 +617,9 @@ mod tests {
         let x1 = factor.solve(&b).unwrap();
         assert!(residual(&a1, &x1, &b) < 1e-12);
         // Refactorize with new values on the same storage; compare with a fresh factorization.
-        let l_ptr = factor.l_values.as_ptr();
+        let l_ptr = factor.whole.as_ref().unwrap().l_values.as_ptr();
         factor.factorize(&a2).unwrap();
-        assert_eq!(l_ptr, factor.l_values.as_ptr(), "refactorization must reuse L's storage");
+        assert_eq!(l_ptr, factor.whole.as_ref().unwrap().l_values.as_ptr(), "refactorization must reuse L's storage");
         let x2 = factor.solve(&b).unwrap();
         let fresh =
             NumericFactor::factorize_new(&SymbolicFactor::analyze(&pattern).unwrap(), &a2).unwrap().solve(&b).unwrap();
@@ -345,6 +630,97 @@ mod tests {
         // Determinism: the same input gives bit-identical output.
         factor.factorize(&a1).unwrap();
         assert_eq!(factor.solve(&b).unwrap(), x1);
+    }
+
+    /// A 60 × 60 grid whose faces weigh 1 inside a disk of the given radius and 0 outside (the
+    /// stiffness + mass of a heat step, outside vertices pinned by +1 on their diagonal).
+    fn disk_system(radius: f64) -> (Arc<SymbolicFactor>, SymmetricMatrix) {
+        let mesh = shapes::grid(2.0, 2.0, 60, 60);
+        let topology = Topology::new(&mesh);
+        let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
+        let weights: Vec<f64> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let inside = t.iter().all(|&v| mesh.positions[v as usize].truncate().length() < radius);
+                if inside { 1.0 } else { 0.0 }
+            })
+            .collect();
+        let mut a = Operator::heat(&mesh, &pattern, Some(&weights), 0.01).unwrap().matrix().clone();
+        for v in 0..mesh.num_vertices() as u32 {
+            if a.diagonal(v) == 0.0 {
+                let slot = pattern.diag_slot(v);
+                a.values_mut()[slot] = 1.0;
+            }
+        }
+        (SymbolicFactor::analyze(&pattern).unwrap(), a)
+    }
+
+    #[test]
+    fn decoupled_rows_are_left_out_of_the_factorization_with_the_same_solution() {
+        let (symbolic, a) = disk_system(0.5);
+        let n = a.dimension();
+        let mut rng = Lcg::new(17);
+        let b: Vec<f64> = (0..2 * n).map(|_| rng.next_signed()).collect();
+
+        let mut whole = NumericFactor::new(&symbolic).unwrap();
+        whole.reduce = false;
+        whole.factorize(&a).unwrap();
+        assert_eq!(whole.factorized_rows(), n);
+        let mut reduced = NumericFactor::factorize_new(&symbolic, &a).unwrap();
+        let coupled = reduced.factorized_rows();
+        assert!(coupled > 0 && coupled < n / 5, "{coupled} of {n} rows");
+        assert_eq!(reduced.reduced_analyses(), 1);
+
+        let mut x_whole = b.clone();
+        whole.solve_columns_in_place(&mut x_whole, 2).unwrap();
+        let mut x_reduced = b.clone();
+        reduced.solve_columns_in_place(&mut x_reduced, 2).unwrap();
+        for column in 0..2 {
+            let (range, rhs) = (column * n..(column + 1) * n, &b[column * n..(column + 1) * n]);
+            assert!(residual(&a, &x_reduced[range.clone()], rhs) < 1e-12);
+            let difference =
+                x_whole[range.clone()].iter().zip(&x_reduced[range]).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+            assert!(difference < 1e-12, "column {column}: {difference}");
+        }
+        // The decoupled rows are exactly b / 1.
+        let decoupled = (0..n).find(|&v| a.diagonal(v as u32) == 1.0).unwrap();
+        assert_eq!(x_reduced[decoupled], b[decoupled]);
+
+        // New values on the same coupled rows reuse the analysis and match a fresh factor bit for bit.
+        let mut scaled = a.clone();
+        for value in scaled.values_mut() {
+            *value *= 1.5;
+        }
+        reduced.factorize(&scaled).unwrap();
+        assert_eq!(reduced.reduced_analyses(), 1, "same coupled rows: no new analysis");
+        let mut fresh = NumericFactor::factorize_new(&symbolic, &scaled).unwrap();
+        let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(reduced.solve(&b[..n]).unwrap()), bits(fresh.solve(&b[..n]).unwrap()));
+
+        // Other coupled rows: a new analysis; a disk covering most of the grid: the whole pattern.
+        let (_, wider) = disk_system(0.6);
+        reduced.factorize(&SymmetricMatrix::from_values(symbolic.pattern(), wider.values().to_vec()).unwrap()).unwrap();
+        assert_eq!(reduced.reduced_analyses(), 2);
+        assert!(reduced.factorized_rows() > coupled);
+        let (_, most) = disk_system(10.0);
+        reduced.factorize(&SymmetricMatrix::from_values(symbolic.pattern(), most.values().to_vec()).unwrap()).unwrap();
+        assert_eq!(reduced.factorized_rows(), n);
+    }
+
+    #[test]
+    fn a_decoupled_row_without_a_positive_diagonal_is_not_positive_definite() {
+        let (symbolic, a) = disk_system(0.5);
+        let mut bad = a.clone();
+        let decoupled = (0..a.dimension() as u32).find(|&v| a.diagonal(v) == 1.0).unwrap();
+        let slot = symbolic.pattern().diag_slot(decoupled);
+        bad.values_mut()[slot] = 0.0;
+        let mut factor = NumericFactor::new(&symbolic).unwrap();
+        assert!(matches!(factor.factorize(&bad), Err(SolveError::NotPositiveDefinite { .. })));
+        assert!(!factor.is_factorized());
+        assert_eq!(factor.factorized_rows(), 0);
+        factor.factorize(&a).unwrap();
+        assert!(factor.is_factorized());
     }
 
     #[test]
@@ -379,9 +755,11 @@ mod tests {
             let op = Operator::heat(&mesh, &pattern, None, 0.3).unwrap();
             let ours = NumericFactor::factorize_new(&symbolic, op.matrix()).unwrap();
             let mut theirs = vec![0.0; symbolic.factor_len()];
-            let mut buffer =
-                MemBuffer::new(symbolic.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+            let mut buffer = MemBuffer::new(
+                symbolic.analysis.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            );
             symbolic
+                .analysis
                 .symbolic
                 .factorize_numeric_llt::<f64>(
                     &mut theirs,
@@ -394,7 +772,7 @@ mod tests {
                 )
                 .unwrap();
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&ours.l_values), bits(&theirs), "{} rows", mesh.num_vertices());
+            assert_eq!(bits(&ours.whole.as_ref().unwrap().l_values), bits(&theirs), "{} rows", mesh.num_vertices());
         }
     }
 

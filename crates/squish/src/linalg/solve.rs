@@ -56,6 +56,11 @@ impl ConstrainedSolver {
         self.factor.factorize(self.system.matrix())
     }
 
+    /// The numeric factor (its layout and analysis counts).
+    pub fn factor(&self) -> &NumericFactor {
+        &self.factor
+    }
+
     /// The assembled system (matrix, weight λ, pinned vertices).
     pub fn system(&self) -> &ConstrainedSystem {
         &self.system
