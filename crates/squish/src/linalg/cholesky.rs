@@ -157,8 +157,7 @@ impl SymbolicFactor {
         let mut entry_slot = Vec::new();
         sub_col_ptr.push(0);
         for &j in rows {
-            for slot in col_ptr[j]..col_ptr[j + 1] {
-                let i = row_idx[slot];
+            for (slot, &i) in row_idx.iter().enumerate().take(col_ptr[j + 1]).skip(col_ptr[j]) {
                 if in_rows[i] {
                     // `rows` increases, so the lower triangle stays lower and rows stay sorted.
                     sub_row_idx.push(local[i]);
