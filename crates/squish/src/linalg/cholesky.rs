@@ -18,16 +18,17 @@
 //! The submatrix is ordered by the region's own AMD ordering restricted to its rows (a restriction
 //! of a fill-reducing ordering stays a good one, and it costs no new AMD run), so its symbolic
 //! analysis is only the elimination tree and the supernodal structure. That analysis is kept and
-//! reused as long as the same rows are coupled (a contact that does not move, the guide system of a
-//! frame, a still shot); it depends only on the set of rows, so a cached and a fresh analysis give
-//! bit-identical factors.
+//! reused as long as the same rows are coupled (a contact that does not move, a still shot), and
+//! shared by the factors of a region that couple the same rows (the heat and Poisson steps, whose
+//! face weights are the same): the [`SymbolicFactor`] keeps the last few. It depends only on the
+//! set of rows, so a cached and a fresh analysis give bit-identical factors.
 //!
 //! Everything runs with `Par::Seq`: our systems are small (10³–10⁵ unknowns), where faer's
 //! multithreading costs more than it gains; the pipeline runs independent regions and frames in
 //! parallel with rayon instead. Sequential faer is deterministic: the same matrix gives
 //! bit-identical factors and solutions.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
@@ -61,6 +62,10 @@ pub const REDUCE_MAX_COUPLED_FRACTION: f64 = 0.75;
 /// Systems with fewer rows are always factorized whole: their factorization costs about as much
 /// as the analysis of a submatrix.
 pub const REDUCE_MIN_DIMENSION: usize = 256;
+
+/// Coupled-row analyses a [`SymbolicFactor`] keeps for its factors (a region's frame couples two
+/// sets: 𝒫's for the heat and Poisson steps, 𝒟's for the guide).
+const RECENT_ROW_ANALYSES: usize = 3;
 
 /// faer's symbolic Cholesky analysis of one symmetric structure, and where `PAPᵀ` puts each of its
 /// values.
@@ -112,18 +117,30 @@ impl Analysis {
     }
 }
 
+/// The analysis of the principal submatrix on one set of coupled rows.
+#[derive(Debug)]
+struct RowsAnalysis {
+    /// Per region row: in the submatrix.
+    coupled: Vec<bool>,
+    /// The submatrix's rows, increasing region rows.
+    rows: Vec<usize>,
+    analysis: Analysis,
+}
+
 /// The symbolic analysis of one region's pattern, shared by all its factorizations.
 #[derive(Debug)]
 pub struct SymbolicFactor {
     pattern: Arc<SparsePattern>,
     analysis: Analysis,
+    /// The last coupled-row analyses, most recent first (at most [`RECENT_ROW_ANALYSES`]).
+    recent_rows: Mutex<Vec<Arc<RowsAnalysis>>>,
 }
 
 impl SymbolicFactor {
     /// Runs the symbolic analysis (AMD ordering + elimination tree) of `pattern`.
     pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
         let analysis = Analysis::new(pattern.structure(), None, SymmetricOrdering::Amd)?;
-        Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis }))
+        Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, recent_rows: Mutex::new(Vec::new()) }))
     }
 
     /// The pattern this analysis belongs to.
@@ -144,6 +161,33 @@ impl SymbolicFactor {
     /// True if faer chose its supernodal (blocked) algorithm for this pattern.
     pub fn is_supernodal(&self) -> bool {
         matches!(self.analysis.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
+    /// The analysis of the submatrix on the rows marked in `coupled`: a recent one when the same
+    /// rows were analyzed, else a new one (then `true`), remembered for the region's other factors.
+    fn rows_analysis(&self, coupled: &[bool]) -> Result<(Arc<RowsAnalysis>, bool), SolveError> {
+        // A poisoned lock only means another thread panicked while holding it; the list is valid.
+        let recent = |f: &mut dyn FnMut(&mut Vec<Arc<RowsAnalysis>>)| {
+            let mut guard = self.recent_rows.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            f(&mut guard);
+        };
+        let mut found = None;
+        recent(&mut |list| found = list.iter().find(|r| r.coupled == coupled).map(Arc::clone));
+        if let Some(found) = found {
+            return Ok((found, false));
+        }
+        let rows: Vec<usize> = (0..coupled.len()).filter(|&v| coupled[v]).collect();
+        let mut local = vec![usize::MAX; coupled.len()];
+        for (k, &v) in rows.iter().enumerate() {
+            local[v] = k;
+        }
+        let analysis = self.analyze_rows(&rows, &local, coupled)?;
+        let analyzed = Arc::new(RowsAnalysis { coupled: coupled.to_vec(), rows, analysis });
+        recent(&mut |list| {
+            list.insert(0, Arc::clone(&analyzed));
+            list.truncate(RECENT_ROW_ANALYSES);
+        });
+        Ok((analyzed, true))
     }
 
     /// The analysis of the principal submatrix on `rows` (increasing region rows), ordered by this
@@ -301,11 +345,7 @@ impl Numeric {
 /// The coupled rows' principal submatrix: its analysis (kept while the same rows are coupled) and
 /// its factor.
 struct ReducedSystem {
-    /// Per region row: in this system.
-    coupled: Vec<bool>,
-    /// The system's rows, increasing region rows.
-    rows: Vec<usize>,
-    analysis: Analysis,
+    rows: Arc<RowsAnalysis>,
     numeric: Numeric,
     /// Gathered right-hand sides.
     rhs: Vec<f64>,
@@ -388,7 +428,7 @@ impl NumericFactor {
         match self.layout {
             Layout::None => 0,
             Layout::Whole => self.symbolic.dimension(),
-            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.rows.len()),
+            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.rows.rows.len()),
         }
     }
 
@@ -479,21 +519,15 @@ impl NumericFactor {
             self.reduced = None;
             return Ok(Layout::Reduced);
         }
-        let reusable = self.reduced.as_ref().is_some_and(|r| r.coupled == self.coupled);
+        let reusable = self.reduced.as_ref().is_some_and(|r| r.rows.coupled == self.coupled);
         if !reusable {
-            let rows: Vec<usize> = (0..self.coupled.len()).filter(|&v| self.coupled[v]).collect();
-            let mut local = vec![usize::MAX; self.coupled.len()];
-            for (k, &v) in rows.iter().enumerate() {
-                local[v] = k;
-            }
-            let analysis = self.symbolic.analyze_rows(&rows, &local, &self.coupled)?;
-            let numeric = Numeric::new(&analysis)?;
-            self.reduced_analyses += 1;
-            self.reduced =
-                Some(ReducedSystem { coupled: self.coupled.clone(), rows, analysis, numeric, rhs: Vec::new() });
+            let (rows, new) = self.symbolic.rows_analysis(&self.coupled)?;
+            let numeric = Numeric::new(&rows.analysis)?;
+            self.reduced_analyses += usize::from(new);
+            self.reduced = Some(ReducedSystem { rows, numeric, rhs: Vec::new() });
         }
         let reduced = self.reduced.as_mut().ok_or(SolveError::NotFactorized)?;
-        reduced.numeric.factorize(&reduced.analysis, values)?;
+        reduced.numeric.factorize(&reduced.rows.analysis, values)?;
         Ok(Layout::Reduced)
     }
 
@@ -532,14 +566,15 @@ impl NumericFactor {
                     }
                 }
                 let Some(reduced) = self.reduced.as_mut() else { return Ok(()) };
-                let m = reduced.rows.len();
+                let rows = &reduced.rows.rows;
+                let m = rows.len();
                 reduced.rhs.clear();
                 for column in rhs.chunks_exact(n) {
-                    reduced.rhs.extend(reduced.rows.iter().map(|&v| column[v]));
+                    reduced.rhs.extend(rows.iter().map(|&v| column[v]));
                 }
-                reduced.numeric.solve(&reduced.analysis, &mut reduced.rhs, columns)?;
+                reduced.numeric.solve(&reduced.rows.analysis, &mut reduced.rhs, columns)?;
                 for (column, solved) in rhs.chunks_exact_mut(n).zip(reduced.rhs.chunks_exact(m)) {
-                    for (&v, &x) in reduced.rows.iter().zip(solved) {
+                    for (&v, &x) in rows.iter().zip(solved) {
                         column[v] = x;
                     }
                 }
@@ -696,6 +731,12 @@ mod tests {
         let mut fresh = NumericFactor::factorize_new(&symbolic, &scaled).unwrap();
         let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(reduced.solve(&b[..n]).unwrap()), bits(fresh.solve(&b[..n]).unwrap()));
+
+        // A second factor coupling the same rows (the Poisson step after the heat step) reuses the
+        // region's recent analysis.
+        let mut second = NumericFactor::factorize_new(&symbolic, &a).unwrap();
+        assert_eq!(second.reduced_analyses(), 0, "shared with the first factor");
+        assert_eq!(bits(second.solve(&b[..n]).unwrap()), bits(x_reduced[..n].to_vec()));
 
         // Other coupled rows: a new analysis; a disk covering most of the grid: the whole pattern.
         let (_, wider) = disk_system(0.6);
