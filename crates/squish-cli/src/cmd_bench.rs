@@ -7,7 +7,10 @@
 //!   analyses) and then `--frames` frames of the animation, reused as an animation would, inside a
 //!   local rayon pool of one thread, then again (fresh deformer) in a pool of `--threads`;
 //! - the median frame time of each run, and the stage breakdown of the single-thread median frame
-//!   (the thesis' columns i., m., c., p., di., g., de., s.);
+//!   (the thesis' columns i., m., c., p., di., g., de., s.), the numeric factorizations of that
+//!   frame and the rows they ran on (fewer than the regions' sizes when the rows outside 𝒫 or 𝒟
+//!   are decoupled and left out, see [`squish::linalg::NumericFactor`]), and the symbolic
+//!   analyses (the regions' own, and those of coupled-row submatrices);
 //! - one numeric sparse Cholesky of the largest deformable object's Laplacian (the heat operator
 //!   on its pattern, [`time_laplacian_factorization`]), measured in the same run, and the ratio
 //!   frame time / factorization time;
