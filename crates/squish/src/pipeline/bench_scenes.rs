@@ -418,7 +418,8 @@ pub fn press_100k(size: BenchSize) -> BenchScene {
 /// [`press_100k`] with automatic working regions ([`WorkingRegion::Distance`]): each object is
 /// processed on a band around its contact, with the same result up to round-off (the
 /// parametrization domain lies inside the band). The ratio of the two rows is the automatic
-/// region's speed-up.
+/// region's speed-up (about 1 since the whole object's linear systems leave out the rows
+/// outside the parametrization domain).
 pub fn press_100k_automatic(size: BenchSize) -> BenchScene {
     press_on_a_big_sphere(size, WorkingRegion::Distance(0.0)).finish("press-100k-automatic", None)
 }
