@@ -480,7 +480,9 @@ pub fn print_table(report: &BenchReport) {
     );
     if let Some(speedup) = report.automatic_region_speedup {
         println!();
-        println!("automatic working regions: press-100k takes ×{speedup:.2} the time of press-100k-automatic (1 thread)");
+        println!(
+            "automatic working regions: press-100k takes ×{speedup:.2} the time of press-100k-automatic (1 thread)"
+        );
     }
     if let Some(shot) = &report.shot {
         println!();

@@ -1,6 +1,9 @@
 //! Cost of the sparse Cholesky factorizations of a region (thesis ch. 7 §5.2): (a) symbolic +
-//! numeric from scratch, as the first frame pays it, and (b) numeric refactorization with new
-//! values on the same pattern and storage, as every later frame pays it.
+//! numeric from scratch, as the first frame pays it, (b) numeric refactorization with new
+//! values on the same pattern and storage, as every later frame pays it, and (c) the same when
+//! only a cap of the sphere is coupled (the rows outside the parametrization domain are
+//! decoupled and left out), with the same cap (the submatrix analysis reused) and with a cap that
+//! alternates between two positions (one submatrix analysis per factorization).
 //!
 //! Run: `cargo bench -p squish --bench factorization -- --quick`.
 
@@ -25,6 +28,24 @@ fn stiffness_plus_random_diagonal(k: &SymmetricMatrix, seed: u64) -> SymmetricMa
     let mut a = k.clone();
     a.add_diagonal(&diagonal, 1.0).expect("diagonal has one entry per vertex");
     a
+}
+
+/// `a` with every off-diagonal value that touches a vertex with `z < z_min` set to 0: only the
+/// cap `z ≥ z_min` stays coupled (its diagonal keeps the removed couplings, so it stays definite).
+fn decouple_below(a: &SymmetricMatrix, mesh: &squish::mesh::TriMesh, z_min: f64) -> SymmetricMatrix {
+    let mut local = a.clone();
+    let pattern = Arc::clone(a.pattern());
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    let values = local.values_mut();
+    for j in 0..pattern.num_vertices() {
+        for slot in col_ptr[j]..col_ptr[j + 1] {
+            let i = row_idx[slot];
+            if i != j && (mesh.positions[i].z < z_min || mesh.positions[j].z < z_min) {
+                values[slot] = 0.0;
+            }
+        }
+    }
+    local
 }
 
 fn factorization(c: &mut Criterion) {
@@ -55,6 +76,20 @@ fn factorization(c: &mut Criterion) {
                 factor.factorize(black_box(&variants[which])).expect("refactorization");
             })
         });
+
+        // A cap of about a quarter of the sphere coupled: the same cap twice, then two caps.
+        let same_cap = [decouple_below(&variants[0], &mesh, 0.5), decouple_below(&variants[1], &mesh, 0.5)];
+        let moving_cap = [decouple_below(&variants[0], &mesh, 0.5), decouple_below(&variants[1], &mesh, 0.45)];
+        for (name, caps) in [("refactorize-cap", &same_cap), ("refactorize-moving-cap", &moving_cap)] {
+            let mut factor = NumericFactor::factorize_new(&symbolic, &caps[0]).expect("factorization");
+            let mut which = 0;
+            group.bench_function(BenchmarkId::new(name, &label), |b| {
+                b.iter(|| {
+                    which ^= 1;
+                    factor.factorize(black_box(&caps[which])).expect("refactorization");
+                })
+            });
+        }
     }
     group.finish();
 }
