@@ -35,9 +35,19 @@
 //!   region is cut from the rest of the mesh) are: an intersection reaching one is an error, and
 //!   the extent is clamped so that the deformation stays inside (as for working regions). Both
 //!   regions use the same extent.
-//! - Automatic extent: `max(1.2·r, 1.5·√(A/π))`, r the RMS radius of ℛ on the rest pose (about
-//!   the limb's radius), A the contact area — the pipeline's rule (see
-//!   [`crate::pipeline::automatic_extent`]) with the limb as both objects.
+//! - Automatic extent: `5/3 · max(1.2·r, 1.5·√(A/π)) = max(2·r, 2.5·√(A/π))`, r the RMS radius
+//!   of ℛ on the rest pose (about the limb's radius), A the contact area: the pipeline's rule (see
+//!   [`crate::pipeline::automatic_extent`]) with the limb as both objects, scaled by
+//!   [`FOLD_EXTENT_SCALE`]. **Why larger than between objects:** a fold's contact pushes its
+//!   border vertices deep (into the other side of the fold) right next to side-wall faces that
+//!   linear blend skinning has already turned far from their rest orientation, and a short
+//!   extent makes the profile's transition steep enough to tilt them past perpendicular. On the
+//!   bent capsule (test `bent_capsule_from_0_to_150_degrees`) the pipeline's rule turned two such
+//!   faces from 72° (input) to 90.8° from their skinned rest normal at 150°; scaled by 4/3 one or
+//!   two remain, by 1.5 none at any frame, by 5/3 none with a margin, and the largest own motion
+//!   per frame is the same (0.054 for an input step of 0.15; a scale of 2 raises it to 0.060).
+//!   CesiumMan's knees (149 → 0 and 129 → 0 self-intersecting faces, none newly inverted, extent
+//!   never clamped) and the skinned cylinders give the same figures as with the pipeline's rule.
 
 use std::time::{Duration, Instant};
 
@@ -53,6 +63,10 @@ use crate::deform::{
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
 use crate::spatial::{SpatialError, TriangleBvh};
+
+/// The automatic extent of an articulation is the pipeline's rule scaled by this factor; see the
+/// module doc.
+pub const FOLD_EXTENT_SCALE: f64 = 5.0 / 3.0;
 
 /// Why an articulation failed at a frame.
 #[derive(Debug, thiserror::Error)]
@@ -555,8 +569,8 @@ pub fn plan_articulation(
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
     let fields: [Vec<DVec3>; 2] = [0, 1]
         .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
-    // The pipeline's rule with the limb as both objects.
-    let automatic = crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
+    // The pipeline's rule with the limb as both objects, scaled for a fold (see the module doc).
+    let automatic = FOLD_EXTENT_SCALE * crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     // Fixed by the first extent, so that a clamped second attempt sees the same φ.
     let domain_radius = params.domain_radius.unwrap_or(params.domain_factor * extent);
