@@ -281,10 +281,35 @@ struct Numeric {
     l_values: Vec<f64>,
     /// The matrix's values in the permuted layout of the analysis.
     permuted_values: Vec<f64>,
-    factorize_buffer: MemBuffer,
-    solve_buffer: MemBuffer,
+    factorize_buffer: Scratch,
+    solve_buffer: Scratch,
     /// Number of right-hand-side columns `solve_buffer` is sized for.
     solve_columns: usize,
+}
+
+/// A scratch buffer and the size and alignment it was allocated for.
+struct Scratch {
+    buffer: MemBuffer,
+    bytes: usize,
+    align: usize,
+}
+
+impl Scratch {
+    fn new(req: StackReq) -> Result<Self, SolveError> {
+        Ok(Self { buffer: alloc_buffer(req)?, bytes: req.size_bytes(), align: req.align_bytes() })
+    }
+
+    /// Makes room for `req`, keeping the buffer when it is large and aligned enough.
+    fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
+        if req.size_bytes() > self.bytes || req.align_bytes() > self.align {
+            *self = Self::new(req)?;
+        }
+        Ok(())
+    }
+
+    fn stack(&mut self) -> &mut MemStack {
+        MemStack::new(&mut self.buffer)
+    }
 }
 
 impl Numeric {
@@ -293,10 +318,23 @@ impl Numeric {
         Ok(Self {
             l_values: vec![0.0; analysis.symbolic.len_val()],
             permuted_values: vec![0.0; analysis.permuted_slot.len()],
-            factorize_buffer: alloc_buffer(analysis.factorize_scratch)?,
-            solve_buffer: alloc_buffer(analysis.symbolic.solve_in_place_scratch::<f64>(solve_columns, Par::Seq))?,
+            factorize_buffer: Scratch::new(analysis.factorize_scratch)?,
+            solve_buffer: Scratch::new(analysis.symbolic.solve_in_place_scratch::<f64>(solve_columns, Par::Seq))?,
             solve_columns,
         })
+    }
+
+    /// This factor's storage resized for another analysis: the memory of a previous submatrix is
+    /// reused (a contact that moves changes the coupled rows every frame; fresh allocations
+    /// there cost page faults).
+    fn reuse_for(mut self, analysis: &Analysis) -> Result<Self, SolveError> {
+        self.l_values.clear();
+        self.l_values.resize(analysis.symbolic.len_val(), 0.0);
+        self.permuted_values.clear();
+        self.permuted_values.resize(analysis.permuted_slot.len(), 0.0);
+        self.factorize_buffer.reserve(analysis.factorize_scratch)?;
+        self.solve_buffer.reserve(analysis.symbolic.solve_in_place_scratch::<f64>(self.solve_columns, Par::Seq))?;
+        Ok(self)
     }
 
     /// Factorizes the matrix whose value slots are `values` (what faer's `factorize_numeric_llt`
@@ -306,7 +344,7 @@ impl Numeric {
             *permuted = values[slot];
         }
         let a = SparseColMatRef::new(analysis.permuted.as_ref(), &self.permuted_values);
-        let stack = MemStack::new(&mut self.factorize_buffer);
+        let stack = self.factorize_buffer.stack();
         match analysis.symbolic.raw() {
             SymbolicCholeskyRaw::Simplicial(raw) => simplicial::factorize_simplicial_numeric_llt(
                 &mut self.l_values,
@@ -332,12 +370,12 @@ impl Numeric {
     /// Solves in place for `columns` column-major right-hand sides of the analysis' dimension.
     fn solve(&mut self, analysis: &Analysis, rhs: &mut [f64], columns: usize) -> Result<(), SolveError> {
         if columns > self.solve_columns {
-            self.solve_buffer = alloc_buffer(analysis.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq))?;
+            self.solve_buffer.reserve(analysis.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq))?;
             self.solve_columns = columns;
         }
         let llt = LltRef::new(&analysis.symbolic, &self.l_values);
         let b = MatMut::from_column_major_slice_mut(rhs, analysis.symbolic.nrows(), columns);
-        llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, MemStack::new(&mut self.solve_buffer));
+        llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, self.solve_buffer.stack());
         Ok(())
     }
 }
@@ -522,9 +560,12 @@ impl NumericFactor {
         let reusable = self.reduced.as_ref().is_some_and(|r| r.rows.coupled == self.coupled);
         if !reusable {
             let (rows, new) = self.symbolic.rows_analysis(&self.coupled)?;
-            let numeric = Numeric::new(&rows.analysis)?;
             self.reduced_analyses += usize::from(new);
-            self.reduced = Some(ReducedSystem { rows, numeric, rhs: Vec::new() });
+            let (numeric, rhs) = match self.reduced.take() {
+                Some(previous) => (previous.numeric.reuse_for(&rows.analysis)?, previous.rhs),
+                None => (Numeric::new(&rows.analysis)?, Vec::new()),
+            };
+            self.reduced = Some(ReducedSystem { rows, numeric, rhs });
         }
         let reduced = self.reduced.as_mut().ok_or(SolveError::NotFactorized)?;
         reduced.numeric.factorize(&reduced.rows.analysis, values)?;
@@ -740,9 +781,19 @@ mod tests {
 
         // Other coupled rows: a new analysis; a disk covering most of the grid: the whole pattern.
         let (_, wider) = disk_system(0.6);
-        reduced.factorize(&SymmetricMatrix::from_values(symbolic.pattern(), wider.values().to_vec()).unwrap()).unwrap();
+        let wider = SymmetricMatrix::from_values(symbolic.pattern(), wider.values().to_vec()).unwrap();
+        reduced.factorize(&wider).unwrap();
         assert_eq!(reduced.reduced_analyses(), 2);
         assert!(reduced.factorized_rows() > coupled);
+        // The previous submatrix's storage is reused: still bit-identical to a fresh factor.
+        let mut fresh = NumericFactor::factorize_new(&symbolic, &wider).unwrap();
+        assert_eq!(bits(reduced.solve(&b[..n]).unwrap()), bits(fresh.solve(&b[..n]).unwrap()));
+        let (_, narrower) = disk_system(0.4);
+        let narrower = SymmetricMatrix::from_values(symbolic.pattern(), narrower.values().to_vec()).unwrap();
+        reduced.factorize(&narrower).unwrap();
+        let mut fresh = NumericFactor::factorize_new(&symbolic, &narrower).unwrap();
+        assert_eq!(bits(reduced.solve(&b[..n]).unwrap()), bits(fresh.solve(&b[..n]).unwrap()));
+        assert!(residual(&narrower, &reduced.solve(&b[..n]).unwrap(), &b[..n]) < 1e-12);
         let (_, most) = disk_system(10.0);
         reduced.factorize(&SymmetricMatrix::from_values(symbolic.pattern(), most.values().to_vec()).unwrap()).unwrap();
         assert_eq!(reduced.factorized_rows(), n);
