@@ -6,7 +6,8 @@
 //! ([`SymbolicFactor`], shared through an `Arc`) and reused by every numeric factorization on that
 //! region — heat step, Poisson, diffusions — across solves and across animation frames.
 //! A [`NumericFactor`] owns the values of `L` and its scratch memory and refactorizes in place when
-//! only the matrix values change: no allocation after the first factorization.
+//! only the matrix values change: no allocation after the first factorization (when the coupled
+//! rows below change, the submatrix's storage is resized in place, growing only when needed).
 //!
 //! **Decoupled rows.** Most systems of a frame are local: the faces outside the parametrization
 //! domain 𝒫 or outside 𝒟 weigh 0, so their vertices' rows hold only a diagonal (a pin) and are
