@@ -23,18 +23,21 @@
 //!   vertices lie within `domain_radius` R (default 2 φ_max) of ∂𝒞 along edges (Dijkstra seeded
 //!   at the ends of ∂𝒞's edges with their distance to the boundary point). Edge paths are never
 //!   shorter than geodesics, so every vertex of 𝒫 is within R on the surface, and every vertex
-//!   within φ_max of ∂𝒞 has full weight unless edge paths are 1.6× longer than geodesics. The faces'
-//!   cut-face weights are multiplied by a smoothstep of their farthest vertex's distance, 1 up to
-//!   0.8 R and 0 from R on (the same mechanism as the faces inside 𝒞: same pattern, same symbolic
-//!   factorization); vertices of no weighted face are undetermined (φ = +∞). The result depends
-//!   only on the mesh within R, so a region holding that part gives the whole object's φ up to
-//!   round-off. **Why 2 φ_max:** the fading faces insulate, which bends X near them; on a grid
-//!   with φ_max = 12 edges the largest error of φ in 𝒟 against the exact distance is 1.9% of φ_max
+//!   within φ_max of ∂𝒞 has full weight unless edge paths are 1.6× longer than geodesics. The
+//!   faces' cut-face weights are multiplied by a smoothstep of their farthest vertex's distance, 1
+//!   up to 0.8 R and 0 from R on (the same mechanism as the faces inside 𝒞: same pattern, same
+//!   symbolic factorization; the factorizations leave the decoupled rows out); vertices of no
+//!   weighted face are undetermined (φ = +∞). The result depends only on the mesh within R, so a
+//!   region holding that part gives the whole object's φ up to round-off.
+//!   **Why 2 φ_max:** the fading faces insulate, which bends X near them; on a grid with
+//!   φ_max = 12 edges the largest error of φ in 𝒟 against the exact distance is 1.9% of φ_max
 //!   with R = 1.5 φ_max, 0.73% with 2 φ_max, 0.48% with 2.5 φ_max, 0.44% on the whole grid (test
-//!   `the_domain_holds_the_deformable_region_and_barely_changes_phi`). **Why a fade, not a cut:** the edge-path distances move continuously with ∂𝒞 but
-//!   a face set does not; with a hard border at 1.5 φ_max (and a Dirichlet condition on it) φ
-//!   inside 𝒟 jumped by 4.4× the step of a zone sliding across a grid, with the fade by 1.3×. The fading faces insulate (a natural condition), so the heat step sees no Dirichlet
-//!   condition there. `f64::INFINITY` solves on all of 𝒲.
+//!   `the_domain_holds_the_deformable_region_and_barely_changes_phi`).
+//!   **Why a fade, not a cut:** the edge-path distances move continuously with ∂𝒞 but a face set
+//!   does not; with a hard border at 1.5 φ_max (and a Dirichlet condition on it) φ inside 𝒟
+//!   jumped by 4.4× the step of a zone sliding across a grid, with the fade by 1.3×. The fading
+//!   faces insulate (a natural condition), so the heat step sees no Dirichlet condition there.
+//!   `f64::INFINITY` solves on all of 𝒲.
 //! - **h.** The heat time uses the given length scale (the pipeline passes the object's mean edge
 //!   length, for whole and cut regions alike) or the region's mean edge length; it is returned in
 //!   [`Parametrization::edge_length`] for the later stages.
@@ -331,7 +334,7 @@ mod tests {
             let params = ParametrizeParams { domain_radius, ..params(extent) };
             parametrize(&mesh, &topology, solver, &contact, &params).unwrap()
         };
-        let factor: f64 = std::env::var("DF").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0);
+        let factor = crate::deform::DEFAULT_DOMAIN_FACTOR;
         let local = solve(&mut solver, factor * extent);
         let whole = solve(&mut solver, f64::INFINITY);
         let (mut worst, mut beyond, mut edge_changes) = (0.0f64, 0, 0);

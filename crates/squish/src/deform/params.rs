@@ -203,7 +203,12 @@ impl DeformParams {
 
     /// The radius of the parametrization domain in world units.
     pub fn domain_radius(&self) -> f64 {
-        self.domain_radius.unwrap_or(self.domain_factor * self.extent)
+        self.domain_radius_for(self.extent)
+    }
+
+    /// The radius of the parametrization domain in world units for the extent `extent`.
+    pub fn domain_radius_for(&self, extent: f64) -> f64 {
+        self.domain_radius.unwrap_or(self.domain_factor * extent)
     }
 
     /// With another direction-field method.

@@ -384,7 +384,7 @@ impl Numeric {
 /// The coupled rows' principal submatrix: its analysis (kept while the same rows are coupled) and
 /// its factor.
 struct ReducedSystem {
-    rows: Arc<RowsAnalysis>,
+    shared: Arc<RowsAnalysis>,
     numeric: Numeric,
     /// Gathered right-hand sides.
     rhs: Vec<f64>,
@@ -467,7 +467,7 @@ impl NumericFactor {
         match self.layout {
             Layout::None => 0,
             Layout::Whole => self.symbolic.dimension(),
-            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.rows.rows.len()),
+            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.shared.rows.len()),
         }
     }
 
@@ -558,18 +558,18 @@ impl NumericFactor {
             self.reduced = None;
             return Ok(Layout::Reduced);
         }
-        let reusable = self.reduced.as_ref().is_some_and(|r| r.rows.coupled == self.coupled);
+        let reusable = self.reduced.as_ref().is_some_and(|r| r.shared.coupled == self.coupled);
         if !reusable {
-            let (rows, new) = self.symbolic.rows_analysis(&self.coupled)?;
+            let (shared, new) = self.symbolic.rows_analysis(&self.coupled)?;
             self.reduced_analyses += usize::from(new);
             let (numeric, rhs) = match self.reduced.take() {
-                Some(previous) => (previous.numeric.reuse_for(&rows.analysis)?, previous.rhs),
-                None => (Numeric::new(&rows.analysis)?, Vec::new()),
+                Some(previous) => (previous.numeric.reuse_for(&shared.analysis)?, previous.rhs),
+                None => (Numeric::new(&shared.analysis)?, Vec::new()),
             };
-            self.reduced = Some(ReducedSystem { rows, numeric, rhs });
+            self.reduced = Some(ReducedSystem { shared, numeric, rhs });
         }
         let reduced = self.reduced.as_mut().ok_or(SolveError::NotFactorized)?;
-        reduced.numeric.factorize(&reduced.rows.analysis, values)?;
+        reduced.numeric.factorize(&reduced.shared.analysis, values)?;
         Ok(Layout::Reduced)
     }
 
@@ -608,13 +608,13 @@ impl NumericFactor {
                     }
                 }
                 let Some(reduced) = self.reduced.as_mut() else { return Ok(()) };
-                let rows = &reduced.rows.rows;
+                let rows = &reduced.shared.rows;
                 let m = rows.len();
                 reduced.rhs.clear();
                 for column in rhs.chunks_exact(n) {
                     reduced.rhs.extend(rows.iter().map(|&v| column[v]));
                 }
-                reduced.numeric.solve(&reduced.rows.analysis, &mut reduced.rhs, columns)?;
+                reduced.numeric.solve(&reduced.shared.analysis, &mut reduced.rhs, columns)?;
                 for (column, solved) in rhs.chunks_exact_mut(n).zip(reduced.rhs.chunks_exact(m)) {
                     for (&v, &x) in rows.iter().zip(solved) {
                         column[v] = x;

@@ -31,20 +31,21 @@
 //!    triangle–triangle tests) and the vertices inside a partner (exact winding number for a
 //!    closed partner, fast generalized winding number ≥ ½ for an open one). Partners are the other
 //!    objects of the object's pairs, taken whole.
-//! 2. **Band width**: `g = max(d, 2·φ̃)`, φ̃ being the object's fixed extent or an over-estimate of
+//! 2. **Band width**: `g = max(d, domain_factor·φ̃)`, φ̃ being the object's fixed extent or an over-estimate of
 //!    its automatic extent ([`super::automatic_extent`] with the sizes of the components the core
 //!    touches, the sizes of the partner components near the core, and the core's area in place of
 //!    the contact area). 𝒟 lies within φ_max of ∂𝒞 along the surface and ∂𝒞 lies in the core or
-//!    next to it; edge paths are longer than geodesics: the cut is 2·φ̃ away — the radius of the
-//!    parametrization domain 𝒫 (below) — so neither 𝒟 nor 𝒫 reaches it. If 𝒟 still does (a coarse mesh, a contact zone far beyond the intersection), the
-//!    deformation clamps the extent (below) and reports it.
+//!    next to it; edge paths are longer than geodesics: the cut is `domain_factor·φ̃` away (2·φ̃
+//!    by default) — the radius of the parametrization domain 𝒫 (below) — so neither 𝒟 nor 𝒫
+//!    reaches it. If 𝒟 still does (a coarse mesh, a contact zone far beyond the intersection),
+//!    the deformation clamps the extent (below) and reports it.
 //! 3. **Growth**: every face with a vertex within edge-path distance `g` of the core
 //!    ([`edge_path_distances`]); pinches closed ([`close_pinches`]); split into connected pieces.
 //!
 //! The rule depends on this frame only (never on earlier frames), so results do not depend on the
 //! frames processed before. A region's face set changes when faces cross the band's edge; its
-//! caches are then rebuilt (below). The change moves the region's outer border, 2·φ̃ away from the
-//! contact, beyond 𝒫: the result does not change (up to round-off).
+//! caches are then rebuilt (below). The change moves the region's outer border, `domain_factor·φ̃`
+//! away from the contact, beyond 𝒫: the result does not change (up to round-off).
 //!
 //! # Regions too small for the extent
 //! A region's cut border (its vertices shared with faces outside it) must not move: faces outside
@@ -67,18 +68,22 @@
 //! (of the components it touches: heat time, slope confidence), not its own; the constraint
 //! weights do not depend on the region either. So a region that holds 𝒫 gives the whole object's
 //! result up to round-off: ≤ 1.1·10⁻¹⁵ on a ball pressing a slab (masks holding 𝒫, the automatic
-//! band), ≤ 1.9·10⁻¹⁵ on the `press-100k` benchmark scene (tests). The band's width (2·φ̃ from the intersection,
-//! φ̃ ≥ φ_max) is the domain's radius measured from a slightly smaller set, so the band holds 𝒫
-//! in practice; when 𝒫 reaches a region's cut (a tight mask, a coarse mesh), the region reports it
-//! ([`super::RegionStats::domain_reaches_cut`]) and its φ differs (3.4·10⁻³ of the
-//! displacement for a mask of u ≤ 1.25 and φ_max = 0.8, 3.5·10⁻² for φ_max = 0.5). A region that covers the whole object *is* the whole
-//! object: bit-identical results.
+//! band), ≤ 1.9·10⁻¹⁵ on the `press-100k` benchmark scene (tests). The band's width
+//! (`domain_factor·φ̃` from the intersection, φ̃ ≥ φ_max) is the domain's radius measured from a
+//! slightly smaller set, so the band holds 𝒫 in practice; when 𝒫 reaches a region's cut (a tight
+//! mask, a coarse mesh), the region reports it ([`super::RegionStats::domain_reaches_cut`]) and its
+//! φ differs (3.4·10⁻³ of the displacement for a mask of u ≤ 1.25 and φ_max = 0.8, 3.5·10⁻² for
+//! φ_max = 0.5). A region that covers the whole object *is* the whole object: bit-identical
+//! results.
 //!
 //! # Cost (thesis §7.5)
-//! The factorizations run over the whole region (𝒫's complement is decoupled but stays in the
-//! pattern), so smaller regions are cheaper: `Distance` keeps regions about 2× the extent around
-//! the contact. On `squish bench`'s `press-100k` (a ball pressing a 100k-vertex sphere) the
-//! automatic region is 3.6× faster per frame than the whole object (1 thread).
+//! The linear systems factorize only their coupled rows (𝒫's for the heat and Poisson steps, 𝒟's
+//! for the guide; [`crate::linalg::NumericFactor`]), so a whole object costs about what a band
+//! around its contact costs there. What still grows with the region is linear work per frame
+//! (assembly, refits, the domain's edge-path distances) and a new symbolic analysis whenever an
+//! automatic band changes its faces. On `squish bench`'s `press-100k` (a ball pressing a
+//! 100k-vertex sphere) the whole object and the automatic band run at the same speed (±10%, 1
+//! thread); before the systems were restricted to their coupled rows the band was 3.6× faster.
 //!
 //! # Caches
 //! Each region keeps its sub-mesh, topology, cut-border flags, triangle tree (refitted every frame)
@@ -113,8 +118,8 @@ pub enum WorkingRegion {
     Mask(Vec<bool>),
     /// Several masks, each as [`WorkingRegion::Mask`]; no face may be in two of them.
     Masks(Vec<Vec<bool>>),
-    /// Automatic: the faces within this edge-path distance (world units, widened to 2 × the
-    /// extent) of the intersection with the paired objects; each connected piece is a region.
+    /// Automatic: the faces within this edge-path distance (world units, widened to the
+    /// parametrization domain's radius, `domain_factor` × the extent) of the intersection with the paired objects; each connected piece is a region.
     Distance(f64),
 }
 
@@ -406,7 +411,8 @@ fn distance_pieces(
         return Vec::new();
     }
 
-    // Band width: the user's distance, widened to 2 × an over-estimate of the extent.
+    // Band width: the user's distance, widened to the domain radius for an over-estimate of the
+    // extent.
     let extent = match params.extent {
         Some(extent) => extent,
         None => {
@@ -440,7 +446,7 @@ fn distance_pieces(
         }
     };
     // The parametrization domain's radius, so that the band holds 𝒫 (see the module doc).
-    let width = distance.max(crate::deform::DEFAULT_DOMAIN_FACTOR * extent);
+    let width = distance.max(params.domain_factor * extent);
 
     let mut selected = vec![false; mesh.num_triangles()];
     for (v, _) in edge_path_distances(mesh, topology, &sources, width) {

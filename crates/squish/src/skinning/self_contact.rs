@@ -573,7 +573,7 @@ pub fn plan_articulation(
     let automatic = FOLD_EXTENT_SCALE * crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     // Fixed by the first extent, so that a clamped second attempt sees the same φ.
-    let domain_radius = params.domain_radius.unwrap_or(params.domain_factor * extent);
+    let domain_radius = params.domain_radius_for(extent);
     let mut plans: Vec<RegionPlan> = Vec::with_capacity(2);
     for attempt in 0..2 {
         plans.clear();
