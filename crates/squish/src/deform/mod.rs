@@ -396,18 +396,13 @@ pub fn plan_region(
     let mut bulge_weights = vec![0.0; n];
     // The profile samples (an inversion of f₁ per vertex of 𝒟, the costliest part of this stage)
     // are independent: computed in parallel, used in vertex order.
+    let sampler = profile::ProfileSampler::new(&params.profile);
     let samples: Vec<Option<profile::ProfileSample>> = (0..n)
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
             (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v]).then(|| {
-                profile::sample(
-                    &params.profile,
-                    &params.wrinkles,
-                    guide.amplitude[v],
-                    guide.slope[v],
-                    parametrization.u[v],
-                )
+                sampler.sample(&params.wrinkles, guide.amplitude[v], guide.slope[v], parametrization.u[v])
             })
         })
         .collect();
