@@ -95,6 +95,9 @@ pub struct ObjectReport {
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Breakdown {
     pub setup: f64,
+    /// Choosing the working regions and updating their caches (automatic regions follow the
+    /// contact; not a column of the thesis' tables).
+    pub regions: f64,
     pub intersection: f64,
     pub mapping: f64,
     pub contact_zone: f64,
@@ -113,6 +116,7 @@ impl Breakdown {
     fn new(total: Duration, t: &StageTimes) -> Self {
         let stages = [
             t.setup,
+            t.regions,
             t.intersection,
             t.mapping,
             t.contact_zone,
@@ -124,6 +128,7 @@ impl Breakdown {
         let named: f64 = stages.iter().map(|d| ms(*d)).sum();
         Self {
             setup: ms(t.setup),
+            regions: ms(t.regions),
             intersection: ms(t.intersection),
             mapping: ms(t.mapping),
             contact_zone: ms(t.contact_zone),
@@ -141,6 +146,7 @@ impl Breakdown {
         let p = |x: f64| if total_ms > 0.0 { 100.0 * x / total_ms } else { 0.0 };
         Self {
             setup: p(self.setup),
+            regions: p(self.regions),
             intersection: p(self.intersection),
             mapping: p(self.mapping),
             contact_zone: p(self.contact_zone),
@@ -176,6 +182,9 @@ pub struct RunReport {
     /// Rows those factorizations ran on, summed: the regions' sizes when factorized whole, fewer
     /// when the rows outside 𝒫 or 𝒟 are decoupled and left out.
     pub factorized_rows_per_frame: usize,
+    /// Of those, the rows whose factor was recomputed in the median frame (the parts of a system
+    /// that did not change keep their factor: partial refactorization).
+    pub recomputed_rows_per_frame: usize,
     /// Symbolic analyses of those coupled-row submatrices over all timed frames (one each time a
     /// system's coupled rows change).
     pub reduced_analyses_timed_frames: usize,
@@ -191,6 +200,7 @@ pub struct RunFigures<'a> {
     pub first_frame: Duration,
     pub numeric_factorizations: &'a [usize],
     pub factorized_rows: &'a [usize],
+    pub recomputed_rows: &'a [usize],
     pub reduced_analyses_timed_frames: usize,
     pub symbolic_analyses_first_frame: usize,
     pub symbolic_analyses_timed_frames: usize,
@@ -215,6 +225,7 @@ impl RunReport {
             median_frame: median,
             numeric_factorizations_per_frame: figures.numeric_factorizations.get(median).copied().unwrap_or(0),
             factorized_rows_per_frame: figures.factorized_rows.get(median).copied().unwrap_or(0),
+            recomputed_rows_per_frame: figures.recomputed_rows.get(median).copied().unwrap_or(0),
             reduced_analyses_timed_frames: figures.reduced_analyses_timed_frames,
             symbolic_analyses_first_frame: figures.symbolic_analyses_first_frame,
             symbolic_analyses_timed_frames: figures.symbolic_analyses_timed_frames,
@@ -430,12 +441,13 @@ pub fn print_table(report: &BenchReport) {
     }
     println!();
     println!(
-        "single-thread breakdown of the median frame, % (the thesis' columns; s. = factorizations, part of p./di./g.)"
+        "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions; s. = factorizations, part of p./di./g.)"
     );
     println!(
-        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>9} {:>5} {:>9}",
+        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
         "scene",
         "setup",
+        "reg.",
         "i.",
         "m.",
         "c.",
@@ -447,6 +459,7 @@ pub fn print_table(report: &BenchReport) {
         "s.",
         "fact.",
         "rows",
+        "recomp.",
         "symbolic",
         "sub",
         "peak MB"
@@ -455,9 +468,10 @@ pub fn print_table(report: &BenchReport) {
         let Some(single) = &scene.single else { continue };
         let b = &single.breakdown_percent;
         println!(
-            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>8} {:>9} {:>5} {:>9}",
+            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
             scene.name,
             b.setup,
+            b.regions,
             b.intersection,
             b.mapping,
             b.contact_zone,
@@ -469,13 +483,15 @@ pub fn print_table(report: &BenchReport) {
             b.factorization,
             single.numeric_factorizations_per_frame,
             single.factorized_rows_per_frame,
+            single.recomputed_rows_per_frame,
             format!("{}+{}", single.symbolic_analyses_first_frame, single.symbolic_analyses_timed_frames),
             single.reduced_analyses_timed_frames,
             opt(scene.peak_memory_mb, 0),
         );
     }
     println!(
-        "(fact. = numeric factorizations per frame, rows = the rows they ran on; symbolic = the regions' analyses in \
+        "(fact. = numeric factorizations per frame, rows = the rows they ran on, recomp. = the rows whose factor \
+         changed and was recomputed (the rest kept its values); symbolic = the regions' analyses in \
          the warm-up frame + in all timed frames; sub = analyses of coupled-row submatrices in all timed frames)"
     );
     if let Some(speedup) = report.automatic_region_speedup {

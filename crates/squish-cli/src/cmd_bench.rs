@@ -231,6 +231,8 @@ struct Run {
     numeric_factorizations: Vec<usize>,
     /// Rows factorized per timed frame (summed over the factorizations and objects).
     factorized_rows: Vec<usize>,
+    /// Of those, rows recomputed per timed frame.
+    recomputed_rows: Vec<usize>,
     /// Symbolic analyses of coupled-row submatrices over the timed frames.
     reduced_analyses_timed: usize,
     /// Symbolic analyses over the timed frames (0 when the caches are reused).
@@ -251,6 +253,7 @@ fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
         stats: Vec::with_capacity(frames),
         numeric_factorizations: Vec::with_capacity(frames),
         factorized_rows: Vec::with_capacity(frames),
+        recomputed_rows: Vec::with_capacity(frames),
         reduced_analyses_timed: 0,
         symbolic_analyses_timed: 0,
         symbolic_analyses_warm_up,
@@ -261,6 +264,7 @@ fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
         let deformations = || result.deformations.iter().flatten();
         run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
         run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
+        run.recomputed_rows.push(deformations().map(|d| d.stats.recomputed_rows).sum());
         run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
         run.stats.push(result.stats);
     }
@@ -276,6 +280,7 @@ impl Run {
             first_frame: self.first_frame,
             numeric_factorizations: &self.numeric_factorizations,
             factorized_rows: &self.factorized_rows,
+            recomputed_rows: &self.recomputed_rows,
             reduced_analyses_timed_frames: self.reduced_analyses_timed,
             symbolic_analyses_first_frame: self.symbolic_analyses_warm_up,
             symbolic_analyses_timed_frames: self.symbolic_analyses_timed,

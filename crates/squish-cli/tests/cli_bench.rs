@@ -81,6 +81,7 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
         let b = &single["breakdown_ms"];
         let stages = [
             "setup",
+            "regions",
             "intersection",
             "mapping",
             "contact_zone",

@@ -125,6 +125,10 @@ pub struct DeformStats {
     /// ([`crate::linalg::NumericFactor`]).
     #[serde(default)]
     pub factorized_rows: usize,
+    /// Of those, the rows whose factor was recomputed (the others kept their values because their
+    /// part of the system did not change, see [`crate::linalg::NumericFactor`]).
+    #[serde(default)]
+    pub recomputed_rows: usize,
     /// Symbolic analyses of coupled-row submatrices run by this call (0 while the coupled rows of
     /// every system stay the same).
     #[serde(default)]
@@ -331,6 +335,7 @@ pub fn plan_region(
     }
     let factorizations_before = solver.numeric_factorizations();
     let factorized_rows_before = solver.factorized_rows();
+    let recomputed_rows_before = solver.recomputed_rows();
     let reduced_analyses_before = solver.reduced_analyses();
     let factorization_time_before = solver.factorization_time();
     let mut timings = StageTimings::default();
@@ -436,6 +441,7 @@ pub fn plan_region(
             .count(),
         numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
         factorized_rows: solver.factorized_rows() - factorized_rows_before,
+        recomputed_rows: solver.recomputed_rows() - recomputed_rows_before,
         reduced_analyses: solver.reduced_analyses() - reduced_analyses_before,
         timings,
         fallbacks,

@@ -45,6 +45,7 @@ pub struct RegionSolver {
     symbolic_analyses: usize,
     numeric_factorizations: usize,
     factorized_rows: usize,
+    recomputed_rows: usize,
     factorization_time: Duration,
     /// The parallel-transport direction field's systems (method A, §5.2.1), built on first use.
     pub(crate) transport: Option<Box<super::transport::TransportCache>>,
@@ -71,6 +72,7 @@ impl RegionSolver {
             symbolic_analyses: 1,
             numeric_factorizations: 0,
             factorized_rows: 0,
+            recomputed_rows: 0,
             factorization_time: Duration::ZERO,
             transport: None,
         })
@@ -103,6 +105,14 @@ impl RegionSolver {
     /// the rest of the region is decoupled ([`crate::linalg::NumericFactor`]).
     pub fn factorized_rows(&self) -> usize {
         self.factorized_rows
+    }
+
+    /// Rows (columns of `L`) the heat, Poisson and guide factorizations actually recomputed so
+    /// far: the factorized rows when a system changed everywhere, only the changed ones and their
+    /// elimination-tree ancestors when the rest kept its values (an object that does not move;
+    /// see [`crate::linalg::NumericFactor::recomputed_columns`]).
+    pub fn recomputed_rows(&self) -> usize {
+        self.recomputed_rows
     }
 
     /// Symbolic analyses of coupled-row submatrices run so far by the heat, Poisson and guide
@@ -183,11 +193,10 @@ impl RegionSolver {
         );
         self.factorization_time += heat_time + poisson_time;
         self.numeric_factorizations += 2;
-        self.factorized_rows += [&self.heat, &self.poisson]
-            .into_iter()
-            .flatten()
-            .map(|solver| solver.factor().factorized_rows())
-            .sum::<usize>();
+        for solver in [&self.heat, &self.poisson].into_iter().flatten() {
+            self.factorized_rows += solver.factor().factorized_rows();
+            self.recomputed_rows += solver.factor().recomputed_columns();
+        }
         heat_result.map_err(DeformError::solve("heat"))?;
         poisson_result.map_err(DeformError::solve("Poisson"))?;
         self.poisson_generation = self.generation;
@@ -235,6 +244,7 @@ impl RegionSolver {
         self.factorization_time += start.elapsed();
         self.numeric_factorizations += 1;
         self.factorized_rows += system.factor.factorized_rows();
+        self.recomputed_rows += system.factor.recomputed_columns();
         result.map_err(DeformError::solve("guide"))?;
         self.guide.as_mut().ok_or(DeformError::Solve { stage: "guide", source: SolveError::NotFactorized })
     }

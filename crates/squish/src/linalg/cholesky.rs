@@ -1,13 +1,20 @@
 //! Sparse Cholesky factorization with symbolic reuse (thesis ch. 7 §5.2: factorizations dominate
-//! the cost of a frame), on faer's low-level API.
+//! the cost of a frame): faer's symbolic analysis, our numeric kernel.
 //!
-//! The symbolic analysis (AMD fill-reducing ordering, elimination tree, supernodal structure)
-//! depends on the [`SparsePattern`] only, so it is done once per working region
+//! The symbolic analysis (AMD fill-reducing ordering, elimination tree, supernodal structure, from
+//! faer) depends on the [`SparsePattern`] only, so it is done once per working region
 //! ([`SymbolicFactor`], shared through an `Arc`) and reused by every numeric factorization on that
 //! region — heat step, Poisson, diffusions — across solves and across animation frames.
 //! A [`NumericFactor`] owns the values of `L` and its scratch memory and refactorizes in place when
 //! only the matrix values change: no allocation after the first factorization (when the coupled
 //! rows below change, the submatrix's storage is resized in place, growing only when needed).
+//!
+//! **Partial refactorization.** The numeric factorization and the solves are ours
+//! ([`super::supernodal`]): a factor remembers the values it was computed from, and a new
+//! factorization recomputes only the supernodes whose columns changed and their ancestors in the
+//! elimination tree, keeping the rest of `L` — bit-identical to a fresh factorization, so frames
+//! stay independent of each other. A static object pressed by a moving one changes only around the
+//! contact (its cotangent weights are the same bits every frame).
 //!
 //! **Decoupled rows.** Most systems of a frame are local: the faces outside the parametrization
 //! domain 𝒫 or outside 𝒟 weigh 0, so their vertices' rows hold only a diagonal (a pin) and are
@@ -26,34 +33,26 @@
 //!
 //! Everything runs with `Par::Seq`: our systems are small (10³–10⁵ unknowns), where faer's
 //! multithreading costs more than it gains; the pipeline runs independent regions and frames in
-//! parallel with rayon instead. Sequential faer is deterministic: the same matrix gives
-//! bit-identical factors and solutions.
+//! parallel with rayon instead. The kernels are sequential with a fixed order: the same matrix
+//! gives bit-identical factors and solutions, and a column's solution does not depend on how many
+//! columns are solved together.
 
 use std::sync::{Arc, Mutex};
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
+use faer::linalg::cholesky::llt::factor::LltError;
 use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
-    factorize_symbolic_cholesky, simplicial, supernodal,
+    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::sparse::utils::permute_self_adjoint_to_unsorted;
 use faer::sparse::{FaerError, SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::Side;
 
+use super::supernodal::{SupernodalPlan, Workspace};
 use super::{SolveError, SparsePattern, SymmetricMatrix};
-
-/// Systems with at least this many rows always use faer's supernodal (blocked) factorization.
-///
-/// faer picks simplicial or supernodal from the ratio flops / nnz(L) of the AMD ordering. On our
-/// surface Laplacians that heuristic picks simplicial for flat or moderately sized regions (an
-/// open 109 × 109 grid, a 1.5k-vertex ball), where the supernodal factorization is nevertheless
-/// about twice as fast (grid: 6.9 → 3.2 ms; ball: 0.63 → 0.33 ms, for a solve 0.3 ms resp.
-/// 0.03 ms slower), and a frame factorizes once per solve or two. Below ~500 rows the two are
-/// within a few microseconds; we keep faer's choice there.
-const SUPERNODAL_MIN_DIMENSION: usize = 1000;
 
 /// The coupled rows are factorized alone when they are at most this fraction of the rows (see the
 /// module doc). Above it the saved flops no longer pay for the submatrix's symbolic analysis when
@@ -72,19 +71,20 @@ const RECENT_ROW_ANALYSES: usize = 3;
 /// values.
 ///
 /// The layout lets a numeric factorization gather the values into the permuted order with one
-/// indexed copy and call faer's numeric kernel directly, instead of having faer recompute the
-/// permuted pattern every time (`permute_self_adjoint_to_unsorted` cost about a sixth of each
-/// factorization). It is computed by that same faer function, once, on the slot numbers, so the
-/// kernel receives exactly the matrix faer would have built: the factors are bit-identical.
+/// indexed copy (and see which columns changed) instead of recomputing the permuted pattern every
+/// time (faer's `permute_self_adjoint_to_unsorted` cost about a sixth of each factorization). It
+/// is computed by that same faer function, once, on the slot numbers. The analysis is always
+/// supernodal: our kernel ([`super::supernodal`]) works on supernodes, and is faster than faer's
+/// simplicial kernel on the small systems where faer would pick it.
 #[derive(Debug)]
 struct Analysis {
     symbolic: SymbolicCholesky<usize>,
-    /// `PAPᵀ`'s pattern, in the triangle the numeric kernel reads (upper for simplicial, lower for
-    /// supernodal), in faer's own entry order.
+    /// `PAPᵀ`'s pattern, lower triangle, in faer's own entry order.
     permuted: SymbolicSparseColMat<usize>,
     /// Entry `k` of `permuted` is value slot `permuted_slot[k]` of the region's matrices.
     permuted_slot: Vec<usize>,
-    factorize_scratch: StackReq,
+    /// Our numeric kernel's walk of the supernodes ([`super::supernodal`]).
+    plan: SupernodalPlan,
 }
 
 impl Analysis {
@@ -95,26 +95,23 @@ impl Analysis {
         entry_slot: Option<&[usize]>,
         ordering: SymmetricOrdering<'_, usize>,
     ) -> Result<Self, SolveError> {
-        let supernodal_flop_ratio_threshold = if structure.nrows() >= SUPERNODAL_MIN_DIMENSION {
-            SupernodalThreshold::FORCE_SUPERNODAL
-        } else {
-            SupernodalThreshold::AUTO
+        // Always supernodal: our numeric kernel works on supernodes (see `super::supernodal`).
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
         };
-        let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold, ..Default::default() };
         let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
         let symbolic =
             factorize_symbolic_cholesky(structure, Side::Lower, ordering, params).map_err(|e| analysis_error(&e))?;
         let (permuted, permuted_slot) =
             permuted_layout(structure, entry_slot, &symbolic).map_err(|e| analysis_error(&e))?;
-        let factorize_scratch = match symbolic.raw() {
+        let plan = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(raw) => SupernodalPlan::new(raw),
             SymbolicCholeskyRaw::Simplicial(_) => {
-                simplicial::factorize_simplicial_numeric_llt_scratch::<usize, f64>(symbolic.nrows())
-            }
-            SymbolicCholeskyRaw::Supernodal(raw) => {
-                supernodal::factorize_supernodal_numeric_llt_scratch::<usize, f64>(raw, Par::Seq, Default::default())
+                return Err(SolveError::Analysis { reason: "faer returned a simplicial analysis".into() });
             }
         };
-        Ok(Self { symbolic, permuted, permuted_slot, factorize_scratch })
+        Ok(Self { symbolic, permuted, permuted_slot, plan })
     }
 }
 
@@ -272,111 +269,97 @@ fn permuted_layout(
     Ok((structure, permuted_slot))
 }
 
-fn alloc_buffer(req: StackReq) -> Result<MemBuffer, SolveError> {
-    MemBuffer::try_new(req)
-        .map_err(|_| SolveError::Analysis { reason: "out of memory for the factorization scratch".into() })
-}
-
 /// The numeric factor `L` of one [`Analysis`] and its scratch memory.
 struct Numeric {
     l_values: Vec<f64>,
-    /// The matrix's values in the permuted layout of the analysis.
+    /// The matrix's values in the permuted layout of the analysis: those `l_values` were computed
+    /// from when `valid`.
     permuted_values: Vec<f64>,
-    factorize_buffer: Scratch,
-    solve_buffer: Scratch,
-    /// Number of right-hand-side columns `solve_buffer` is sized for.
-    solve_columns: usize,
-}
-
-/// A scratch buffer and the size and alignment it was allocated for.
-struct Scratch {
-    buffer: MemBuffer,
-    bytes: usize,
-    align: usize,
-}
-
-impl Scratch {
-    fn new(req: StackReq) -> Result<Self, SolveError> {
-        Ok(Self { buffer: alloc_buffer(req)?, bytes: req.size_bytes(), align: req.align_bytes() })
-    }
-
-    /// Makes room for `req`, keeping the buffer when it is large and aligned enough.
-    fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
-        if req.size_bytes() > self.bytes || req.align_bytes() > self.align {
-            *self = Self::new(req)?;
-        }
-        Ok(())
-    }
-
-    fn stack(&mut self) -> &mut MemStack {
-        MemStack::new(&mut self.buffer)
-    }
+    /// `l_values` is the factor of `permuted_values` (a partial refactorization may start from it).
+    valid: bool,
+    /// Per supernode: its columns changed in the factorization under way.
+    changed: Vec<bool>,
+    /// Columns the last factorization recomputed.
+    recomputed_columns: usize,
+    work: Workspace,
+    /// One permuted right-hand side.
+    permuted_rhs: Vec<f64>,
 }
 
 impl Numeric {
     fn new(analysis: &Analysis) -> Result<Self, SolveError> {
-        let solve_columns = 1;
         Ok(Self {
             l_values: vec![0.0; analysis.symbolic.len_val()],
             permuted_values: vec![0.0; analysis.permuted_slot.len()],
-            factorize_buffer: Scratch::new(analysis.factorize_scratch)?,
-            solve_buffer: Scratch::new(analysis.symbolic.solve_in_place_scratch::<f64>(solve_columns, Par::Seq))?,
-            solve_columns,
+            valid: false,
+            changed: Vec::new(),
+            recomputed_columns: 0,
+            work: Workspace::default(),
+            permuted_rhs: Vec::new(),
         })
     }
 
     /// This factor's storage resized for another analysis: the memory of a previous submatrix is
     /// reused (a contact that moves changes the coupled rows every frame; fresh allocations
-    /// there cost page faults).
+    /// there cost page faults). The next factorization is a whole one.
     fn reuse_for(mut self, analysis: &Analysis) -> Result<Self, SolveError> {
         self.l_values.clear();
         self.l_values.resize(analysis.symbolic.len_val(), 0.0);
         self.permuted_values.clear();
         self.permuted_values.resize(analysis.permuted_slot.len(), 0.0);
-        self.factorize_buffer.reserve(analysis.factorize_scratch)?;
-        self.solve_buffer.reserve(analysis.symbolic.solve_in_place_scratch::<f64>(self.solve_columns, Par::Seq))?;
+        self.valid = false;
         Ok(self)
     }
 
-    /// Factorizes the matrix whose value slots are `values` (what faer's `factorize_numeric_llt`
-    /// does, minus recomputing the permuted pattern).
+    /// Factorizes the matrix whose value slots are `values`: gathers them into the permuted
+    /// layout, marks the supernodes whose columns changed since the factor was last computed, and
+    /// recomputes those and their ancestors ([`super::supernodal`]; everything when the factor is
+    /// not valid).
     fn factorize(&mut self, analysis: &Analysis, values: &[f64]) -> Result<(), LltError> {
-        for (permuted, &slot) in self.permuted_values.iter_mut().zip(&analysis.permuted_slot) {
-            *permuted = values[slot];
+        let plan = &analysis.plan;
+        let partial = self.valid;
+        self.valid = false;
+        self.changed.clear();
+        self.changed.resize(plan.len(), false);
+        let col_ptr = analysis.permuted.col_ptr();
+        for j in 0..analysis.permuted.ncols() {
+            let mut differs = false;
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                let value = values[analysis.permuted_slot[k]];
+                // Bitwise: −0 and +0 may give different factors.
+                if value.to_bits() != self.permuted_values[k].to_bits() {
+                    self.permuted_values[k] = value;
+                    differs = true;
+                }
+            }
+            if differs {
+                self.changed[plan.supernode_of(j)] = true;
+            }
         }
         let a = SparseColMatRef::new(analysis.permuted.as_ref(), &self.permuted_values);
-        let stack = self.factorize_buffer.stack();
-        match analysis.symbolic.raw() {
-            SymbolicCholeskyRaw::Simplicial(raw) => simplicial::factorize_simplicial_numeric_llt(
-                &mut self.l_values,
-                a,
-                LltRegularization::default(),
-                raw,
-                stack,
-            )
-            .map(|_| ()),
-            SymbolicCholeskyRaw::Supernodal(raw) => supernodal::factorize_supernodal_numeric_llt(
-                &mut self.l_values,
-                a,
-                LltRegularization::default(),
-                raw,
-                Par::Seq,
-                stack,
-                Default::default(),
-            )
-            .map(|_| ()),
-        }
+        let changed = partial.then_some(self.changed.as_slice());
+        self.recomputed_columns = plan.factorize(a, &mut self.l_values, changed, &mut self.work)?;
+        self.valid = true;
+        Ok(())
     }
 
     /// Solves in place for `columns` column-major right-hand sides of the analysis' dimension.
     fn solve(&mut self, analysis: &Analysis, rhs: &mut [f64], columns: usize) -> Result<(), SolveError> {
-        if columns > self.solve_columns {
-            self.solve_buffer.reserve(analysis.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq))?;
-            self.solve_columns = columns;
+        let n = analysis.symbolic.nrows();
+        let perm = analysis.symbolic.perm().map(|p| p.arrays());
+        self.permuted_rhs.resize(n, 0.0);
+        for column in rhs.chunks_exact_mut(n.max(1)).take(columns) {
+            let x = &mut self.permuted_rhs;
+            match perm {
+                Some((forward, _)) => x.iter_mut().zip(forward).for_each(|(x, &old)| *x = column[old]),
+                None => x.copy_from_slice(column),
+            }
+            analysis.plan.solve_in_place(&self.l_values, x);
+            match perm {
+                Some((_, inverse)) => column.iter_mut().zip(inverse).for_each(|(c, &new)| *c = x[new]),
+                None => column.copy_from_slice(x),
+            }
         }
-        let llt = LltRef::new(&analysis.symbolic, &self.l_values);
-        let b = MatMut::from_column_major_slice_mut(rhs, analysis.symbolic.nrows(), columns);
-        llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, self.solve_buffer.stack());
         Ok(())
     }
 }
@@ -475,6 +458,28 @@ impl NumericFactor {
     /// of coupled rows changes).
     pub fn reduced_analyses(&self) -> usize {
         self.reduced_analyses
+    }
+
+    /// Makes the next factorization a whole one (for timing the kernel): forgets the values the
+    /// factor was computed from, so no part of it is kept.
+    pub fn forget_previous_values(&mut self) {
+        if let Some(whole) = &mut self.whole {
+            whole.valid = false;
+        }
+        if let Some(reduced) = &mut self.reduced {
+            reduced.numeric.valid = false;
+        }
+    }
+
+    /// Columns of `L` the last factorization computed: all of them for a whole factorization,
+    /// those whose values changed and their ancestors for a partial one (see
+    /// [`super::supernodal`]).
+    pub fn recomputed_columns(&self) -> usize {
+        match self.layout {
+            Layout::None => 0,
+            Layout::Whole => self.whole.as_ref().map_or(0, |w| w.recomputed_columns),
+            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.numeric.recomputed_columns),
+        }
     }
 
     /// Factorizes `matrix` (on the same pattern as the symbolic analysis) in place, reusing the
@@ -666,6 +671,8 @@ mod tests {
         ConstrainedSystem, ConstraintParams, EdgeConstraint, Operator, cotangent_stiffness, lumped_mass,
     };
     use crate::mesh::{Topology, shapes};
+    use faer::Par;
+    use glam::DVec3;
 
     fn residual(a: &SymmetricMatrix, x: &[f64], b: &[f64]) -> f64 {
         let ax = a.apply(x).unwrap();
@@ -837,10 +844,10 @@ mod tests {
     }
 
     #[test]
-    fn factors_are_bit_identical_to_faers_own_numeric_factorization() {
-        // Simplicial (small sphere) and supernodal (grid, larger sphere) analyses: the prepermuted
-        // values give exactly the factor faer computes from the unpermuted matrix.
-        for mesh in [shapes::icosphere(1.0, 2), shapes::grid(1.0, 1.0, 40, 31), shapes::icosphere(1.0, 4)] {
+    fn factors_match_faers_own_numeric_factorization() {
+        // Our supernodal kernel (thin and wide supernodes: a small sphere, a grid, a larger sphere)
+        // against faer's numeric factorization of the same analysis, to round-off.
+        for mesh in [shapes::icosphere(1.0, 2), shapes::grid(1.0, 1.0, 40, 31), shapes::icosphere(1.0, 5)] {
             let topology = Topology::new(&mesh);
             let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
             let symbolic = SymbolicFactor::analyze(&pattern).unwrap();
@@ -857,34 +864,115 @@ mod tests {
                     &mut theirs,
                     SparseColMatRef::new(pattern.structure(), op.matrix().values()),
                     Side::Lower,
-                    LltRegularization::default(),
+                    faer::linalg::cholesky::llt::factor::LltRegularization::default(),
                     Par::Seq,
                     MemStack::new(&mut buffer),
                     Default::default(),
                 )
                 .unwrap();
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&ours.whole.as_ref().unwrap().l_values), bits(&theirs), "{} rows", mesh.num_vertices());
+            let ours = &ours.whole.as_ref().unwrap().l_values;
+            let scale = theirs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            // Compare the lower triangles (faer leaves the upper part of diagonal blocks unspecified).
+            let SymbolicCholeskyRaw::Supernodal(raw) = symbolic.analysis.symbolic.raw() else { panic!("supernodal") };
+            let mut worst = 0.0f64;
+            for s in 0..raw.n_supernodes() {
+                let (begin, end) = (raw.supernode_begin()[s], raw.supernode_end()[s]);
+                let (width, rows) = (end - begin, end - begin + raw.nnz_per_super()[s]);
+                let offset = raw.col_ptr_for_val()[s];
+                for j in 0..width {
+                    for i in j..rows {
+                        let k = offset + j * rows + i;
+                        worst = worst.max((ours[k] - theirs[k]).abs());
+                    }
+                }
+            }
+            assert!(worst <= 1e-13 * scale, "{} rows: {worst:e} of {scale:e}", mesh.num_vertices());
         }
     }
 
-    #[test]
-    fn large_regions_factorize_supernodally_small_ones_as_faer_chooses() {
-        // A flat grid is where faer's own heuristic picks the slower simplicial factorization.
-        let mesh = shapes::grid(1.0, 1.0, 40, 40);
+    /// The heat operator of a sphere whose face weights fade inside `caps` (centre, radius): what a
+    /// static object's system looks like when contacts move on it.
+    fn sphere_with_caps(caps: &[(DVec3, f64)]) -> (Arc<SymbolicFactor>, SymmetricMatrix) {
+        let mesh = shapes::icosphere(1.0, 4);
         let topology = Topology::new(&mesh);
         let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
-        let symbolic = SymbolicFactor::analyze(&pattern).unwrap();
-        assert!(mesh.num_vertices() >= SUPERNODAL_MIN_DIMENSION && symbolic.is_supernodal());
-        let op = Operator::heat(&mesh, &pattern, None, 1e-3).unwrap();
-        let mut rng = Lcg::new(3);
-        let b: Vec<f64> = (0..mesh.num_vertices()).map(|_| rng.next_signed()).collect();
-        let x = NumericFactor::factorize_new(&symbolic, op.matrix()).unwrap().solve(&b).unwrap();
-        assert!(residual(op.matrix(), &x, &b) < 1e-12);
+        let weights: Vec<f64> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let centre: DVec3 = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+                caps.iter().fold(1.0, |w: f64, &(c, r)| w.min(((centre - c).length() / r).clamp(0.05, 1.0)))
+            })
+            .collect();
+        let a = Operator::heat(&mesh, &pattern, Some(&weights), 0.01).unwrap().matrix().clone();
+        (SymbolicFactor::analyze(&pattern).unwrap(), a)
+    }
 
-        let small = shapes::icosphere(1.0, 2);
-        let pattern = SparsePattern::shared(&small, &Topology::new(&small)).unwrap();
-        assert!(!SymbolicFactor::analyze(&pattern).unwrap().is_supernodal());
+    #[test]
+    fn local_changes_refactorize_part_of_the_factor_with_a_fresh_factors_bits() {
+        let poles = [DVec3::Z, -DVec3::Z, DVec3::X];
+        let (symbolic, first) = sphere_with_caps(&[(poles[0], 0.3)]);
+        let n = first.dimension();
+        let values = |caps: &[(DVec3, f64)]| {
+            SymmetricMatrix::from_values(symbolic.pattern(), sphere_with_caps(caps).1.values().to_vec()).unwrap()
+        };
+        let frames = [
+            values(&[(poles[0], 0.3)]),
+            values(&[(poles[0], 0.32)]),
+            values(&[(poles[0], 0.32), (poles[1], 0.2)]),
+            values(&[(poles[2], 0.25)]),
+            first.clone(),
+            first.clone(),
+        ];
+        let mut rng = Lcg::new(21);
+        let b: Vec<f64> = (0..n).map(|_| rng.next_signed()).collect();
+        let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut kept = NumericFactor::new(&symbolic).unwrap();
+        kept.reduce = false;
+        let mut recomputed = Vec::new();
+        for (k, a) in frames.iter().enumerate() {
+            kept.factorize(a).unwrap();
+            recomputed.push(kept.whole.as_ref().unwrap().recomputed_columns);
+            let mut fresh = NumericFactor::new(&symbolic).unwrap();
+            fresh.reduce = false;
+            fresh.factorize(a).unwrap();
+            assert_eq!(
+                bits(kept.whole.as_ref().unwrap().l_values.clone()),
+                bits(fresh.whole.as_ref().unwrap().l_values.clone()),
+                "frame {k}"
+            );
+            assert_eq!(bits(kept.solve(&b).unwrap()), bits(fresh.solve(&b).unwrap()), "frame {k}");
+        }
+        println!("columns recomputed per frame: {recomputed:?} of {n}");
+        assert_eq!(recomputed[0], n, "the first factorization is whole");
+        assert!(recomputed[1] < n / 2, "a cap that grows changes part of the factor: {}", recomputed[1]);
+        assert_eq!(recomputed[5], 0, "the same matrix twice: nothing to recompute");
+        // A failed factorization leaves nothing to start from: the next one is whole and right.
+        let mut broken = frames[2].clone();
+        let slot = symbolic.pattern().diag_slot(7);
+        broken.values_mut()[slot] = -1.0;
+        assert!(kept.factorize(&broken).is_err());
+        kept.factorize(&frames[1]).unwrap();
+        assert_eq!(kept.whole.as_ref().unwrap().recomputed_columns, n);
+        let mut fresh = NumericFactor::new(&symbolic).unwrap();
+        fresh.reduce = false;
+        fresh.factorize(&frames[1]).unwrap();
+        assert_eq!(bits(kept.solve(&b).unwrap()), bits(fresh.solve(&b).unwrap()));
+    }
+
+    #[test]
+    fn regions_of_every_size_factorize_supernodally() {
+        for mesh in [shapes::grid(1.0, 1.0, 40, 40), shapes::icosphere(1.0, 1)] {
+            let topology = Topology::new(&mesh);
+            let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
+            let symbolic = SymbolicFactor::analyze(&pattern).unwrap();
+            assert!(symbolic.is_supernodal());
+            let op = Operator::heat(&mesh, &pattern, None, 1e-3).unwrap();
+            let mut rng = Lcg::new(3);
+            let b: Vec<f64> = (0..mesh.num_vertices()).map(|_| rng.next_signed()).collect();
+            let x = NumericFactor::factorize_new(&symbolic, op.matrix()).unwrap().solve(&b).unwrap();
+            assert!(residual(op.matrix(), &x, &b) < 1e-12);
+        }
     }
 
     #[test]

@@ -54,6 +54,7 @@ mod laplacian;
 mod operators;
 mod pattern;
 mod solve;
+mod supernodal;
 mod timing;
 
 #[cfg(test)]

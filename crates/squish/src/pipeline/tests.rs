@@ -249,6 +249,36 @@ fn reusing_the_deformer_and_the_thread_count_do_not_change_the_result() {
 }
 
 #[test]
+fn frames_keep_no_trace_of_the_frames_before_them() {
+    // A static ball pressed by fingers that move: the ball's systems change only around the
+    // contacts, so a reused deformer recomputes part of their factors. Whatever came before — the
+    // previous frame, the frames in reverse order, nothing — every frame is the same bit for bit.
+    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let times = [0.0, 0.2, 0.4, 0.7, 1.0];
+    let bits = |r: &FrameResult| -> Vec<u64> {
+        r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    let fresh: Vec<Vec<u64>> = times.iter().map(|&t| bits(&run(&scene.pose(t)))).collect();
+    let mut forward = Deformer::new();
+    let (mut factorized, mut recomputed) = (0, 0);
+    for (k, &t) in times.iter().enumerate() {
+        let result = forward.deform(&scene.pose(t).frame()).unwrap();
+        assert_eq!(bits(&result), fresh[k], "frame {k} after the frames before it");
+        if k > 0 {
+            let deformations = || result.deformations.iter().flatten();
+            factorized += deformations().map(|d| d.stats.factorized_rows).sum::<usize>();
+            recomputed += deformations().map(|d| d.stats.recomputed_rows).sum::<usize>();
+        }
+    }
+    println!("rows factorized {factorized}, recomputed {recomputed}");
+    assert!(recomputed < factorized, "the static ball keeps part of its factors");
+    let mut backward = Deformer::new();
+    for (k, &t) in times.iter().enumerate().rev() {
+        assert_eq!(bits(&backward.deform(&scene.pose(t).frame()).unwrap()), fresh[k], "frame {k} in reverse order");
+    }
+}
+
+#[test]
 fn objects_apart_are_returned_unchanged() {
     let scene = scenes::ball_on_ground(-0.3, 3, 8);
     let result = run(&scene);
