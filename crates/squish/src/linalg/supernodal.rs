@@ -333,6 +333,12 @@ impl SupernodalPlan {
             let rows = width + pattern.len();
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
             for j in 0..width {
+                if x[begin + j] == 0.0 {
+                    // Nothing to propagate (skipping can only turn a −0 of the result into +0):
+                    // a right-hand side that is zero but near ∂𝒞 (the heat step, the guide) only
+                    // reaches the elimination-tree ancestors of its non-zeros.
+                    continue;
+                }
                 let column = &block[j * rows..(j + 1) * rows];
                 let xj = x[begin + j] / column[j];
                 x[begin + j] = xj;
