@@ -21,7 +21,13 @@ use rayon::prelude::*;
 
 use super::SpatialError;
 use super::batch::Batch;
-use super::bvh::{SegmentProbe, box_distance_squared, to_parry};
+use super::bvh::{SegmentProbe, box_distance_squared};
+
+/// Conversion between our box type and parry's.
+#[inline]
+fn to_parry(b: &Aabb3) -> Aabb {
+    Aabb::new(b.min, b.max)
+}
 use super::exact::segment_segment_2d;
 use crate::mesh::Aabb3;
 

@@ -265,21 +265,6 @@ mod tests {
             time("100k closest points near the surface, batch", &mut || {
                 tree.closest_point_batch(&near_surface).iter().flatten().count()
             });
-            time("  pass 1 only (parry project_point)", &mut || {
-                near_surface
-                    .par_iter()
-                    .filter_map(|&p| {
-                        tree.bvh.project_point(p, f64::MAX, |leaf, _| {
-                            let t = &tree.corners[leaf as usize];
-                            let bary = crate::spatial::closest::closest_point_on_triangle(p, t);
-                            Some(parry3d_f64::query::PointProjection::new(
-                                false,
-                                crate::spatial::closest::barycentric_point(t, bary),
-                            ))
-                        })
-                    })
-                    .count()
-            });
             time("100k winding numbers (crossings), parallel", &mut || {
                 points.par_iter().map(|&p| tree.winding_number(p)).filter(|&w| w != 0).count()
             });

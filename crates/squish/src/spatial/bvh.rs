@@ -4,26 +4,26 @@
 //! Thesis §4.1, implementation details: "The computation is accelerated by a 3D AABB tree built
 //! once for each mesh at the selection of the working regions and then updated at each frame if the
 //! surface is animated non-rigidly. This update consists in the refitting of the existing boxes
-//! without changing the tree structure." The tree is parry's [`Bvh`] (binned SAH build, which is
-//! deterministic: the same boxes give the same tree); refitting rewrites the leaf boxes in place
-//! and recomputes the inner boxes bottom-up, so the topology, and with it the traversal order, is
-//! kept. The queries themselves live in [`super::queries`].
+//! without changing the tree structure." The tree is our [`FlatBvh`] (binned SAH build, which is
+//! deterministic: the same boxes give the same tree; one triangle per leaf, leaf `i` is triangle
+//! `i` of [`TriangleBvh::faces`]); refitting rewrites the leaf boxes and recomputes the inner boxes
+//! bottom-up, so the topology, and with it the traversal order, is kept. The queries themselves
+//! live in [`super::queries`]: they visit children in the order that finds their answer first.
 //!
 //! The tree keeps its own copy of the corner positions of its triangles, so that queries read one
 //! contiguous array and cannot be handed a mismatched mesh.
 
 use glam::DVec3;
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 
 use super::SpatialError;
+use super::flat_bvh::FlatBvh;
 use crate::mesh::{Aabb3, MeshError, TriMesh};
 
 /// A BVH over (a subset of) the triangles of a mesh. Results name triangles by their face id in
 /// the mesh the tree was built from.
 #[derive(Clone, Debug)]
 pub struct TriangleBvh {
-    pub(super) bvh: Bvh,
+    pub(super) bvh: FlatBvh,
     /// Leaf `i` is face `faces[i]` of the mesh.
     pub(super) faces: Vec<u32>,
     /// Vertex indices of each leaf's triangle (to refit from new positions).
@@ -65,8 +65,8 @@ impl TriangleBvh {
         }
         check_finite(&mesh.positions)?;
         let corners: Vec<[DVec3; 3]> = indices.iter().map(|t| t.map(|i| mesh.positions[i as usize])).collect();
-        let boxes: Vec<Aabb> = corners.iter().map(triangle_aabb).collect();
-        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
+        let boxes: Vec<(DVec3, DVec3)> = corners.iter().map(triangle_aabb).collect();
+        let bvh = FlatBvh::new(&boxes);
         let bounds = bounds_of(&corners);
         Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds })
     }
@@ -82,17 +82,17 @@ impl TriangleBvh {
         // whose triangles moved since the last frame (a static ground, a prop at rest) is left
         // as is: the boxes are the same either way.
         let mut moved = false;
-        for (leaf, (tri, corners)) in self.indices.iter().zip(self.corners.iter_mut()).enumerate() {
+        for (tri, corners) in self.indices.iter().zip(self.corners.iter_mut()) {
             let new = tri.map(|i| positions[i as usize]);
             if !same_bits(&new, corners) {
                 *corners = new;
                 moved = true;
-                let _ = self.bvh.update_partially_if_present(triangle_aabb(corners), leaf as u32, 0.0);
             }
         }
         if moved {
-            // Recomputes inner boxes bottom-up without reordering nodes: the traversal order is kept.
-            self.bvh.refit_without_opt();
+            // Recomputes the boxes bottom-up without reordering nodes: the traversal order is kept.
+            let corners = &self.corners;
+            self.bvh.refit(|leaf| triangle_aabb(&corners[leaf as usize]));
             self.bounds = bounds_of(&self.corners);
         }
         Ok(())
@@ -137,10 +137,6 @@ impl TriangleBvh {
         self.indices.get(leaf).copied()
     }
 
-    /// Direct access to parry's tree (leaf data = leaf index), for traversals not offered here.
-    pub fn raw(&self) -> &Bvh {
-        &self.bvh
-    }
 }
 
 /// True if the two triangles have bit-identical corners (so `-0.0` and `0.0` differ).
@@ -163,17 +159,11 @@ fn bounds_of(corners: &[[DVec3; 3]]) -> Aabb3 {
     Aabb3::from_points(corners.iter().flatten().copied())
 }
 
-/// Exact box of a triangle: min/max of coordinates involve no rounding, so tree pruning can only be
-/// wrong through the traversal tests, which are made conservative instead.
+/// Exact box (min, max) of a triangle: min/max of coordinates involve no rounding, so tree pruning
+/// can only be wrong through the traversal tests, which are made conservative instead.
 #[inline]
-pub(super) fn triangle_aabb(t: &[DVec3; 3]) -> Aabb {
-    Aabb::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
-}
-
-/// Conversion between our box type and parry's.
-#[inline]
-pub(super) fn to_parry(b: &Aabb3) -> Aabb {
-    Aabb::new(b.min, b.max)
+pub(super) fn triangle_aabb(t: &[DVec3; 3]) -> (DVec3, DVec3) {
+    (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
 }
 
 /// A segment `a + t (b − a)`, `t ∈ [0, 1]`, prepared for conservative slab tests against boxes.
@@ -182,12 +172,15 @@ pub(super) struct SegmentProbe {
     a: DVec3,
     d: DVec3,
     inv: DVec3,
+    /// Every component of `inv` is finite: the slab test runs on whole vectors.
+    regular: bool,
 }
 
 impl SegmentProbe {
     pub(super) fn new(a: DVec3, b: DVec3) -> Self {
         let d = b - a;
-        Self { a, d, inv: DVec3::ONE / d }
+        let inv = DVec3::ONE / d;
+        Self { a, d, inv, regular: inv.is_finite() }
     }
 
     /// Parameter interval `[t_in, t_out] ⊂ [0, 1]` (slightly widened) in which the segment may be
@@ -195,6 +188,27 @@ impl SegmentProbe {
     /// boxes, never drop one the exact segment touches.
     #[inline]
     pub(super) fn clip(&self, mins: DVec3, maxs: DVec3) -> Option<(f64, f64)> {
+        let (lo, hi) = if self.regular {
+            let t0 = (mins - self.a) * self.inv;
+            let t1 = (maxs - self.a) * self.inv;
+            // Plain comparisons (no NaN can occur with finite `inv` and finite boxes): they compile
+            // to single min/max instructions, where `f64::min` handles NaN.
+            let (min, max) = (|x: f64, y: f64| if x < y { x } else { y }, |x: f64, y: f64| if x > y { x } else { y });
+            let near = [min(t0.x, t1.x), min(t0.y, t1.y), min(t0.z, t1.z)];
+            let far = [max(t0.x, t1.x), max(t0.y, t1.y), max(t0.z, t1.z)];
+            (max(max(near[0], near[1]), max(near[2], 0.0)), min(min(far[0], far[1]), min(far[2], 1.0)))
+        } else {
+            self.clip_axis_by_axis(mins, maxs)?
+        };
+        // Each slab bound carries at most three roundings (relative error ≤ 3·2⁻⁵³); widen by far
+        // more than that (Ize 2013 shows a relative widening of this kind makes the test robust).
+        let slack = 1e-12 * lo.abs().max(hi.abs());
+        (lo - slack <= hi + slack).then_some((lo - slack, hi + slack))
+    }
+
+    /// The slab test for a segment parallel to a coordinate plane (a zero or subnormal component:
+    /// `(min − a)·inv` could be `0·∞`).
+    fn clip_axis_by_axis(&self, mins: DVec3, maxs: DVec3) -> Option<(f64, f64)> {
         let mut lo = 0.0f64;
         let mut hi = 1.0f64;
         for k in 0..3 {
@@ -212,15 +226,10 @@ impl SegmentProbe {
             lo = lo.max(near);
             hi = hi.min(far);
         }
-        // Each slab bound carries at most three roundings (relative error ≤ 3·2⁻⁵³); widen by far
-        // more than that (Ize 2013 shows a relative widening of this kind makes the test robust).
-        let slack = 1e-12 * lo.abs().max(hi.abs());
-        (lo - slack <= hi + slack).then_some((lo - slack, hi + slack))
+        Some((lo, hi))
     }
 }
 
-/// Squared distance from `p` to the box (0 inside).
-#[inline]
 pub(super) fn box_distance_squared(mins: DVec3, maxs: DVec3, p: DVec3) -> f64 {
     let d = (mins - p).max(p - maxs).max(DVec3::ZERO);
     d.length_squared()
@@ -232,12 +241,16 @@ mod tests {
     use super::*;
     use crate::mesh::shapes;
 
+    fn leaf_node(tree: &TriangleBvh, leaf: usize) -> super::super::flat_bvh::Node {
+        *tree.bvh.nodes().iter().find(|n| n.item() == Some(leaf as u32)).unwrap()
+    }
+
     #[test]
     fn builds_are_deterministic_and_refit_keeps_the_topology() {
         let mesh = shapes::icosphere(1.0, 3);
         let a = TriangleBvh::new(&mesh).unwrap();
         let b = TriangleBvh::new(&mesh).unwrap();
-        let order = |t: &TriangleBvh| t.bvh.leaves(|_| true).collect::<Vec<u32>>();
+        let order = |t: &TriangleBvh| t.bvh.nodes().iter().filter_map(|n| n.item()).collect::<Vec<u32>>();
         assert_eq!(order(&a), order(&b));
         assert_eq!(order(&a).len(), mesh.num_triangles());
         let mut moved = a.clone();
@@ -247,9 +260,9 @@ mod tests {
         assert!((moved.bounds().center() - DVec3::new(3.0, -2.0, 1.0)).length() < 1e-12);
         // Every leaf box in the refitted tree bounds its triangle.
         for (leaf, c) in moved.corners.iter().enumerate() {
-            let node = moved.bvh.leaf_node(leaf as u32).unwrap();
+            let node = leaf_node(&moved, leaf);
             for p in c {
-                assert!(p.cmpge(node.mins()).all() && p.cmple(node.maxs()).all());
+                assert!(p.cmpge(node.min).all() && p.cmple(node.max).all());
             }
         }
     }
@@ -271,9 +284,8 @@ mod tests {
         for leaf in 0..tree.len() {
             let corners = tree.indices[leaf].map(|i| moved[i as usize]);
             assert_eq!(tree.corners[leaf], corners);
-            let node = tree.bvh.leaf_node(leaf as u32).unwrap();
-            let expected = triangle_aabb(&corners);
-            assert_eq!((node.mins(), node.maxs()), (expected.mins, expected.maxs));
+            let node = leaf_node(&tree, leaf);
+            assert_eq!((node.min, node.max), triangle_aabb(&corners));
         }
         assert_eq!(tree.bounds(), Aabb3::from_points(moved.iter().copied()));
         let probe = TriangleBvh::new(&TriMesh { positions: moved, triangles: mesh.triangles.clone() }).unwrap();
@@ -285,7 +297,7 @@ mod tests {
 
     #[test]
     fn tiny_trees_refit_too() {
-        // One and two leaves are stored in parry's root node itself: check they move as well.
+        // One and two leaves (a root that is a leaf, a root with two leaves) move as well.
         let grid = shapes::grid(1.0, 1.0, 1, 1); // two triangles
         for faces in [vec![0u32], vec![0, 1]] {
             let mut tree = TriangleBvh::with_faces(&grid, faces.iter().copied()).unwrap();

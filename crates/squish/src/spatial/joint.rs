@@ -16,7 +16,6 @@
 //! queried one by one.
 
 use glam::DVec3;
-use parry3d_f64::partitioning::BvhNode;
 use rayon::prelude::*;
 
 use super::batch::BatchHits;
@@ -119,8 +118,8 @@ fn group(mut found: Found) -> EdgeCrossings {
 /// module doc). Positions must be those the trees were built or refitted with.
 pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2] {
     let ((owned_a, orphans_a), (owned_b, orphans_b)) = (owned_edges(&a), owned_edges(&b));
-    let pairs: Vec<(u32, u32)> =
-        a.tree.bvh.leaf_pairs(&b.tree.bvh, |n1: &BvhNode, n2: &BvhNode| n1.intersects(n2)).collect();
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    a.tree.bvh.for_each_overlapping_pair(&b.tree.bvh, |la, lb| pairs.push((la, lb)));
     let test = |edge_side: &EdgeSource, owned: &[u32; 3], face_side: &EdgeSource, leaf: u32, out: &mut Found| {
         let corners = &face_side.tree.corners[leaf as usize];
         for &e in owned.iter().filter(|&&e| e != NO_EDGE) {

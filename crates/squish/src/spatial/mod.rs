@@ -27,6 +27,7 @@ mod batch;
 mod bvh;
 mod closest;
 mod exact;
+mod flat_bvh;
 mod joint;
 mod queries;
 mod self_intersection;

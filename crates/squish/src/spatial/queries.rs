@@ -10,21 +10,20 @@
 //!
 //! Every crossing is decided by the exact, symbolically perturbed test of `exact.rs`, so a query
 //! through a shared edge or vertex reports one crossing (see the module docs of [`super`]).
-//! Traversals take closures and keep their stack on the call stack (parry's traversal uses an
-//! inline small vector), so single queries do not allocate unless they return a `Vec`.
+//! Traversals keep their stack in a fixed array on the call stack ([`super::flat_bvh`]), so single
+//! queries do not allocate unless they return a `Vec`.
 //!
 //! Determinism: hit lists are sorted by (parameter, face id); nearest/farthest/closest results
-//! break ties by the smallest face id. The closest point is found in two passes: a best-first
-//! search (parry's `find_best`) bounds the answer, then a pruned traversal collects all
-//! candidates up to that bound and picks the minimum by (value, face id). Nearest and farthest
-//! crossings take one depth-first pass that keeps the best (t, face id) so far and prunes the
-//! boxes beyond it (half the work of two passes for the mapping's line casts). Either way the
-//! answer does not depend on the shape of the tree.
+//! break ties by the smallest face id. Nearest and farthest crossings and the closest point take
+//! one depth-first pass that visits the more promising child first, keeps the best (value, face
+//! id) so far and prunes the boxes that cannot beat it (conservatively widened), so the answer
+//! does not depend on the shape of the tree. Ordering the visit cut the mapping's line casts from
+//! ~1.2 µs to ~0.5 µs on a 1.5k-vertex ball (~20 nodes and 1–3 exact triangle tests per line).
 
 use glam::DVec3;
-use parry3d_f64::partitioning::{BvhNode, TraversalAction};
 
-use super::bvh::{SegmentProbe, TriangleBvh, box_distance_squared, to_parry};
+use super::bvh::{SegmentProbe, TriangleBvh, box_distance_squared};
+use super::flat_bvh::{Stack, Visit};
 use super::closest::{barycentric_point, closest_point_on_triangle};
 use super::exact::{Crossing, segment_triangle};
 use crate::mesh::Aabb3;
@@ -115,17 +114,17 @@ impl TriangleBvh {
     #[inline]
     fn for_each_crossing(&self, a: DVec3, b: DVec3, mut f: impl FnMut(usize, Crossing)) {
         let probe = SegmentProbe::new(a, b);
-        self.bvh.traverse(|node: &BvhNode| {
-            if probe.clip(node.mins(), node.maxs()).is_none() {
-                return TraversalAction::Prune;
+        self.bvh.traverse(|_, node| {
+            if probe.clip(node.min, node.max).is_none() {
+                return Visit::Prune;
             }
-            if let Some(leaf) = node.leaf_data() {
+            if let Some(leaf) = node.item() {
                 let leaf = leaf as usize;
                 if let Some(c) = segment_triangle(a, b, &self.corners[leaf]) {
                     f(leaf, c);
                 }
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
     }
 
@@ -211,39 +210,65 @@ impl TriangleBvh {
     /// Nearest (or farthest) crossing of `[a, b]`, ties to the smallest face id.
     ///
     /// One depth-first pass that keeps the best crossing so far and prunes the boxes lying
-    /// entirely beyond it (before it, for the farthest). The best crossing is unique under the
-    /// total order (t, face id), and the clipped box intervals are conservative, so the box of
-    /// the answer is never pruned: the result does not depend on the tree's shape or on the
-    /// order of the visit.
+    /// entirely beyond it (before it, for the farthest). Children are visited in the order that
+    /// reaches the answer first (the one entered first, or left last), so the best crossing is
+    /// usually found at the first leaves and most of the tree is pruned. The best crossing is
+    /// unique under the total order (t, face id), and the clipped box intervals are conservative,
+    /// so the box of the answer is never pruned: the result does not depend on the tree's shape or
+    /// on the order of the visit.
     fn extreme_crossing(&self, a: DVec3, b: DVec3, farthest: bool) -> Option<(usize, Crossing)> {
+        let nodes = self.bvh.nodes();
         let probe = SegmentProbe::new(a, b);
         let mut best: Option<(usize, Crossing)> = None;
-        self.bvh.traverse(|node: &BvhNode| {
-            let Some((lo, hi)) = probe.clip(node.mins(), node.maxs()) else {
-                return TraversalAction::Prune;
-            };
-            if let Some((_, bc)) = &best
-                && ((!farthest && lo > bc.t) || (farthest && hi < bc.t))
-            {
-                return TraversalAction::Prune;
+        // A node's promise: the end of its clipped interval the answer lies toward.
+        let promise = |interval: (f64, f64)| if farthest { interval.1 } else { interval.0 };
+        let hopeless = |bound: f64, best: &Option<(usize, Crossing)>| match best {
+            Some((_, bc)) => (farthest && bound < bc.t) || (!farthest && bound > bc.t),
+            None => false,
+        };
+        let root = nodes.first().and_then(|n| probe.clip(n.min, n.max))?;
+        let mut stack = Stack::<(u32, f64)>::new();
+        stack.push((0, promise(root)));
+        while let Some((i, bound)) = stack.pop() {
+            if hopeless(bound, &best) {
+                continue;
             }
-            if let Some(leaf) = node.leaf_data() {
-                let leaf = leaf as usize;
-                if let Some(c) = segment_triangle(a, b, &self.corners[leaf]) {
-                    let better = match &best {
-                        None => true,
-                        Some((bl, bc)) => {
-                            let by_t = if farthest { c.t.total_cmp(&bc.t).reverse() } else { c.t.total_cmp(&bc.t) };
-                            by_t.then(self.faces[leaf].cmp(&self.faces[*bl])).is_lt()
+            let i = i as usize;
+            let node = &nodes[i];
+            match node.children(i) {
+                None => {
+                    let leaf = node.item().unwrap_or_default() as usize;
+                    if let Some(c) = segment_triangle(a, b, &self.corners[leaf]) {
+                        let better = match &best {
+                            None => true,
+                            Some((bl, bc)) => {
+                                let by_t = if farthest { c.t.total_cmp(&bc.t).reverse() } else { c.t.total_cmp(&bc.t) };
+                                by_t.then(self.faces[leaf].cmp(&self.faces[*bl])).is_lt()
+                            }
+                        };
+                        if better {
+                            best = Some((leaf, c));
                         }
+                    }
+                }
+                Some(children) => {
+                    let bounds = children.map(|c| probe.clip(nodes[c].min, nodes[c].max).map(promise));
+                    // Push the less promising child first so that the better one is popped next.
+                    let first_better = match (bounds[0], bounds[1]) {
+                        (Some(x), Some(y)) => (farthest && x >= y) || (!farthest && x <= y),
+                        _ => true,
                     };
-                    if better {
-                        best = Some((leaf, c));
+                    let order = if first_better { [1, 0] } else { [0, 1] };
+                    for k in order {
+                        if let Some(bound) = bounds[k]
+                            && !hopeless(bound, &best)
+                        {
+                            stack.push((children[k] as u32, bound));
+                        }
                     }
                 }
             }
-            TraversalAction::Continue
-        });
+        }
         best
     }
 
@@ -252,17 +277,17 @@ impl TriangleBvh {
     pub fn segment_crosses(&self, a: DVec3, b: DVec3) -> bool {
         let probe = SegmentProbe::new(a, b);
         let mut found = false;
-        self.bvh.traverse(|node: &BvhNode| {
-            if probe.clip(node.mins(), node.maxs()).is_none() {
-                return TraversalAction::Prune;
+        self.bvh.traverse(|_, node| {
+            if probe.clip(node.min, node.max).is_none() {
+                return Visit::Prune;
             }
-            if let Some(leaf) = node.leaf_data()
+            if let Some(leaf) = node.item()
                 && segment_triangle(a, b, &self.corners[leaf as usize]).is_some()
             {
                 found = true;
-                return TraversalAction::EarlyExit;
+                return Visit::Stop;
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
         found
     }
@@ -270,9 +295,7 @@ impl TriangleBvh {
     /// Calls `f` with the face id of every triangle whose bounding box overlaps `query` (touching
     /// counts), in tree order.
     pub fn for_each_face_in_box(&self, query: &Aabb3, mut f: impl FnMut(u32)) {
-        for leaf in self.bvh.intersect_aabb(&to_parry(query)) {
-            f(self.faces[leaf as usize]);
-        }
+        self.bvh.for_each_in_box(query.min, query.max, |leaf| f(self.faces[leaf as usize]));
     }
 
     /// Face ids of the triangles whose bounding box overlaps `query`, sorted, written to `out`.
@@ -290,17 +313,17 @@ impl TriangleBvh {
             return;
         }
         let r2 = radius * radius;
-        self.bvh.traverse(|node: &BvhNode| {
-            if box_distance_squared(node.mins(), node.maxs(), p) > r2 || r2.is_nan() {
-                return TraversalAction::Prune;
+        self.bvh.traverse(|_, node| {
+            if box_distance_squared(node.min, node.max, p) > r2 || r2.is_nan() {
+                return Visit::Prune;
             }
-            if let Some(leaf) = node.leaf_data() {
+            if let Some(leaf) = node.item() {
                 let t = &self.corners[leaf as usize];
                 if (barycentric_point(t, closest_point_on_triangle(p, t)) - p).length_squared() <= r2 {
                     out.push(self.faces[leaf as usize]);
                 }
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
         out.sort_unstable();
     }
@@ -321,30 +344,46 @@ impl TriangleBvh {
             let point = barycentric_point(t, bary);
             ((point - p).length_squared(), bary, point)
         };
-        // Pass 1, best first, on squared distances. parry prunes costs ≥ its bound: start just
-        // above the squared radius so that a point exactly at `max_distance` is kept.
+        // One pass, nearer child first, pruning the boxes farther than the best leaf so far.
+        // Box distances carry round-off: a box is pruned only when it is farther than the best
+        // distance widened by far more than that, so the answer's box is never pruned and the
+        // minimum by (distance, face id) does not depend on the tree's shape.
         let max_d2 = max_distance * max_distance;
-        let (_, bound) = self.bvh.find_best(
-            max_d2.next_up(),
-            |node: &BvhNode, _| box_distance_squared(node.mins(), node.maxs(), p),
-            |leaf, _| Some(leaf_distance(leaf as usize).0),
-        )?;
-        // Pass 2: all candidates up to the bound (box distances carry round-off: widen slightly).
-        let widened = bound * (1.0 + 1e-12);
+        let nodes = self.bvh.nodes();
         let mut best: Option<(f64, u32, [f64; 3], DVec3)> = None;
-        self.bvh.traverse(|node: &BvhNode| {
-            if box_distance_squared(node.mins(), node.maxs(), p) > widened {
-                return TraversalAction::Prune;
+        let limit = |best: &Option<(f64, u32, [f64; 3], DVec3)>| match best {
+            Some((d2, ..)) => d2 * (1.0 + 1e-12),
+            None => max_d2 * (1.0 + 1e-12),
+        };
+        let root = nodes.first()?;
+        let mut stack = Stack::<(u32, f64)>::new();
+        stack.push((0, box_distance_squared(root.min, root.max, p)));
+        while let Some((i, d2_box)) = stack.pop() {
+            if d2_box > limit(&best) {
+                continue;
             }
-            if let Some(leaf) = node.leaf_data() {
-                let (d2, bary, point) = leaf_distance(leaf as usize);
-                let face = self.faces[leaf as usize];
-                if best.is_none_or(|(bd, bf, _, _)| d2.total_cmp(&bd).then(face.cmp(&bf)).is_lt()) {
-                    best = Some((d2, face, bary, point));
+            let i = i as usize;
+            let node = &nodes[i];
+            match node.children(i) {
+                None => {
+                    let leaf = node.item().unwrap_or_default() as usize;
+                    let (d2, bary, point) = leaf_distance(leaf);
+                    let face = self.faces[leaf];
+                    if best.is_none_or(|(bd, bf, _, _)| d2.total_cmp(&bd).then(face.cmp(&bf)).is_lt()) {
+                        best = Some((d2, face, bary, point));
+                    }
+                }
+                Some(children) => {
+                    let d = children.map(|c| box_distance_squared(nodes[c].min, nodes[c].max, p));
+                    let order = if d[0] <= d[1] { [1, 0] } else { [0, 1] };
+                    for k in order {
+                        if d[k] <= limit(&best) {
+                            stack.push((children[k] as u32, d[k]));
+                        }
+                    }
                 }
             }
-            TraversalAction::Continue
-        });
+        }
         let (d2, face, bary, point) = best?;
         (d2 <= max_d2).then(|| ClosestPoint { face, bary, point, distance: d2.sqrt() })
     }

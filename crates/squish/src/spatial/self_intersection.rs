@@ -46,13 +46,14 @@ impl TriangleBvh {
             .with_min_len(64)
             .fold(Vec::new, |mut found, i| {
                 let ti = &self.corners[i];
-                for j in self.bvh.intersect_aabb(&triangle_aabb(ti)) {
+                let (min, max) = triangle_aabb(ti);
+                self.bvh.for_each_in_box(min, max, |j| {
                     let j = j as usize;
                     if j > i && triangles_intersect_away_from_shared(ti, &self.corners[j]) {
                         let (fi, fj) = (self.faces[i], self.faces[j]);
                         found.push([fi.min(fj), fi.max(fj)]);
                     }
-                }
+                });
                 found
             })
             .flatten_iter()
@@ -73,11 +74,12 @@ impl TriangleBvh {
             .with_min_len(64)
             .fold(Vec::new, |mut found, i| {
                 let ti = &self.corners[i];
-                for j in other.bvh.intersect_aabb(&triangle_aabb(ti)) {
+                let (min, max) = triangle_aabb(ti);
+                other.bvh.for_each_in_box(min, max, |j| {
                     if triangles_intersect(ti, &other.corners[j as usize]) {
                         found.push([self.faces[i], other.faces[j as usize]]);
                     }
-                }
+                });
                 found
             })
             .flatten_iter()

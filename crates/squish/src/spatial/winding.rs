@@ -21,11 +21,11 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use parry3d_f64::partitioning::{BvhNode, BvhNodeIndex, TraversalAction};
 use rayon::prelude::*;
 
 use super::SpatialError;
 use super::bvh::TriangleBvh;
+use super::flat_bvh::Visit;
 use crate::mesh::{Topology, TriMesh};
 
 /// Signed solid angle of the triangle `t` seen from `p`: positive when `p` is behind the
@@ -149,30 +149,17 @@ impl<'a> FastWinding<'a> {
     /// paper, > 1; 2 is customary) is the distance, in cluster radii, beyond which a cluster is
     /// approximated.
     pub fn new(tree: &'a TriangleBvh, accuracy: f64) -> Self {
-        let bvh = &tree.bvh;
-        let mut nodes: Vec<BvhNodeIndex> = Vec::new();
-        bvh.traverse_indexed(None, |_, id| {
-            nodes.push(id);
-            TraversalAction::Continue
-        });
-        let size = nodes.iter().map(|id| id.0 + 1).max().unwrap_or(0);
-        let mut clusters = vec![Cluster::default(); size];
-        let per_node: Vec<(usize, Cluster)> = nodes
-            .par_iter()
-            .map(|&id| {
-                let mut leaves = Vec::new();
-                bvh.traverse_indexed(Some(id), |node: &BvhNode, _| {
-                    if let Some(leaf) = node.leaf_data() {
-                        leaves.push(leaf as usize);
-                    }
-                    TraversalAction::Continue
-                });
-                (id.0, cluster_of(leaves.iter().map(|&l| &tree.corners[l])))
+        // A subtree is a contiguous range of nodes: the leaves below node i are those in
+        // i..ends[i].
+        let nodes = tree.bvh.nodes();
+        let ends = tree.bvh.subtree_ends();
+        let clusters: Vec<Cluster> = (0..nodes.len())
+            .into_par_iter()
+            .map(|i| {
+                let leaves = nodes[i..ends[i]].iter().filter_map(|n| n.item());
+                cluster_of(leaves.map(|l| &tree.corners[l as usize]))
             })
             .collect();
-        for (i, c) in per_node {
-            clusters[i] = c;
-        }
         Self { tree, clusters, accuracy: accuracy.max(1.0) }
     }
 
@@ -180,21 +167,21 @@ impl<'a> FastWinding<'a> {
     pub fn winding_number(&self, p: DVec3) -> f64 {
         let mut sum = 0.0;
         let beta2 = self.accuracy * self.accuracy;
-        self.tree.bvh.traverse_indexed(None, |node: &BvhNode, id| {
-            if let Some(leaf) = node.leaf_data() {
+        self.tree.bvh.traverse(|i, node| {
+            if let Some(leaf) = node.item() {
                 sum += solid_angle(p, &self.tree.corners[leaf as usize]);
-                return TraversalAction::Continue;
+                return Visit::Continue;
             }
-            let Some(c) = self.clusters.get(id.0) else {
-                return TraversalAction::Continue;
+            let Some(c) = self.clusters.get(i) else {
+                return Visit::Continue;
             };
             let r = c.center - p;
             let d2 = r.length_squared();
             if d2 > beta2 * c.radius * c.radius {
                 sum += r.dot(c.area_normal) / (d2 * d2.sqrt());
-                TraversalAction::Prune
+                Visit::Prune
             } else {
-                TraversalAction::Continue
+                Visit::Continue
             }
         });
         sum / (4.0 * PI)

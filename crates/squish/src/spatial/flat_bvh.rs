@@ -1,0 +1,448 @@
+//! A binary bounding volume hierarchy in one flat array, built for the queries of the contact
+//! stage (thesis ch. 7 §5.1: "the spatial searches of Chapter 4 … could be sped up using
+//! state-of-the-art techniques").
+//!
+//! Nodes are stored depth first: a node's left child follows it, its right child is linked, and a
+//! subtree is a contiguous range of nodes. Each leaf holds one item (a triangle), named by its
+//! index. Layout and order are ours, so the queries can visit children in the order that finds
+//! their answer first — the nearest or farthest crossing of a line, the closest point — and prune
+//! the rest: the mapping's line casts visit ~20 nodes and 1–3 triangles instead of ~70 nodes and 7
+//! triangles with a fixed left-first order (parry's traversal, measured on a 1.5k-vertex ball and
+//! a 10k-vertex sphere).
+//!
+//! **Build.** Top-down binned surface-area heuristic (16 bins along the longest axis of the
+//! centroids), a median split when the heuristic cannot separate the items, and always a median
+//! split below depth [`MEDIAN_DEPTH`], which bounds the depth by `MEDIAN_DEPTH + log₂ n` (the fixed
+//! traversal stacks rely on it). Deterministic: the same boxes give the same tree.
+//!
+//! **Refit.** New item boxes, then every inner box as the union of its children's, children
+//! before parents (reverse storage order). The topology, and with it every traversal order, is
+//! kept.
+
+use glam::DVec3;
+
+/// Below this depth every split is a median split (see the module doc).
+const MEDIAN_DEPTH: usize = 48;
+
+/// Bins of the surface-area heuristic.
+const BINS: usize = 16;
+
+/// Capacity of the fixed traversal stacks before they spill to the heap. A depth-first stack holds
+/// at most one pending node per level plus one, and our meshes' trees are 20–40 deep (the depth is
+/// at most `MEDIAN_DEPTH + 32` below 2³² items). Small, because the array is initialized per query.
+pub(crate) const STACK: usize = 64;
+
+/// One node: its box, and either its right child (inner node; the left child is the next node) or
+/// its item (leaf).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Node {
+    pub min: DVec3,
+    pub max: DVec3,
+    link: u32,
+    leaf: bool,
+}
+
+impl Node {
+    /// The item of a leaf.
+    #[inline]
+    pub fn item(&self) -> Option<u32> {
+        self.leaf.then_some(self.link)
+    }
+
+    /// The children of an inner node at index `index`.
+    #[inline]
+    pub fn children(&self, index: usize) -> Option<[usize; 2]> {
+        (!self.leaf).then_some([index + 1, self.link as usize])
+    }
+
+    /// True if this node's box and `other`'s overlap (touching counts).
+    #[inline]
+    pub fn overlaps(&self, other: &Node) -> bool {
+        self.min.cmple(other.max).all() && other.min.cmple(self.max).all()
+    }
+
+    /// True if this node's box overlaps the box `[min, max]` (touching counts).
+    #[inline]
+    pub fn overlaps_box(&self, min: DVec3, max: DVec3) -> bool {
+        self.min.cmple(max).all() && min.cmple(self.max).all()
+    }
+}
+
+/// What a traversal does after visiting a node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Visit {
+    /// Visit the node's children.
+    Continue,
+    /// Skip them.
+    Prune,
+    /// End the traversal.
+    Stop,
+}
+
+/// The traversals' stack: a fixed array (no allocation per query), spilling to the heap only past
+/// its capacity, which the depth bound makes unreachable for single-tree traversals.
+pub(crate) struct Stack<T: Copy + Default> {
+    items: [T; STACK],
+    len: usize,
+    spill: Vec<T>,
+}
+
+impl<T: Copy + Default> Stack<T> {
+    #[inline]
+    pub fn new() -> Self {
+        Self { items: [T::default(); STACK], len: 0, spill: Vec::new() }
+    }
+
+    #[inline]
+    pub fn push(&mut self, item: T) {
+        match self.items.get_mut(self.len) {
+            Some(slot) if self.spill.is_empty() => {
+                *slot = item;
+                self.len += 1;
+            }
+            _ => self.spill.push(item),
+        }
+    }
+
+    #[inline]
+    pub fn pop(&mut self) -> Option<T> {
+        if let Some(item) = self.spill.pop() {
+            return Some(item);
+        }
+        self.len = self.len.checked_sub(1)?;
+        Some(self.items[self.len])
+    }
+}
+
+/// The hierarchy (see the module doc).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct FlatBvh {
+    nodes: Vec<Node>,
+}
+
+/// An item being sorted into the tree.
+#[derive(Clone, Copy)]
+struct Item {
+    index: u32,
+    min: DVec3,
+    max: DVec3,
+    centroid: DVec3,
+}
+
+impl FlatBvh {
+    /// Builds the tree over `boxes` (item `i` has the box `boxes[i]` = (min, max)).
+    pub fn new(boxes: &[(DVec3, DVec3)]) -> Self {
+        let mut items: Vec<Item> = boxes
+            .iter()
+            .enumerate()
+            .map(|(i, &(min, max))| Item { index: i as u32, min, max, centroid: 0.5 * (min + max) })
+            .collect();
+        let mut nodes = Vec::with_capacity((2 * items.len()).saturating_sub(1));
+        if !items.is_empty() {
+            build(&mut nodes, &mut items, 0);
+        }
+        Self { nodes }
+    }
+
+    /// The nodes, root first.
+    #[inline]
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The index one past the last node of the subtree rooted at every node (a subtree is a
+    /// contiguous range of nodes).
+    pub fn subtree_ends(&self) -> Vec<usize> {
+        let mut end = vec![0; self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            end[i] = match self.nodes[i].children(i) {
+                Some([_, right]) => end[right],
+                None => i + 1,
+            };
+        }
+        end
+    }
+
+    /// New boxes for the items (`item_box(i)` = (min, max)); inner boxes are recomputed.
+    pub fn refit(&mut self, item_box: impl Fn(u32) -> (DVec3, DVec3)) {
+        for i in (0..self.nodes.len()).rev() {
+            let (min, max) = match self.nodes[i].children(i) {
+                Some([left, right]) => {
+                    let (l, r) = (&self.nodes[left], &self.nodes[right]);
+                    (l.min.min(r.min), l.max.max(r.max))
+                }
+                None => item_box(self.nodes[i].link),
+            };
+            self.nodes[i].min = min;
+            self.nodes[i].max = max;
+        }
+    }
+
+    /// Depth-first traversal, left child first: `visit(index, node)` decides whether to descend.
+    #[inline]
+    pub fn traverse(&self, mut visit: impl FnMut(usize, &Node) -> Visit) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = Stack::<u32>::new();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let i = i as usize;
+            let node = &self.nodes[i];
+            match visit(i, node) {
+                Visit::Stop => return,
+                Visit::Prune => {}
+                Visit::Continue => {
+                    if let Some([left, right]) = node.children(i) {
+                        stack.push(right as u32);
+                        stack.push(left as u32);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The items whose box overlaps `[min, max]` (touching counts), in tree order.
+    pub fn for_each_in_box(&self, min: DVec3, max: DVec3, mut f: impl FnMut(u32)) {
+        self.traverse(|_, node| {
+            if !node.overlaps_box(min, max) {
+                return Visit::Prune;
+            }
+            if let Some(item) = node.item() {
+                f(item);
+            }
+            Visit::Continue
+        });
+    }
+
+    /// Every pair (item of `self`, item of `other`) whose boxes overlap, by one joint descent of
+    /// the two trees.
+    pub fn for_each_overlapping_pair(&self, other: &FlatBvh, mut f: impl FnMut(u32, u32)) {
+        if self.nodes.is_empty() || other.nodes.is_empty() {
+            return;
+        }
+        let mut stack = Stack::<(u32, u32)>::new();
+        stack.push((0, 0));
+        while let Some((i, j)) = stack.pop() {
+            let (i, j) = (i as usize, j as usize);
+            let (a, b) = (&self.nodes[i], &other.nodes[j]);
+            if !a.overlaps(b) {
+                continue;
+            }
+            match (a.children(i), b.children(j)) {
+                (None, None) => f(a.link, b.link),
+                (Some([l, r]), None) => {
+                    stack.push((r as u32, j as u32));
+                    stack.push((l as u32, j as u32));
+                }
+                (None, Some([l, r])) => {
+                    stack.push((i as u32, r as u32));
+                    stack.push((i as u32, l as u32));
+                }
+                (Some([al, ar]), Some([bl, br])) => {
+                    // Descend the larger box first (the usual rule: it shrinks the pairs fastest).
+                    let size = |n: &Node| (n.max - n.min).max_element();
+                    if size(a) >= size(b) {
+                        stack.push((ar as u32, j as u32));
+                        stack.push((al as u32, j as u32));
+                    } else {
+                        stack.push((i as u32, br as u32));
+                        stack.push((i as u32, bl as u32));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Appends the subtree over `items` to `nodes` in depth-first order; returns its root index.
+fn build(nodes: &mut Vec<Node>, items: &mut [Item], depth: usize) -> usize {
+    let index = nodes.len();
+    let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for item in items.iter() {
+        min = min.min(item.min);
+        max = max.max(item.max);
+    }
+    if let [item] = items {
+        nodes.push(Node { min, max, link: item.index, leaf: true });
+        return index;
+    }
+    nodes.push(Node { min, max, link: 0, leaf: false });
+    let middle = split(items, depth);
+    let (left, right) = items.split_at_mut(middle);
+    build(nodes, left, depth + 1);
+    let right_index = build(nodes, right, depth + 1);
+    nodes[index].link = right_index as u32;
+    index
+}
+
+/// Reorders `items` and returns the size of the left part (≥ 1 and < `items.len()`).
+fn split(items: &mut [Item], depth: usize) -> usize {
+    let n = items.len();
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for item in items.iter() {
+        lo = lo.min(item.centroid);
+        hi = hi.max(item.centroid);
+    }
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let median = |items: &mut [Item]| {
+        items.sort_unstable_by(|p, q| p.centroid[axis].total_cmp(&q.centroid[axis]).then(p.index.cmp(&q.index)));
+        n / 2
+    };
+    let width = extent[axis];
+    if depth >= MEDIAN_DEPTH || !(width > 0.0 && width.is_finite()) {
+        return median(items);
+    }
+    let bin_of = |c: DVec3| (((c[axis] - lo[axis]) / width * BINS as f64) as usize).min(BINS - 1);
+    let mut count = [0usize; BINS];
+    let mut bin_min = [DVec3::INFINITY; BINS];
+    let mut bin_max = [DVec3::NEG_INFINITY; BINS];
+    for item in items.iter() {
+        let b = bin_of(item.centroid);
+        count[b] += 1;
+        bin_min[b] = bin_min[b].min(item.min);
+        bin_max[b] = bin_max[b].max(item.max);
+    }
+    let half_area = |min: DVec3, max: DVec3| {
+        let d = (max - min).max(DVec3::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    };
+    // Sweep from the right, then from the left: the cost of splitting before bin s.
+    let mut right_area = [0.0; BINS];
+    let mut right_count = [0usize; BINS];
+    let (mut rmin, mut rmax, mut rc) = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
+    for s in (1..BINS).rev() {
+        rmin = rmin.min(bin_min[s]);
+        rmax = rmax.max(bin_max[s]);
+        rc += count[s];
+        right_area[s] = half_area(rmin, rmax);
+        right_count[s] = rc;
+    }
+    let mut best: Option<(f64, usize)> = None;
+    let (mut lmin, mut lmax, mut lc) = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
+    for s in 1..BINS {
+        lmin = lmin.min(bin_min[s - 1]);
+        lmax = lmax.max(bin_max[s - 1]);
+        lc += count[s - 1];
+        if lc == 0 || right_count[s] == 0 {
+            continue;
+        }
+        let cost = half_area(lmin, lmax) * lc as f64 + right_area[s] * right_count[s] as f64;
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, s));
+        }
+    }
+    let Some((_, s)) = best else { return median(items) };
+    // Stable partition: items of bins < s first, in their current order.
+    let (left, right): (Vec<Item>, Vec<Item>) = items.iter().partition(|item| bin_of(item.centroid) < s);
+    let middle = left.len();
+    items[..middle].copy_from_slice(&left);
+    items[middle..].copy_from_slice(&right);
+    middle
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn random_boxes(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let c = DVec3::new(next(), next(), next()) * 10.0;
+                let h = DVec3::new(next(), next(), next()) * 0.3;
+                (c - h, c + h)
+            })
+            .collect()
+    }
+
+    fn check_boxes(tree: &FlatBvh, boxes: &[(DVec3, DVec3)]) {
+        let ends = tree.subtree_ends();
+        let mut seen = vec![0; boxes.len()];
+        for (i, node) in tree.nodes().iter().enumerate() {
+            // Every item below a node lies in its box, and the box is the exact union.
+            let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            for below in &tree.nodes()[i..ends[i]] {
+                if let Some(item) = below.item() {
+                    min = min.min(boxes[item as usize].0);
+                    max = max.max(boxes[item as usize].1);
+                }
+            }
+            assert_eq!((node.min, node.max), (min, max), "node {i}");
+            if let Some(item) = node.item() {
+                seen[item as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1), "every item in exactly one leaf");
+    }
+
+    #[test]
+    fn the_tree_holds_every_item_once_in_exact_boxes_and_refits() {
+        for n in [1, 2, 3, 17, 1000] {
+            let boxes = random_boxes(n, n as u64);
+            let mut tree = FlatBvh::new(&boxes);
+            assert_eq!(tree.nodes().len(), 2 * n - 1);
+            check_boxes(&tree, &boxes);
+            let moved: Vec<(DVec3, DVec3)> = boxes.iter().map(|&(a, b)| (a * 2.0 + 1.0, b * 2.0 + 1.0)).collect();
+            tree.refit(|i| moved[i as usize]);
+            check_boxes(&tree, &moved);
+        }
+        assert!(FlatBvh::new(&[]).nodes().is_empty());
+        // Identical boxes (no spread to split on) still give a balanced tree.
+        let same = vec![(DVec3::ZERO, DVec3::ONE); 1024];
+        let tree = FlatBvh::new(&same);
+        check_boxes(&tree, &same);
+        let mut depth = vec![0usize; tree.nodes().len()];
+        for i in 0..tree.nodes().len() {
+            if let Some([l, r]) = tree.nodes()[i].children(i) {
+                depth[l] = depth[i] + 1;
+                depth[r] = depth[i] + 1;
+            }
+        }
+        assert_eq!(depth.iter().max(), Some(&10));
+    }
+
+    #[test]
+    fn box_queries_and_overlapping_pairs_match_brute_force() {
+        let (a, b) = (random_boxes(500, 1), random_boxes(300, 2));
+        let (ta, tb) = (FlatBvh::new(&a), FlatBvh::new(&b));
+        let overlap = |p: &(DVec3, DVec3), q: &(DVec3, DVec3)| p.0.cmple(q.1).all() && q.0.cmple(p.1).all();
+        let mut pairs = Vec::new();
+        ta.for_each_overlapping_pair(&tb, |i, j| pairs.push((i, j)));
+        pairs.sort_unstable();
+        let mut brute = Vec::new();
+        for (i, p) in a.iter().enumerate() {
+            for (j, q) in b.iter().enumerate() {
+                if overlap(p, q) {
+                    brute.push((i as u32, j as u32));
+                }
+            }
+        }
+        assert_eq!(pairs, brute);
+        assert!(!pairs.is_empty());
+        let query = (DVec3::splat(3.0), DVec3::splat(5.0));
+        let mut found = Vec::new();
+        ta.for_each_in_box(query.0, query.1, |i| found.push(i));
+        found.sort_unstable();
+        let brute: Vec<u32> = (0..a.len() as u32).filter(|&i| overlap(&a[i as usize], &query)).collect();
+        assert_eq!(found, brute);
+    }
+
+    #[test]
+    fn the_same_boxes_give_the_same_tree() {
+        let boxes = random_boxes(700, 9);
+        assert_eq!(FlatBvh::new(&boxes), FlatBvh::new(&boxes));
+    }
+}
