@@ -202,6 +202,48 @@ impl FlatBvh {
         }
     }
 
+    /// Depth-first branch and bound for a best item: `key(node)` is a node's most promising cost
+    /// (smaller first; `None`: the node cannot hold an answer), `hopeless(state, key)` says whether
+    /// a key can no longer beat the best found so far, `leaf(state, item)` evaluates an item. The
+    /// more promising child is visited first, so the best item is usually reached at once and the
+    /// rest of the tree pruned.
+    pub fn branch_and_bound<S>(
+        &self,
+        state: &mut S,
+        key: impl Fn(&Node) -> Option<f64>,
+        hopeless: impl Fn(&S, f64) -> bool,
+        mut leaf: impl FnMut(&mut S, u32),
+    ) {
+        let Some(root) = self.nodes.first().and_then(&key) else { return };
+        let mut stack = Stack::<(u32, f64)>::new();
+        stack.push((0, root));
+        while let Some((i, cost)) = stack.pop() {
+            if hopeless(state, cost) {
+                continue;
+            }
+            let i = i as usize;
+            let node = &self.nodes[i];
+            match node.children(i) {
+                None => leaf(state, node.link),
+                Some(children) => {
+                    let keys = children.map(|c| key(&self.nodes[c]));
+                    // Push the less promising child first so that the better one is popped next.
+                    let order = match keys {
+                        [Some(x), Some(y)] if y < x => [0, 1],
+                        _ => [1, 0],
+                    };
+                    for k in order {
+                        if let Some(cost) = keys[k]
+                            && !hopeless(state, cost)
+                        {
+                            stack.push((children[k] as u32, cost));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// The items whose box overlaps `[min, max]` (touching counts), in tree order.
     pub fn for_each_in_box(&self, min: DVec3, max: DVec3, mut f: impl FnMut(u32)) {
         self.traverse(|_, node| {

@@ -23,7 +23,7 @@
 use glam::DVec3;
 
 use super::bvh::{SegmentProbe, TriangleBvh, box_distance_squared};
-use super::flat_bvh::{Stack, Visit};
+use super::flat_bvh::{Node, Visit};
 use super::closest::{barycentric_point, closest_point_on_triangle};
 use super::exact::{Crossing, segment_triangle};
 use crate::mesh::Aabb3;
@@ -217,58 +217,30 @@ impl TriangleBvh {
     /// so the box of the answer is never pruned: the result does not depend on the tree's shape or
     /// on the order of the visit.
     fn extreme_crossing(&self, a: DVec3, b: DVec3, farthest: bool) -> Option<(usize, Crossing)> {
-        let nodes = self.bvh.nodes();
         let probe = SegmentProbe::new(a, b);
         let mut best: Option<(usize, Crossing)> = None;
-        // A node's promise: the end of its clipped interval the answer lies toward.
-        let promise = |interval: (f64, f64)| if farthest { interval.1 } else { interval.0 };
-        let hopeless = |bound: f64, best: &Option<(usize, Crossing)>| match best {
-            Some((_, bc)) => (farthest && bound < bc.t) || (!farthest && bound > bc.t),
+        // A node's key: where the answer could be in its clipped interval, smaller is better
+        // (the end of the interval for the farthest crossing, negated).
+        let key = |node: &Node| probe.clip(node.min, node.max).map(|(lo, hi)| if farthest { -hi } else { lo });
+        let hopeless = |best: &Option<(usize, Crossing)>, key: f64| match best {
+            Some((_, bc)) => (farthest && -key < bc.t) || (!farthest && key > bc.t),
             None => false,
         };
-        let root = nodes.first().and_then(|n| probe.clip(n.min, n.max))?;
-        let mut stack = Stack::<(u32, f64)>::new();
-        stack.push((0, promise(root)));
-        while let Some((i, bound)) = stack.pop() {
-            if hopeless(bound, &best) {
-                continue;
-            }
-            let i = i as usize;
-            let node = &nodes[i];
-            match node.children(i) {
-                None => {
-                    let leaf = node.item().unwrap_or_default() as usize;
-                    if let Some(c) = segment_triangle(a, b, &self.corners[leaf]) {
-                        let better = match &best {
-                            None => true,
-                            Some((bl, bc)) => {
-                                let by_t = if farthest { c.t.total_cmp(&bc.t).reverse() } else { c.t.total_cmp(&bc.t) };
-                                by_t.then(self.faces[leaf].cmp(&self.faces[*bl])).is_lt()
-                            }
-                        };
-                        if better {
-                            best = Some((leaf, c));
-                        }
+        self.bvh.branch_and_bound(&mut best, key, hopeless, |best, leaf| {
+            let leaf = leaf as usize;
+            if let Some(c) = segment_triangle(a, b, &self.corners[leaf]) {
+                let better = match best {
+                    None => true,
+                    Some((bl, bc)) => {
+                        let by_t = if farthest { c.t.total_cmp(&bc.t).reverse() } else { c.t.total_cmp(&bc.t) };
+                        by_t.then(self.faces[leaf].cmp(&self.faces[*bl])).is_lt()
                     }
-                }
-                Some(children) => {
-                    let bounds = children.map(|c| probe.clip(nodes[c].min, nodes[c].max).map(promise));
-                    // Push the less promising child first so that the better one is popped next.
-                    let first_better = match (bounds[0], bounds[1]) {
-                        (Some(x), Some(y)) => (farthest && x >= y) || (!farthest && x <= y),
-                        _ => true,
-                    };
-                    let order = if first_better { [1, 0] } else { [0, 1] };
-                    for k in order {
-                        if let Some(bound) = bounds[k]
-                            && !hopeless(bound, &best)
-                        {
-                            stack.push((children[k] as u32, bound));
-                        }
-                    }
+                };
+                if better {
+                    *best = Some((leaf, c));
                 }
             }
-        }
+        });
         best
     }
 
@@ -349,41 +321,19 @@ impl TriangleBvh {
         // distance widened by far more than that, so the answer's box is never pruned and the
         // minimum by (distance, face id) does not depend on the tree's shape.
         let max_d2 = max_distance * max_distance;
-        let nodes = self.bvh.nodes();
         let mut best: Option<(f64, u32, [f64; 3], DVec3)> = None;
-        let limit = |best: &Option<(f64, u32, [f64; 3], DVec3)>| match best {
-            Some((d2, ..)) => d2 * (1.0 + 1e-12),
-            None => max_d2 * (1.0 + 1e-12),
+        let hopeless = |best: &Option<(f64, u32, [f64; 3], DVec3)>, d2_box: f64| {
+            d2_box > best.map_or(max_d2, |(d2, ..)| d2) * (1.0 + 1e-12)
         };
-        let root = nodes.first()?;
-        let mut stack = Stack::<(u32, f64)>::new();
-        stack.push((0, box_distance_squared(root.min, root.max, p)));
-        while let Some((i, d2_box)) = stack.pop() {
-            if d2_box > limit(&best) {
-                continue;
+        let key = |node: &Node| Some(box_distance_squared(node.min, node.max, p));
+        self.bvh.branch_and_bound(&mut best, key, hopeless, |best, leaf| {
+            let leaf = leaf as usize;
+            let (d2, bary, point) = leaf_distance(leaf);
+            let face = self.faces[leaf];
+            if best.is_none_or(|(bd, bf, _, _)| d2.total_cmp(&bd).then(face.cmp(&bf)).is_lt()) {
+                *best = Some((d2, face, bary, point));
             }
-            let i = i as usize;
-            let node = &nodes[i];
-            match node.children(i) {
-                None => {
-                    let leaf = node.item().unwrap_or_default() as usize;
-                    let (d2, bary, point) = leaf_distance(leaf);
-                    let face = self.faces[leaf];
-                    if best.is_none_or(|(bd, bf, _, _)| d2.total_cmp(&bd).then(face.cmp(&bf)).is_lt()) {
-                        best = Some((d2, face, bary, point));
-                    }
-                }
-                Some(children) => {
-                    let d = children.map(|c| box_distance_squared(nodes[c].min, nodes[c].max, p));
-                    let order = if d[0] <= d[1] { [1, 0] } else { [0, 1] };
-                    for k in order {
-                        if d[k] <= limit(&best) {
-                            stack.push((children[k] as u32, d[k]));
-                        }
-                    }
-                }
-            }
-        }
+        });
         let (d2, face, bary, point) = best?;
         (d2 <= max_d2).then(|| ClosestPoint { face, bary, point, distance: d2.sqrt() })
     }
