@@ -52,6 +52,9 @@ const DIRECT_WIDTH: usize = 8;
 /// are within noise, 1024 and more are slower.)
 const DIRECT_UPDATE_FLOPS: usize = 64;
 
+/// Right-hand sides solved together in one pass (more are solved in groups of this many).
+pub(super) const SOLVE_BLOCK: usize = 4;
+
 /// The structure of a supernodal factor as our kernel walks it, derived once from faer's analysis.
 #[derive(Debug)]
 pub(super) struct SupernodalPlan {
@@ -322,31 +325,50 @@ impl SupernodalPlan {
         Ok(())
     }
 
-    /// `x ← L⁻ᵀL⁻¹x` on the factor `l` (permuted order). One column at a time, in a fixed order, so
-    /// a column's solution does not depend on how many columns are solved together (faer's
-    /// blocked solve rounds differently with one column and with two). Each pass streams `L` once,
-    /// as fast as faer's solve on our systems (memory bound).
-    pub(super) fn solve_in_place(&self, l: &[f64], x: &mut [f64]) {
+    /// `x ← L⁻ᵀL⁻¹x` on the factor `l` (permuted order) for `k` right-hand sides stored row by row
+    /// (`x[i·k + c]`): one pass over `L` for all of them. Each column goes through exactly the
+    /// operations, in the same order, of a solve on its own, so its solution does not depend on
+    /// how many columns are solved together (faer's blocked solve rounds differently with one
+    /// column and with two). Memory bound: `L` is read once per pass whatever `k`.
+    pub(super) fn solve_rows_in_place(&self, l: &[f64], x: &mut [f64], k: usize) {
+        match k {
+            1 => self.solve_rows::<1>(l, x),
+            2 => self.solve_rows::<2>(l, x),
+            3 => self.solve_rows::<3>(l, x),
+            _ => self.solve_rows::<4>(l, x),
+        }
+    }
+
+    fn solve_rows<const K: usize>(&self, l: &[f64], x: &mut [f64]) {
         for s in 0..self.len() {
             let (begin, width) = (self.begin[s], self.end[s] - self.begin[s]);
             let pattern = self.pattern(s);
             let rows = width + pattern.len();
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
             for j in 0..width {
-                if x[begin + j] == 0.0 {
-                    // Nothing to propagate (skipping can only turn a −0 of the result into +0):
-                    // a right-hand side that is zero but near ∂𝒞 (the heat step, the guide) only
-                    // reaches the elimination-tree ancestors of its non-zeros.
+                let column = &block[j * rows..(j + 1) * rows];
+                let at = (begin + j) * K;
+                // A zero right-hand side has nothing to propagate (skipping can only turn a −0 of
+                // the result into +0): one that is zero but near ∂𝒞 (the heat step, the guide)
+                // only reaches the elimination-tree ancestors of its non-zeros.
+                let active: [bool; K] = std::array::from_fn(|c| x[at + c] != 0.0);
+                if !active.contains(&true) {
                     continue;
                 }
-                let column = &block[j * rows..(j + 1) * rows];
-                let xj = x[begin + j] / column[j];
-                x[begin + j] = xj;
+                let xj: [f64; K] = std::array::from_fn(|c| if active[c] { x[at + c] / column[j] } else { x[at + c] });
+                x[at..at + K].copy_from_slice(&xj);
+                let mut update = |target: usize, value: f64| {
+                    for c in 0..K {
+                        if active[c] {
+                            x[target * K + c] -= value * xj[c];
+                        }
+                    }
+                };
                 for (i, &value) in column.iter().enumerate().take(width).skip(j + 1) {
-                    x[begin + i] -= value * xj;
+                    update(begin + i, value);
                 }
                 for (&row, &value) in pattern.iter().zip(&column[width..]) {
-                    x[row] -= value * xj;
+                    update(row, value);
                 }
             }
         }
@@ -357,14 +379,22 @@ impl SupernodalPlan {
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
             for j in (0..width).rev() {
                 let column = &block[j * rows..(j + 1) * rows];
-                let mut sum = x[begin + j];
+                let at = (begin + j) * K;
+                let mut sum: [f64; K] = std::array::from_fn(|c| x[at + c]);
+                let mut gather = |source: usize, value: f64| {
+                    for c in 0..K {
+                        sum[c] -= value * x[source * K + c];
+                    }
+                };
                 for (i, &value) in column.iter().enumerate().take(width).skip(j + 1) {
-                    sum -= value * x[begin + i];
+                    gather(begin + i, value);
                 }
                 for (&row, &value) in pattern.iter().zip(&column[width..]) {
-                    sum -= value * x[row];
+                    gather(row, value);
                 }
-                x[begin + j] = sum / column[j];
+                for c in 0..K {
+                    x[at + c] = sum[c] / column[j];
+                }
             }
         }
     }
