@@ -83,8 +83,7 @@ use super::uv_mapping::{SharedParametrization, SideParametrization};
 use super::zone::ZoneResult;
 use super::{ContactError, ContactSide, ContactZone, EdgeRegion, Sample};
 use crate::mesh::Aabb3;
-use crate::spatial::AabbTree;
-use parry3d_f64::partitioning::{BvhNode, TraversalAction};
+use crate::spatial::{AabbTree, Visit};
 
 /// A box tree over points with an early-exit ball query (a [`crate::spatial::PointTree`] cannot
 /// stop its traversal, and a blocked ball can stop at its first blocker).
@@ -102,18 +101,18 @@ impl<'a> Points<'a> {
     /// Calls `f(index, point)` for every point with `|p − centre| ≤ radius` until `f` returns true.
     fn visit(&self, centre: DVec3, radius: f64, mut f: impl FnMut(u32, DVec3) -> bool) {
         let r2 = radius * radius;
-        self.tree.raw().traverse(|node: &BvhNode| {
-            let gap = (node.mins() - centre).max(centre - node.maxs()).max(DVec3::ZERO);
+        self.tree.traverse(|node| {
+            let gap = (node.min - centre).max(centre - node.max).max(DVec3::ZERO);
             if gap.length_squared() > r2 || gap.is_nan() {
-                return TraversalAction::Prune;
+                return Visit::Prune;
             }
-            if let Some(leaf) = node.leaf_data() {
+            if let Some(leaf) = node.item() {
                 let p = self.points[leaf as usize];
                 if (p - centre).length_squared() <= r2 && f(leaf, p) {
-                    return TraversalAction::EarlyExit;
+                    return Visit::Stop;
                 }
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
     }
 }

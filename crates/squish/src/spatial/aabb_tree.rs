@@ -10,31 +10,24 @@
 //!   perturbed like the 3D one, so a contour passing exactly through a projected vertex crosses
 //!   exactly one of the edges there.
 //!
-//! All three use parry's BVH (2D boxes are flat in z), with the same conventions as
+//! All three use our [`FlatBvh`] (2D boxes are flat in z), with the same conventions as
 //! [`super::TriangleBvh`]: deterministic build, refit without changing the topology, sorted
 //! results.
 
 use glam::{DVec2, DVec3};
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
 use rayon::prelude::*;
 
 use super::SpatialError;
 use super::batch::Batch;
 use super::bvh::{SegmentProbe, box_distance_squared};
-
-/// Conversion between our box type and parry's.
-#[inline]
-fn to_parry(b: &Aabb3) -> Aabb {
-    Aabb::new(b.min, b.max)
-}
 use super::exact::segment_segment_2d;
+use super::flat_bvh::{FlatBvh, Node, Visit};
 use crate::mesh::Aabb3;
 
 /// A BVH over boxes; results name boxes by their index in the input slice.
 #[derive(Clone, Debug)]
 pub struct AabbTree {
-    bvh: Bvh,
+    bvh: FlatBvh,
     boxes: Vec<Aabb3>,
 }
 
@@ -51,8 +44,8 @@ impl AabbTree {
     /// Builds the tree. Boxes must be finite with `min ≤ max`.
     pub fn new(boxes: &[Aabb3]) -> Result<Self, SpatialError> {
         check_boxes(boxes)?;
-        let leaves: Vec<Aabb> = boxes.iter().map(to_parry).collect();
-        Ok(Self { bvh: Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves), boxes: boxes.to_vec() })
+        let leaves: Vec<(DVec3, DVec3)> = boxes.iter().map(|b| (b.min, b.max)).collect();
+        Ok(Self { bvh: FlatBvh::new(&leaves), boxes: boxes.to_vec() })
     }
 
     /// Replaces the boxes (same count) and refits, keeping the tree topology.
@@ -61,11 +54,9 @@ impl AabbTree {
             return Err(SpatialError::ItemCount { expected: self.boxes.len(), got: boxes.len() });
         }
         check_boxes(boxes)?;
-        for (i, b) in boxes.iter().enumerate() {
-            let _ = self.bvh.update_partially_if_present(to_parry(b), i as u32, 0.0);
-        }
-        self.bvh.refit_without_opt();
         self.boxes.copy_from_slice(boxes);
+        let boxes = &self.boxes;
+        self.bvh.refit(|i| (boxes[i as usize].min, boxes[i as usize].max));
         Ok(())
     }
 
@@ -84,16 +75,15 @@ impl AabbTree {
         &self.boxes
     }
 
-    /// Direct access to parry's tree (leaf data = box index).
-    pub fn raw(&self) -> &Bvh {
-        &self.bvh
+    /// Depth-first traversal of the tree's nodes (a leaf's [`Node::item`] is its box index).
+    pub(crate) fn traverse(&self, visit: impl FnMut(&Node) -> Visit) {
+        let mut visit = visit;
+        self.bvh.traverse(|_, node| visit(node));
     }
 
     /// Calls `f` with every box overlapping `query` (touching counts), in tree order.
-    pub fn for_each_overlapping(&self, query: &Aabb3, mut f: impl FnMut(u32)) {
-        for leaf in self.bvh.intersect_aabb(&to_parry(query)) {
-            f(leaf);
-        }
+    pub fn for_each_overlapping(&self, query: &Aabb3, f: impl FnMut(u32)) {
+        self.bvh.for_each_in_box(query.min, query.max, f);
     }
 
     /// Boxes overlapping `query` (touching counts), sorted, written to `out`.
@@ -106,15 +96,15 @@ impl AabbTree {
     /// Calls `f` with every box at distance ≤ `radius` from `p` (and its squared distance).
     pub fn for_each_within_distance(&self, p: DVec3, radius: f64, mut f: impl FnMut(u32, f64)) {
         let r2 = radius * radius;
-        self.bvh.traverse(|node: &BvhNode| {
-            let d2 = box_distance_squared(node.mins(), node.maxs(), p);
+        self.bvh.traverse(|_, node| {
+            let d2 = box_distance_squared(node.min, node.max, p);
             if d2.is_nan() || d2 > r2 {
-                return TraversalAction::Prune;
+                return Visit::Prune;
             }
-            if let Some(leaf) = node.leaf_data() {
+            if let Some(leaf) = node.item() {
                 f(leaf, d2);
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
     }
 
@@ -207,15 +197,18 @@ impl PointTree {
 
     /// The point nearest to `p` and its distance (smallest index among ties); `None` if empty.
     pub fn nearest(&self, p: DVec3) -> Option<(u32, f64)> {
-        let (_, bound) = self.tree.bvh.find_best(
-            f64::INFINITY,
-            |node: &BvhNode, _| box_distance_squared(node.mins(), node.maxs(), p),
-            |i, _| Some((self.points[i as usize] - p).length_squared()),
-        )?;
+        if !p.is_finite() {
+            return None;
+        }
+        // Nearer boxes first, pruning those farther than the best point (widened: the answer's
+        // box is never pruned, so ties go to the smallest index whatever the tree's shape).
         let mut best: Option<(f64, u32)> = None;
-        self.for_each_within_radius(p, bound.sqrt() * (1.0 + 1e-12), |i, d2| {
+        let key = |node: &Node| Some(box_distance_squared(node.min, node.max, p));
+        let hopeless = |best: &Option<(f64, u32)>, d2_box: f64| best.is_some_and(|(d2, _)| d2_box > d2 * (1.0 + 1e-12));
+        self.tree.bvh.branch_and_bound(&mut best, key, hopeless, |best, i| {
+            let d2 = (self.points[i as usize] - p).length_squared();
             if best.is_none_or(|(bd, bi)| d2.total_cmp(&bd).then(i.cmp(&bi)).is_lt()) {
-                best = Some((d2, i));
+                *best = Some((d2, i));
             }
         });
         best.map(|(d2, i)| (i, d2.sqrt()))
@@ -270,18 +263,19 @@ impl SegmentTree2 {
     /// them when it passes through their chain, collinear overlaps are not crossings (the query is
     /// perturbed as `p + η_p (1, ε)`, `q + η_q (1, ε)`, `η_q ≪ η_p`).
     pub fn for_each_crossing(&self, p: DVec2, q: DVec2, mut f: impl FnMut(Segment2Hit)) {
+        // The 3D probe in the plane z = 0 (the boxes are flat there).
         let probe = SegmentProbe::new(p.extend(0.0), q.extend(0.0));
-        self.tree.bvh.traverse(|node: &BvhNode| {
-            if probe.clip(node.mins(), node.maxs()).is_none() {
-                return TraversalAction::Prune;
+        self.tree.bvh.traverse(|_, node| {
+            if probe.clip(node.min, node.max).is_none() {
+                return Visit::Prune;
             }
-            if let Some(i) = node.leaf_data() {
+            if let Some(i) = node.item() {
                 let [u, v] = self.segments[i as usize];
                 if let Some(c) = segment_segment_2d(p, q, u, v) {
                     f(Segment2Hit { segment: i, s: c.s, t: c.t });
                 }
             }
-            TraversalAction::Continue
+            Visit::Continue
         });
     }
 
