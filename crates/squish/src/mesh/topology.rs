@@ -26,6 +26,9 @@ pub struct Topology {
     /// Compressed rows: the edges at each vertex, sorted by the other end's id.
     vertex_edge_offsets: Vec<u32>,
     vertex_edges: Vec<u32>,
+    /// The other end of each entry of `vertex_edges` (one-ring walks read it without going
+    /// through the edge list: Dijkstra over the parametrization domain, every frame).
+    vertex_neighbors: Vec<u32>,
     /// Compressed rows: the faces at each vertex, in increasing face id.
     vertex_face_offsets: Vec<u32>,
     vertex_faces: Vec<u32>,
@@ -95,6 +98,16 @@ impl Topology {
             }
             (counts, list)
         };
+        let edge_list = &edges;
+        let vertex_neighbors: Vec<u32> = (0..nv)
+            .flat_map(|v| {
+                let row = &vertex_edges[vertex_edge_offsets[v] as usize..vertex_edge_offsets[v + 1] as usize];
+                row.iter().map(move |&e| {
+                    let [a, b] = edge_list[e as usize];
+                    if a as usize == v { b } else { a }
+                })
+            })
+            .collect();
 
         let (vertex_face_offsets, vertex_faces) = {
             let mut counts = vec![0u32; nv + 1];
@@ -125,6 +138,7 @@ impl Topology {
             face_edges,
             vertex_edge_offsets,
             vertex_edges,
+            vertex_neighbors,
             vertex_face_offsets,
             vertex_faces,
         }
@@ -197,7 +211,8 @@ impl Topology {
 
     /// The one-ring neighbours of `v`, in increasing id.
     pub fn vertex_neighbors(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
-        self.vertex_edges(v).iter().map(move |&e| self.other_vertex(e, v))
+        let v = v as usize;
+        self.vertex_neighbors[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize].iter().copied()
     }
 
     /// The edge joining `a` and `b`, if any.
