@@ -51,11 +51,36 @@ const NO_EDGE: u32 = u32::MAX;
 /// Leaf pairs per parallel task.
 const CHUNK: usize = 256;
 
-/// Per leaf of `source.tree`, the edges its face owns; and the edges no leaf owns.
-fn owned_edges(source: &EdgeSource) -> (Vec<[u32; 3]>, Vec<u32>) {
+/// Which edges each leaf of a tree owns.
+enum Ownership<'a> {
+    /// The tree holds every face of the mesh, leaf `f` being face `f` (a whole working region,
+    /// the usual case): every edge is owned by its first face, read on demand.
+    Whole(&'a Topology),
+    /// Per leaf, the edges its face owns ([`NO_EDGE`] for none).
+    Listed(Vec<[u32; 3]>),
+}
+
+impl Ownership<'_> {
+    #[inline]
+    fn owned(&self, leaf: u32) -> Option<[u32; 3]> {
+        match self {
+            Self::Whole(topology) => (leaf < topology.num_faces() as u32).then(|| {
+                topology.face_edges(leaf).map(|e| if topology.edge_faces(e)[0] == leaf { e } else { NO_EDGE })
+            }),
+            Self::Listed(per_leaf) => per_leaf.get(leaf as usize).copied(),
+        }
+    }
+}
+
+/// Which edges each leaf of `source.tree` owns; and the edges no leaf owns.
+fn owned_edges<'a>(source: &EdgeSource<'a>) -> (Ownership<'a>, Vec<u32>) {
     let topology = source.topology;
     let faces = source.tree.faces();
     let num_faces = topology.num_faces();
+    if faces.len() == num_faces && faces.iter().enumerate().all(|(leaf, &f)| leaf as u32 == f) {
+        // Every edge has a first face, which is in the tree: no orphans.
+        return (Ownership::Whole(topology), Vec::new());
+    }
     let mut in_tree = vec![false; num_faces];
     for &f in faces {
         if let Some(slot) = in_tree.get_mut(f as usize) {
@@ -81,7 +106,7 @@ fn owned_edges(source: &EdgeSource) -> (Vec<[u32; 3]>, Vec<u32>) {
         })
         .collect();
     let orphans = (0..topology.num_edges() as u32).filter(|&e| owner(e) == NO_FACE).collect();
-    (per_leaf, orphans)
+    (Ownership::Listed(per_leaf), orphans)
 }
 
 /// The segment of edge `e`.
@@ -135,9 +160,9 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
         .map(|chunk| {
             let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
             for &(la, lb) in chunk {
-                if let (Some(oa), Some(ob)) = (owned_a.get(la as usize), owned_b.get(lb as usize)) {
-                    test(&a, oa, &b, lb, &mut on_a);
-                    test(&b, ob, &a, la, &mut on_b);
+                if let (Some(oa), Some(ob)) = (owned_a.owned(la), owned_b.owned(lb)) {
+                    test(&a, &oa, &b, lb, &mut on_a);
+                    test(&b, &ob, &a, la, &mut on_b);
                 }
             }
             (on_a, on_b)
