@@ -382,11 +382,14 @@ fn split(items: &mut [Item], depth: usize) -> usize {
         }
     }
     let Some((_, s)) = best else { return median(items) };
-    // Stable partition: items of bins < s first, in their current order.
-    let (left, right): (Vec<Item>, Vec<Item>) = items.iter().partition(|item| bin_of(item.centroid) < s);
-    let middle = left.len();
-    items[..middle].copy_from_slice(&left);
-    items[middle..].copy_from_slice(&right);
+    // In-place partition, items of bins < s first (deterministic: a fixed sequence of swaps).
+    let mut middle = 0;
+    for i in 0..n {
+        if bin_of(items[i].centroid) < s {
+            items.swap(i, middle);
+            middle += 1;
+        }
+    }
     middle
 }
 
