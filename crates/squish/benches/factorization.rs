@@ -3,7 +3,10 @@
 //! values on the same pattern and storage, as every later frame pays it, and (c) the same when
 //! only a cap of the sphere is coupled (the rows outside the parametrization domain are
 //! decoupled and left out), with the same cap (the submatrix analysis reused) and with a cap that
-//! alternates between two positions (one submatrix analysis per factorization).
+//! alternates between two positions (one submatrix analysis per factorization), (d) a partial
+//! refactorization: only the values around one point change (a contact moving on a static
+//! object: the supernodes there and their ancestors are recomputed), and (e) solves of one and of
+//! three right-hand sides.
 //!
 //! Run: `cargo bench -p squish --bench factorization -- --quick`.
 
@@ -76,6 +79,36 @@ fn factorization(c: &mut Criterion) {
                 factor.factorize(black_box(&variants[which])).expect("refactorization");
             })
         });
+
+        // Values that change only within 0.2 of the north pole, alternately.
+        let local = [stiffness_plus_random_diagonal(&k, 1), {
+            let mut a = stiffness_plus_random_diagonal(&k, 1);
+            let pattern = Arc::clone(a.pattern());
+            for (v, p) in mesh.positions.iter().enumerate() {
+                if (*p - glam::DVec3::Z).length() < 0.2 {
+                    a.values_mut()[pattern.diag_slot(v as u32)] *= 1.5;
+                }
+            }
+            a
+        }];
+        let mut factor = NumericFactor::factorize_new(&symbolic, &local[0]).expect("factorization");
+        group.bench_function(BenchmarkId::new("refactorize-local-change", &label), |b| {
+            b.iter(|| {
+                which ^= 1;
+                factor.factorize(black_box(&local[which])).expect("refactorization");
+            })
+        });
+        let n = mesh.num_vertices();
+        let rhs: Vec<f64> = (0..3 * n).map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0).collect();
+        for columns in [1, 3] {
+            let mut x = rhs[..columns * n].to_vec();
+            group.bench_function(BenchmarkId::new(format!("solve-{columns}-columns"), &label), |b| {
+                b.iter(|| {
+                    x.copy_from_slice(&rhs[..columns * n]);
+                    factor.solve_columns_in_place(black_box(&mut x), columns).expect("solve");
+                })
+            });
+        }
 
         // A cap of about a quarter of the sphere coupled: the same cap twice, then two caps.
         let same_cap = [decouple_below(&variants[0], &mesh, 0.5), decouple_below(&variants[1], &mesh, 0.5)];
