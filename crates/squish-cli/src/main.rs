@@ -24,13 +24,6 @@ mod shot;
 
 use std::process::ExitCode;
 
-/// mimalloc instead of the system allocator: a frame allocates and frees many short-lived
-/// buffers (regions, right-hand sides, per-pair scratch), some large enough for glibc to map and
-/// unmap them every time (page faults). Measured on the benchmark scenes, one thread: 4% less
-/// time on fingers-ball, 3.5% on bunny-jelly.
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 use clap::{Parser, Subcommand};
 
 use crate::error::CliError;
