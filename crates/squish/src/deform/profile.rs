@@ -217,35 +217,7 @@ impl Profile {
         if u >= 1.0 {
             return 1.0;
         }
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        let (mut step, mut step_before) = (1.0f64, 1.0f64);
-        let mut t = u;
-        for _ in 0..200 {
-            let (value, slope) = self.abscissa_and_slope(t);
-            let r = value - u;
-            if r.abs() <= INVERSION_TOLERANCE {
-                return t;
-            }
-            if r < 0.0 {
-                lo = t;
-            } else {
-                hi = t;
-            }
-            if hi - lo <= f64::EPSILON * hi {
-                return 0.5 * (lo + hi);
-            }
-            let newton = t - r / slope;
-            let previous = step_before;
-            step_before = step;
-            if newton > lo && newton < hi && (2.0 * r).abs() <= (previous * slope).abs() {
-                step = (newton - t).abs();
-                t = newton;
-            } else {
-                step = 0.5 * (hi - lo);
-                t = lo + step;
-            }
-        }
-        0.5 * (lo + hi)
+        increasing_inverse(u, u, |t| self.abscissa_and_slope(t))
     }
 
     /// 𝓗(u) = f₂(f₁⁻¹(u)) (without wrinkles); 0 for `u ≥ 1`.
@@ -262,6 +234,42 @@ pub struct ProfileSample {
     pub bulge_weight: f64,
     /// `Σ_{k≠2} y_k N_k(t)` plus the wrinkle modulation.
     pub fixed: f64,
+}
+
+/// The `t ∈ [0, 1]` where the increasing function `f` reaches `u` (`f_and_slope(t)` = (f(t),
+/// f′(t))), to `|f(t) − u| ≤ 1e-14`: Newton iterations from `start` kept inside a bracket,
+/// bisecting whenever the Newton step would leave the bracket or not halve the step before last
+/// (the bracket guarantees convergence, Newton makes it take a few steps).
+fn increasing_inverse(u: f64, start: f64, f_and_slope: impl Fn(f64) -> (f64, f64)) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    let (mut step, mut step_before) = (1.0f64, 1.0f64);
+    let mut t = start;
+    for _ in 0..200 {
+        let (value, slope) = f_and_slope(t);
+        let r = value - u;
+        if r.abs() <= INVERSION_TOLERANCE {
+            return t;
+        }
+        if r < 0.0 {
+            lo = t;
+        } else {
+            hi = t;
+        }
+        if hi - lo <= f64::EPSILON * hi {
+            return 0.5 * (lo + hi);
+        }
+        let newton = t - r / slope;
+        let previous = step_before;
+        step_before = step;
+        if newton > lo && newton < hi && (2.0 * r).abs() <= (previous * slope).abs() {
+            step = (newton - t).abs();
+            t = newton;
+        } else {
+            step = 0.5 * (hi - lo);
+            t = lo + step;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The profile's basis functions as cubic polynomials on each knot span, for sampling many
@@ -339,38 +347,13 @@ impl ProfileSampler {
             2
         };
         let c = self.abscissa_polynomial(span, x1);
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        let (mut step, mut step_before) = (1.0f64, 1.0f64);
         // Start from the chord of the span.
         let (start, end) = (c[0], c.iter().sum::<f64>());
-        let mut tau = if end > start { ((u - start) / (end - start)).clamp(0.0, 1.0) } else { 0.5 };
-        for _ in 0..200 {
-            let value = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]));
-            let slope = c[1] + tau * (2.0 * c[2] + tau * 3.0 * c[3]);
-            let r = value - u;
-            if r.abs() <= INVERSION_TOLERANCE {
-                return (span, tau);
-            }
-            if r < 0.0 {
-                lo = tau;
-            } else {
-                hi = tau;
-            }
-            if hi - lo <= f64::EPSILON * hi {
-                return (span, 0.5 * (lo + hi));
-            }
-            let newton = tau - r / slope;
-            let previous = step_before;
-            step_before = step;
-            if newton > lo && newton < hi && (2.0 * r).abs() <= (previous * slope).abs() {
-                step = (newton - tau).abs();
-                tau = newton;
-            } else {
-                step = 0.5 * (hi - lo);
-                tau = lo + step;
-            }
-        }
-        (span, 0.5 * (lo + hi))
+        let tau = if end > start { ((u - start) / (end - start)).clamp(0.0, 1.0) } else { 0.5 };
+        let tau = increasing_inverse(u, tau, |tau| {
+            (c[0] + tau * (c[1] + tau * (c[2] + tau * c[3])), c[1] + tau * (2.0 * c[2] + tau * 3.0 * c[3]))
+        });
+        (span, tau)
     }
 
     /// `N_i` at local parameter `tau` of `span`.

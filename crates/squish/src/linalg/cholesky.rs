@@ -238,10 +238,6 @@ fn permuted_layout(
 ) -> Result<(SymbolicSparseColMat<usize>, Vec<usize>), FaerError> {
     let n = structure.nrows();
     let nnz = structure.row_idx().len();
-    let out_side = match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(_) => Side::Upper,
-        SymbolicCholeskyRaw::Supernodal(_) => Side::Lower,
-    };
     let identity: Vec<usize> = (0..n).collect();
     let (forward, inverse) = symbolic.perm().map_or((&identity[..], &identity[..]), |p| p.arrays());
     let perm = PermRef::new_checked(forward, inverse, n);
@@ -260,7 +256,8 @@ fn permuted_layout(
         a,
         perm,
         Side::Lower,
-        out_side,
+        // The lower triangle, which our supernodal kernel reads (analyses are always supernodal).
+        Side::Lower,
         MemStack::new(&mut buffer),
     );
     let permuted_slot = values.iter().map(|&v| v as usize).collect();

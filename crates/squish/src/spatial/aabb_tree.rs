@@ -76,8 +76,7 @@ impl AabbTree {
     }
 
     /// Depth-first traversal of the tree's nodes (a leaf's [`Node::item`] is its box index).
-    pub(crate) fn traverse(&self, visit: impl FnMut(&Node) -> Visit) {
-        let mut visit = visit;
+    pub(crate) fn traverse(&self, mut visit: impl FnMut(&Node) -> Visit) {
         self.bvh.traverse(|_, node| visit(node));
     }
 
