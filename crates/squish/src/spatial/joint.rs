@@ -111,6 +111,13 @@ fn owned_edges<'a>(source: &EdgeSource<'a>) -> (Ownership<'a>, Vec<u32>) {
 
 /// The segment of edge `e`.
 #[inline]
+/// False when the segment's box and the triangle's box are disjoint (then they cannot meet).
+#[inline]
+fn segment_may_meet_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
+    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+    p.min(q).cmple(hi).all() && p.max(q).cmpge(lo).all()
+}
+
 fn segment(source: &EdgeSource, e: u32) -> Option<(DVec3, DVec3)> {
     let [i, j] = source.topology.edges()[e as usize];
     Some((*source.positions.get(i as usize)?, *source.positions.get(j as usize)?))
@@ -149,6 +156,7 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
         let corners = &face_side.tree.corners[leaf as usize];
         for &e in owned.iter().filter(|&&e| e != NO_EDGE) {
             if let Some((p, q)) = segment(edge_side, e)
+                && segment_may_meet_triangle(p, q, corners)
                 && let Some(c) = segment_triangle(p, q, corners)
             {
                 out.push((e, face_side.tree.make_hit(leaf as usize, c, 1.0)));
