@@ -132,6 +132,11 @@ pub fn edge_path_distance_field(mesh: &TriMesh, topology: &Topology, seeds: &[(u
         }
         let p = mesh.positions[v as usize];
         for w in topology.vertex_neighbors(v) {
+            // A neighbour already at distance ≤ d cannot improve (edge lengths are ≥ 0): skip
+            // its square root. Most of them are the settled vertices v was reached from.
+            if distance[w as usize] <= d {
+                continue;
+            }
             let candidate = d + (mesh.positions[w as usize] - p).length();
             if candidate <= limit && candidate < distance[w as usize] {
                 distance[w as usize] = candidate;
