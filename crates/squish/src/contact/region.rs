@@ -21,6 +21,7 @@
 //! facing} and ℳ = 𝒫(ℬ′) ∪ ℬ are formed.
 
 use std::ops::{Add, Mul};
+use std::sync::OnceLock;
 
 use glam::DVec3;
 
@@ -40,7 +41,7 @@ pub enum Sample {
 }
 
 /// A region of a mesh: inside vertices plus one exact boundary point per edge leaving it.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct EdgeRegion {
     inside: Vec<bool>,
     /// Boundary points, in increasing edge id.
@@ -49,6 +50,21 @@ pub struct EdgeRegion {
     point_edges: Vec<u32>,
     /// For each edge, the index of its boundary point or [`NO_POINT`].
     edge_points: Vec<u32>,
+    /// The faces with an inside vertex, increasing, found by the first [`Self::pieces`]: a
+    /// region is integrated several times per frame (the criterion's mean and spread, the
+    /// typical penetration, the normal statistics), and the scan over every face of the mesh
+    /// was most of each pass on a large mesh with a small region.
+    touched_faces: OnceLock<Vec<u32>>,
+}
+
+/// Regions are equal when their vertices and boundary points are (the face cache is derived).
+impl PartialEq for EdgeRegion {
+    fn eq(&self, other: &Self) -> bool {
+        self.inside == other.inside
+            && self.points == other.points
+            && self.point_edges == other.point_edges
+            && self.edge_points == other.edge_points
+    }
 }
 
 impl EdgeRegion {
@@ -59,6 +75,7 @@ impl EdgeRegion {
             points: Vec::new(),
             point_edges: Vec::new(),
             edge_points: vec![NO_POINT; topology.num_edges()],
+            touched_faces: OnceLock::new(),
         }
     }
 
@@ -72,6 +89,7 @@ impl EdgeRegion {
             points: Vec::new(),
             point_edges: Vec::new(),
             edge_points: vec![NO_POINT; topology.num_edges()],
+            touched_faces: OnceLock::new(),
         };
         for (e, &[a, b]) in topology.edges().iter().enumerate() {
             let (ia, ib) = (region.inside[a as usize], region.inside[b as usize]);
@@ -181,6 +199,7 @@ impl EdgeRegion {
                 .collect(),
             point_edges: self.point_edges.clone(),
             edge_points: self.edge_points.clone(),
+            touched_faces: OnceLock::new(),
         }
     }
 
@@ -222,11 +241,16 @@ impl EdgeRegion {
     /// of that part (3 or 4 samples, in the face's counter-clockwise order).
     pub fn pieces(&self, mesh: &TriMesh, topology: &Topology, mut f: impl FnMut(u32, &[Sample])) {
         let mut polygon = [Sample::Vertex(0); 4];
-        for (face, tri) in mesh.triangles.iter().enumerate() {
-            if !tri.iter().any(|&v| self.inside[v as usize]) {
-                continue;
-            }
-            let edges = topology.face_edges(face as u32);
+        // The region belongs to one connectivity (its edges index `topology`'s).
+        debug_assert_eq!(mesh.triangles.len(), topology.num_faces());
+        let faces = self.touched_faces.get_or_init(|| {
+            (0..mesh.triangles.len() as u32)
+                .filter(|&f| mesh.triangles[f as usize].iter().any(|&v| self.inside[v as usize]))
+                .collect()
+        });
+        for &face in faces {
+            let tri = &mesh.triangles[face as usize];
+            let edges = topology.face_edges(face);
             let mut len = 0;
             for k in 0..3 {
                 if self.inside[tri[k] as usize] {
