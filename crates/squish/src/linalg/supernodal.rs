@@ -25,8 +25,13 @@
 //! diagonal block and solve the rows below it (direct loops for narrow supernodes, faer's dense
 //! Cholesky and triangular solve for wide ones). Most supernodes of a surface Laplacian have one to
 //! four columns, where direct loops avoid the cost of dense-kernel calls. The solves
-//! ([`SupernodalPlan::solve_rows_in_place`]) walk the same storage, one column at a time in a fixed
-//! order (several right-hand sides share one pass over `L`).
+//! ([`SupernodalPlan::solve_rows_in_place`]) walk the same storage supernode by supernode in a
+//! fixed order (several right-hand sides share one pass over `L`): the forward pass accumulates a
+//! supernode's contributions to its pattern rows densely and scatters them once, the backward pass
+//! gathers the pattern rows once and takes each column's dot product in four interleaved partial
+//! sums (independent chains instead of one dependent one; the order is fixed, so the result is
+//! too). Against one column at a time with one scatter or gather per entry: 1.4–1.7× faster on a
+//! 1.5k-vertex ball and a 10k-vertex sphere, 1.25× on a 109 × 109 grid.
 //!
 //! Measured against faer's numeric factorization of the same analysis (whole factorizations of
 //! heat operators, fastest of 20): 0.62× its time on a 258-vertex capsule, 0.74× on a 1.5k-vertex
@@ -342,57 +347,78 @@ impl SupernodalPlan {
     }
 
     fn solve_rows<const K: usize>(&self, l: &[f64], x: &mut [f64]) {
+        // The pattern rows' contributions of one supernode, accumulated densely before they are
+        // scattered (one indirect write per row instead of one per row and column).
+        let mut below: Vec<[f64; K]> = Vec::new();
         for s in 0..self.len() {
             let (begin, width) = (self.begin[s], self.end[s] - self.begin[s]);
             let pattern = self.pattern(s);
             let rows = width + pattern.len();
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
+            // A zero right-hand side has nothing to propagate (skipping can only turn a −0 of the
+            // result into +0): one that is zero but near ∂𝒞 (the heat step, the guide) only
+            // reaches the elimination-tree ancestors of its non-zeros.
+            if x[begin * K..(begin + width) * K].iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            below.clear();
+            below.resize(pattern.len(), [0.0; K]);
             for j in 0..width {
                 let column = &block[j * rows..(j + 1) * rows];
                 let at = (begin + j) * K;
-                // A zero right-hand side has nothing to propagate (skipping can only turn a −0 of
-                // the result into +0): one that is zero but near ∂𝒞 (the heat step, the guide)
-                // only reaches the elimination-tree ancestors of its non-zeros.
                 let active: [bool; K] = std::array::from_fn(|c| x[at + c] != 0.0);
                 if !active.contains(&true) {
                     continue;
                 }
                 let xj: [f64; K] = std::array::from_fn(|c| if active[c] { x[at + c] / column[j] } else { x[at + c] });
                 x[at..at + K].copy_from_slice(&xj);
-                let mut update = |target: usize, value: f64| {
+                for (i, &value) in column.iter().enumerate().take(width).skip(j + 1) {
                     for c in 0..K {
                         if active[c] {
-                            x[target * K + c] -= value * xj[c];
+                            x[(begin + i) * K + c] -= value * xj[c];
                         }
                     }
-                };
-                for (i, &value) in column.iter().enumerate().take(width).skip(j + 1) {
-                    update(begin + i, value);
                 }
-                for (&row, &value) in pattern.iter().zip(&column[width..]) {
-                    update(row, value);
+                if active.iter().all(|&a| a) {
+                    for (sum, &value) in below.iter_mut().zip(&column[width..]) {
+                        for c in 0..K {
+                            sum[c] += value * xj[c];
+                        }
+                    }
+                } else {
+                    for (sum, &value) in below.iter_mut().zip(&column[width..]) {
+                        for c in 0..K {
+                            if active[c] {
+                                sum[c] += value * xj[c];
+                            }
+                        }
+                    }
+                }
+            }
+            for (&row, sum) in pattern.iter().zip(&below) {
+                for c in 0..K {
+                    x[row * K + c] -= sum[c];
                 }
             }
         }
+        let mut gathered: Vec<[f64; K]> = Vec::new();
         for s in (0..self.len()).rev() {
             let (begin, width) = (self.begin[s], self.end[s] - self.begin[s]);
             let pattern = self.pattern(s);
             let rows = width + pattern.len();
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
+            // The pattern rows' values, gathered once for all the supernode's columns.
+            gathered.clear();
+            gathered.extend(pattern.iter().map(|&row| std::array::from_fn::<f64, K, _>(|c| x[row * K + c])));
             for j in (0..width).rev() {
                 let column = &block[j * rows..(j + 1) * rows];
                 let at = (begin + j) * K;
-                let mut sum: [f64; K] = std::array::from_fn(|c| x[at + c]);
-                let mut gather = |source: usize, value: f64| {
-                    for c in 0..K {
-                        sum[c] -= value * x[source * K + c];
-                    }
-                };
+                let below = dot_rows::<K>(&column[width..], &gathered);
+                let mut sum: [f64; K] = std::array::from_fn(|c| x[at + c] - below[c]);
                 for (i, &value) in column.iter().enumerate().take(width).skip(j + 1) {
-                    gather(begin + i, value);
-                }
-                for (&row, &value) in pattern.iter().zip(&column[width..]) {
-                    gather(row, value);
+                    for c in 0..K {
+                        sum[c] -= value * x[(begin + i) * K + c];
+                    }
                 }
                 for c in 0..K {
                     x[at + c] = sum[c] / column[j];
@@ -400,4 +426,27 @@ impl SupernodalPlan {
             }
         }
     }
+}
+
+/// `Σ_i values[i]·rows[i][c]` for each column c, in four interleaved partial sums combined in a
+/// fixed order: the same rounding for a column whatever `K` (and whatever the thread count), and
+/// four independent chains instead of one long dependent one.
+#[inline]
+fn dot_rows<const K: usize>(values: &[f64], rows: &[[f64; K]]) -> [f64; K] {
+    let mut partial = [[0.0f64; K]; 4];
+    let mut chunks_v = values.chunks_exact(4);
+    let mut chunks_r = rows.chunks_exact(4);
+    for (v, r) in (&mut chunks_v).zip(&mut chunks_r) {
+        for lane in 0..4 {
+            for c in 0..K {
+                partial[lane][c] += v[lane] * r[lane][c];
+            }
+        }
+    }
+    for (lane, (&v, r)) in chunks_v.remainder().iter().zip(chunks_r.remainder()).enumerate() {
+        for c in 0..K {
+            partial[lane][c] += v * r[c];
+        }
+    }
+    std::array::from_fn(|c| (partial[0][c] + partial[1][c]) + (partial[2][c] + partial[3][c]))
 }

@@ -170,7 +170,6 @@ pub(super) fn triangle_aabb(t: &[DVec3; 3]) -> (DVec3, DVec3) {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct SegmentProbe {
     a: DVec3,
-    d: DVec3,
     inv: DVec3,
     /// Every component of `inv` is finite: the plain vector slab test.
     regular: bool,
@@ -185,7 +184,7 @@ impl SegmentProbe {
         let d = b - a;
         let inv = DVec3::ONE / d;
         let finite = inv.is_finite_mask();
-        Self { a, d, inv, regular: finite.all(), finite, reach: d.abs() }
+        Self { a, inv, regular: finite.all(), finite, reach: d.abs() }
     }
 
     /// Parameter interval `[t_in, t_out] ⊂ [0, 1]` (slightly widened) in which the segment may be
@@ -238,10 +237,10 @@ impl SegmentProbe {
         let mut lo = 0.0f64;
         let mut hi = 1.0f64;
         for k in 0..3 {
-            let (o, d, inv) = (self.a[k], self.d[k], self.inv[k]);
+            let (o, reach, inv) = (self.a[k], self.reach[k], self.inv[k]);
             if !inv.is_finite() {
                 // Zero (or subnormal) extent along this axis: the segment stays within |d| of o.
-                if o + d.abs() < mins[k] || o - d.abs() > maxs[k] {
+                if o + reach < mins[k] || o - reach > maxs[k] {
                     return None;
                 }
                 continue;
