@@ -58,8 +58,28 @@ pub(crate) fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
     if (a.cmpeq(b) & b.cmpeq(c)).any() {
         return orient3d_in_coordinate_plane(a, b, c, d);
     }
+    // Shewchuk's stage A (`robust::orient3d`'s first lines, the same operations in the same order
+    // so the value is the same bits), inlined: it decides almost every call, and the call into
+    // the full predicate, adaptive stages included, is then only made when the filter fails.
+    let (ad, bd, cd) = (a - d, b - d, c - d);
+    let (bdxcdy, cdxbdy) = (bd.x * cd.y, cd.x * bd.y);
+    let (cdxady, adxcdy) = (cd.x * ad.y, ad.x * cd.y);
+    let (adxbdy, bdxady) = (ad.x * bd.y, bd.x * ad.y);
+    let det = ad.z * (bdxcdy - cdxbdy) + bd.z * (cdxady - adxcdy) + cd.z * (adxbdy - bdxady);
+    let permanent = (bdxcdy.abs() + cdxbdy.abs()) * ad.z.abs()
+        + (cdxady.abs() + adxcdy.abs()) * bd.z.abs()
+        + (adxbdy.abs() + bdxady.abs()) * cd.z.abs();
+    let errbound = ORIENT3D_ERRBOUND_A * permanent;
+    if det > errbound || -det > errbound {
+        return det;
+    }
     robust::orient3d(c3(a), c3(b), c3(c), c3(d))
 }
+
+/// Shewchuk's `o3derrboundA`, (7 + 56ε)ε with ε = 2⁻⁵³, as `robust` defines it.
+const ORIENT3D_ERRBOUND_A: f64 = (7.0 + 56.0 * ROBUST_EPSILON) * ROBUST_EPSILON;
+/// `robust`'s ε (2⁻⁵³ written out in decimal there; the same double).
+const ROBUST_EPSILON: f64 = 0.000_000_000_000_000_111_022_302_462_515_65;
 
 /// [`orient3d`] for corners sharing a coordinate (kept out of line: the hot path stays small).
 #[inline(never)]
@@ -477,6 +497,30 @@ mod tests {
         }
     }
     use super::*;
+
+    #[test]
+    fn the_inlined_orient3d_filter_returns_robusts_bits() {
+        assert_eq!(ROBUST_EPSILON, 2f64.powi(-53));
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut filtered = 0;
+        for k in 0..30_000 {
+            let mut point = || DVec3::new(next(), next(), next());
+            let (a, b, c) = (point(), point(), point());
+            // Generic points, then points nearly in the plane (the filter fails, robust decides).
+            let d = if k % 3 == 0 { a + (b - a) * next() + (c - a) * next() } else { point() };
+            let ours = orient3d(a, b, c, d);
+            let theirs = robust::orient3d(c3(a), c3(b), c3(c), c3(d));
+            assert_eq!(ours.to_bits(), theirs.to_bits(), "{a} {b} {c} {d}");
+            filtered += usize::from(k % 3 == 0);
+        }
+        assert!(filtered > 9000);
+    }
 
     fn tri() -> [DVec3; 3] {
         [DVec3::ZERO, DVec3::X, DVec3::Y]
