@@ -119,32 +119,146 @@ pub fn edge_path_distances(mesh: &TriMesh, topology: &Topology, sources: &[u32],
 pub fn edge_path_distance_field(mesh: &TriMesh, topology: &Topology, seeds: &[(u32, f64)], limit: f64) -> Vec<f64> {
     let n = mesh.num_vertices();
     let mut distance = vec![f64::INFINITY; n];
-    let mut queue = RadixQueue::default();
+    let mut start = Vec::with_capacity(seeds.len());
     for &(s, d) in seeds {
         if (s as usize) < n && d <= limit && d < distance[s as usize] {
             distance[s as usize] = d;
-            queue.push(d, s);
+            start.push((d, s));
         }
     }
-    while let Some((d, v)) = queue.pop() {
-        if d > distance[v as usize] {
-            continue;
-        }
-        let p = mesh.positions[v as usize];
-        for w in topology.vertex_neighbors(v) {
-            // A neighbour already at distance ≤ d cannot improve (edge lengths are ≥ 0): skip
-            // its square root. Most of them are the settled vertices v was reached from.
-            if distance[w as usize] <= d {
-                continue;
+    match BucketQueue::for_mesh(mesh, topology, &start) {
+        Some(mut queue) => {
+            for &(d, s) in &start {
+                queue.push(d, s);
             }
-            let candidate = d + (mesh.positions[w as usize] - p).length();
-            if candidate <= limit && candidate < distance[w as usize] {
-                distance[w as usize] = candidate;
-                queue.push(candidate, w);
+            while let Some((d, v)) = queue.pop() {
+                relax(mesh, topology, &mut distance, limit, d, v, |c, w| queue.push(c, w));
+            }
+        }
+        None => {
+            let mut queue = RadixQueue::default();
+            for &(d, s) in &start {
+                queue.push(d, s);
+            }
+            while let Some((d, v)) = queue.pop() {
+                relax(mesh, topology, &mut distance, limit, d, v, |c, w| queue.push(c, w));
             }
         }
     }
     distance
+}
+
+/// Dijkstra's step for `v` popped at distance `d` (skipped if stale): lowers its neighbours'
+/// distances and pushes them.
+#[inline]
+fn relax(
+    mesh: &TriMesh,
+    topology: &Topology,
+    distance: &mut [f64],
+    limit: f64,
+    d: f64,
+    v: u32,
+    mut push: impl FnMut(f64, u32),
+) {
+    if d > distance[v as usize] {
+        return;
+    }
+    let p = mesh.positions[v as usize];
+    for w in topology.vertex_neighbors(v) {
+        // A neighbour already at distance ≤ d cannot improve (edge lengths are ≥ 0): skip its
+        // square root. Most of them are the settled vertices v was reached from.
+        if distance[w as usize] <= d {
+            continue;
+        }
+        let candidate = d + (mesh.positions[w as usize] - p).length();
+        if candidate <= limit && candidate < distance[w as usize] {
+            distance[w as usize] = candidate;
+            push(candidate, w);
+        }
+    }
+}
+
+/// Dial's bucket queue: buckets of width Δ a hair below the mesh's shortest edge, kept in a ring
+/// covering the longest edge. Every candidate pushed from a vertex of bucket k is at least one
+/// shortest edge farther, so it lands in a later bucket, and no vertex of a bucket can lower
+/// another of the same bucket: the vertices of a bucket are final in any order, and each final
+/// distance is the minimum of the same candidates as in a strictly ordered Dijkstra — the same
+/// bits (tested against the binary heap). O(1) per entry with no reordering: with the scan for the
+/// shortest and longest edges, 1.4× faster than the radix queue on the benchmark's 1.5k-vertex
+/// ball, 1.2× on a 109 × 109 grid. `None` (then [`RadixQueue`]) for a mesh with a
+/// zero-length edge, or whose longest edge or seed spread is more than a few times its vertex
+/// count of shortest edges.
+struct BucketQueue {
+    width: f64,
+    buckets: Vec<Vec<(f64, u32)>>,
+    /// The bucket being emptied (absolute index; its slot is `current % buckets.len()`).
+    current: u64,
+    draining: Vec<(f64, u32)>,
+    len: usize,
+}
+
+impl BucketQueue {
+    fn for_mesh(mesh: &TriMesh, topology: &Topology, start: &[(f64, u32)]) -> Option<Self> {
+        let (mut shortest, mut longest) = (f64::INFINITY, 0.0f64);
+        for &[i, j] in topology.edges() {
+            let squared = (mesh.positions[j as usize] - mesh.positions[i as usize]).length_squared();
+            shortest = shortest.min(squared);
+            longest = longest.max(squared);
+        }
+        // The margin keeps "one shortest edge farther" a whole bucket farther after rounding.
+        let width = shortest.sqrt() * (1.0 - 1e-6);
+        let (low, high) = start.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &(d, _)| (lo.min(d), hi.max(d)));
+        let span = longest.sqrt().max(if start.is_empty() { 0.0 } else { high - low });
+        let slots = (span / width).floor() + 3.0;
+        if !(width > 0.0 && width.is_finite() && slots.is_finite()) || slots > (4 * mesh.num_vertices() + 64) as f64 {
+            return None;
+        }
+        let current = if start.is_empty() { 0 } else { Self::index(low, width) };
+        Some(Self {
+            width,
+            buckets: vec![Vec::new(); slots as usize],
+            current,
+            draining: Vec::new(),
+            len: 0,
+        })
+    }
+
+    #[inline]
+    fn index(distance: f64, width: f64) -> u64 {
+        // Non-negative (−0 and +0 give 0); truncation is the floor.
+        (distance.max(0.0) / width) as u64
+    }
+
+    #[inline]
+    fn push(&mut self, distance: f64, vertex: u32) {
+        let index = Self::index(distance, self.width);
+        debug_assert!(index >= self.current && index < self.current + self.buckets.len() as u64);
+        let slots = self.buckets.len() as u64;
+        self.buckets[(index % slots) as usize].push((distance, vertex));
+        self.len += 1;
+    }
+
+    fn pop(&mut self) -> Option<(f64, u32)> {
+        if let Some(entry) = self.draining.pop() {
+            return Some(entry);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        let slots = self.buckets.len() as u64;
+        // The next non-empty bucket (at most a ring away); its entries are drained while later
+        // buckets fill.
+        loop {
+            let slot = (self.current % slots) as usize;
+            if !self.buckets[slot].is_empty() {
+                std::mem::swap(&mut self.draining, &mut self.buckets[slot]);
+                self.len -= self.draining.len();
+                self.current += 1;
+                return self.draining.pop();
+            }
+            self.current += 1;
+        }
+    }
 }
 
 /// A monotone priority queue of `(distance, vertex)` for Dijkstra (a radix heap on the bits of
@@ -313,22 +427,46 @@ mod tests {
     }
 
     #[test]
-    fn the_radix_queue_gives_the_binary_heaps_distances_bit_for_bit() {
+    fn the_bucket_and_radix_queues_give_the_binary_heaps_distances_bit_for_bit() {
         let mut mesh = shapes::icosphere(1.0, 4);
         // Uneven edge lengths.
         mesh.map_positions(|p| DVec3::new(p.x * 3.0, p.y, p.z * 0.4 + 0.1 * (7.0 * p.x).sin()));
         let topology = Topology::new(&mesh);
+        // The same mesh with one edge 10⁻⁹ long: too many buckets, the radix queue runs.
+        let mut pinched = mesh.clone();
+        let [i, j] = topology.edges()[100];
+        pinched.positions[j as usize] = pinched.positions[i as usize] + DVec3::splat(1e-9);
         let seeds: Vec<(u32, f64)> = [(0u32, 0.0), (17, 0.013), (17, 0.011), (400, 0.25), (401, -0.0)].to_vec();
-        for limit in [0.3, 1.0, 2.5, f64::INFINITY] {
-            let fast = edge_path_distance_field(&mesh, &topology, &seeds, limit);
-            let reference = reference_distances(&mesh, &topology, &seeds, limit);
+        for (mesh, bucketed) in [(&mesh, true), (&pinched, false)] {
+            assert_eq!(BucketQueue::for_mesh(mesh, &topology, &[(0.0, 0)]).is_some(), bucketed);
+            for limit in [0.3, 1.0, 2.5, f64::INFINITY] {
+                let fast = edge_path_distance_field(mesh, &topology, &seeds, limit);
+                let reference = reference_distances(mesh, &topology, &seeds, limit);
+                assert_eq!(
+                    fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+                    reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+                    "limit {limit}, bucketed {bucketed}"
+                );
+                assert!(fast.iter().filter(|d| d.is_finite()).count() > 10);
+            }
+        }
+        // Seeds spread far beyond the longest edge (a window of buckets wider than one edge).
+        let far: Vec<(u32, f64)> = (0..mesh.num_vertices() as u32).step_by(97).map(|v| (v, f64::from(v) * 1e-3)).collect();
+        for limit in [0.5, f64::INFINITY] {
+            let fast = edge_path_distance_field(&mesh, &topology, &far, limit);
+            let reference = reference_distances(&mesh, &topology, &far, limit);
             assert_eq!(
                 fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
-                reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
-                "limit {limit}"
+                reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
             );
-            assert!(fast.iter().filter(|d| d.is_finite()).count() > 10);
         }
+        // A regular grid: many equal edge lengths and equal distances.
+        let grid = shapes::grid(2.0, 2.0, 30, 30);
+        let grid_topology = Topology::new(&grid);
+        let centre: Vec<(u32, f64)> = vec![(480, 0.0), (481, 0.0)];
+        let fast = edge_path_distance_field(&grid, &grid_topology, &centre, 1.3);
+        let reference = reference_distances(&grid, &grid_topology, &centre, 1.3);
+        assert_eq!(fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(), reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>());
     }
 
     #[test]
