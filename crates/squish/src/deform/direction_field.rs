@@ -170,13 +170,21 @@ fn diffuse_mapping_directions(
     normalize: bool,
 ) -> Result<Vec<DVec3>, DeformError> {
     let poisson = solver.poisson(parametrization.generation, "direction diffusion")?;
-    let component = |axis: usize| -> Vec<f64> {
-        contact.boundary.iter().map(|b| contact.directions[b.zone as usize][axis]).collect()
+    // Solved with the Poisson step when the parametrization was asked to (same bits).
+    let solved;
+    let columns: &[Vec<f64>] = match &parametrization.diffused_directions {
+        Some(columns) => columns,
+        None => {
+            let component = |axis: usize| -> Vec<f64> {
+                contact.boundary.iter().map(|b| contact.directions[b.zone as usize][axis]).collect()
+            };
+            let (x, y, z) = (component(0), component(1), component(2));
+            let rhs = |values| RightHandSide { constraint_values: Some(values), ..Default::default() };
+            solved =
+                poisson.solve_many(&[rhs(&x), rhs(&y), rhs(&z)]).map_err(DeformError::solve("direction diffusion"))?;
+            &solved
+        }
     };
-    let (x, y, z) = (component(0), component(1), component(2));
-    let rhs = |values| RightHandSide { constraint_values: Some(values), ..Default::default() };
-    let columns =
-        poisson.solve_many(&[rhs(&x), rhs(&y), rhs(&z)]).map_err(DeformError::solve("direction diffusion"))?;
     let mut mapping: Vec<DVec3> =
         (0..columns[0].len()).map(|v| DVec3::new(columns[0][v], columns[1][v], columns[2][v])).collect();
     if normalize {
@@ -191,7 +199,7 @@ fn diffuse_mapping_directions(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::deform::parametrize::{ParametrizeParams, parametrize};
+    use crate::deform::parametrize::{ParametrizeParams, parametrize, parametrize_and_diffuse};
     use crate::deform::test_support::plane_zone;
     use crate::mesh::{Topology, shapes, vertex_normals};
 
@@ -280,6 +288,19 @@ mod tests {
         let probe = crate::deform::test_support::nearest_vertex(&mesh, DVec3::new(-1.0, 0.0, -1.0).normalize());
         let d = field.mapping[probe];
         assert!(d.dot(DVec3::new(-1.0, 0.0, -1.0).normalize()) > 0.95, "{d}");
+
+        // The diffusion solved in the Poisson step's pass (as `setup` does) and solved on its own
+        // afterwards give the same bits.
+        let params = ParametrizeParams::new(1.5);
+        let alone = parametrize_and_diffuse(&mesh, &topology, &mut solver, &contact, &params, false).unwrap();
+        assert!(alone.diffused_directions.is_none());
+        let normals = vertex_normals(&mesh);
+        let options =
+            DirectionParams { method: DirectionFieldMethod::Blended, normalize_diffused: true, mapping_field: None };
+        let separate = direction_field(&mesh, &mut solver, &contact, &alone, &normals, &options).unwrap();
+        let bits = |v: &[DVec3]| v.iter().flat_map(|d| d.to_array().map(f64::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&separate.mapping), bits(&field.mapping));
+        assert_eq!(bits(&separate.directions), bits(&field.directions));
     }
 
     #[test]

@@ -58,7 +58,7 @@ use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
 use bulge::{AnisotropyParams, bulge_map};
 use direction_field::{DirectionParams, direction_field};
 use guide::{GuideParams, guide_fields};
-use parametrize::{ParametrizeParams, parametrize};
+use parametrize::{ParametrizeParams, parametrize_and_diffuse};
 pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
 
 /// Wall-clock time of each stage of [`deform_region`].
@@ -351,7 +351,11 @@ pub fn plan_region(
         constraint_weight_factor: params.constraint_weight_factor,
         edge_length: params.edge_length,
     };
-    let parametrization = parametrize(mesh, topology, solver, &contact, &parametrize_params)?;
+    // The blended field diffuses the zones' directions unless the caller gives d̄.
+    let diffuse_directions =
+        params.direction_method == DirectionFieldMethod::Blended && overrides.mapping_field.is_none();
+    let parametrization =
+        parametrize_and_diffuse(mesh, topology, solver, &contact, &parametrize_params, diffuse_directions)?;
     timings.parametrization = stage.elapsed();
 
     // §5.2: directions.
@@ -406,9 +410,8 @@ pub fn plan_region(
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
-            (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v]).then(|| {
-                sampler.sample(&params.wrinkles, guide.amplitude[v], guide.slope[v], parametrization.u[v])
-            })
+            (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v])
+                .then(|| sampler.sample(&params.wrinkles, guide.amplitude[v], guide.slope[v], parametrization.u[v]))
         })
         .collect();
     for v in 0..n {

@@ -111,6 +111,10 @@ pub struct Parametrization {
     pub edge_length: f64,
     /// Generation of the Poisson factorization left in the solver (0: none).
     pub(crate) generation: u64,
+    /// The harmonic diffusion of the zones' directions from ∂𝒞 (x, y and z columns, unnormalized,
+    /// §5.2.2), solved in the Poisson step's pass over the factor when the region has several
+    /// zone directions; `None` otherwise (the direction field then solves it itself).
+    pub(crate) diffused_directions: Option<[Vec<f64>; 3]>,
 }
 
 impl Parametrization {
@@ -128,6 +132,21 @@ pub fn parametrize(
     solver: &mut RegionSolver,
     contact: &ContactSet,
     params: &ParametrizeParams,
+) -> Result<Parametrization, DeformError> {
+    parametrize_and_diffuse(mesh, topology, solver, contact, params, true)
+}
+
+/// [`parametrize`]; with `diffuse_directions` and several zone directions, the direction
+/// diffusion's three right-hand sides (which need only ∂𝒞 and the zones' directions, not φ) share
+/// the Poisson solve's pass over the factor: one pass fewer per region and frame, and the same
+/// bits as solving them later (a column's solve does not depend on the columns beside it).
+pub(crate) fn parametrize_and_diffuse(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    contact: &ContactSet,
+    params: &ParametrizeParams,
+    diffuse_directions: bool,
 ) -> Result<Parametrization, DeformError> {
     solver.check_region(mesh, topology)?;
     if !(params.extent.is_finite() && params.extent > 0.0) {
@@ -159,6 +178,7 @@ pub fn parametrize(
             deformable: vec![false; n],
             edge_length: h,
             generation: 0,
+            diffused_directions: None,
         });
     }
     let constraint_params = ConstraintParams::default().with_weight_factor(params.constraint_weight_factor);
@@ -206,9 +226,21 @@ pub fn parametrize(
         *x = -*x;
     }
     let poisson = solver.poisson(generation, "Poisson")?;
-    let mut distance = poisson
-        .solve(&RightHandSide { load: Some(&load), ..Default::default() })
-        .map_err(DeformError::solve("Poisson"))?;
+    let mut rhs = vec![RightHandSide { load: Some(&load), ..Default::default() }];
+    let directions: Vec<[f64; 3]> = if diffuse_directions && contact.has_several_directions() {
+        contact.boundary.iter().map(|b| contact.directions[b.zone as usize].to_array()).collect()
+    } else {
+        Vec::new()
+    };
+    let components: Vec<Vec<f64>> =
+        (0..3).map(|axis| directions.iter().map(|d| d[axis]).collect()).filter(|c: &Vec<f64>| !c.is_empty()).collect();
+    rhs.extend(components.iter().map(|values| RightHandSide { constraint_values: Some(values), ..Default::default() }));
+    let mut columns = poisson.solve_many(&rhs).map_err(DeformError::solve("Poisson"))?.into_iter();
+    let mut distance = columns.next().unwrap_or_default();
+    let diffused_directions = match (columns.next(), columns.next(), columns.next()) {
+        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+        _ => None,
+    };
     for &v in poisson.system().pinned_vertices() {
         if !contact.contains(v) {
             distance[v as usize] = f64::INFINITY;
@@ -224,7 +256,17 @@ pub fn parametrize(
         u[v] = distance[v].max(0.0) / params.extent;
         deformable[v] = u[v] < 1.0;
     }
-    Ok(Parametrization { outside_weights, in_domain, heat, distance, u, deformable, edge_length: h, generation })
+    Ok(Parametrization {
+        outside_weights,
+        in_domain,
+        heat,
+        distance,
+        u,
+        deformable,
+        edge_length: h,
+        generation,
+        diffused_directions,
+    })
 }
 
 /// Fraction of the domain radius where the faces' weights start fading out.

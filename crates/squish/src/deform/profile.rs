@@ -424,13 +424,16 @@ mod tests {
                 }
             }
             let mut worst = 0.0f64;
-            for &(a, s) in &[(0.3, 0.5), (-0.2, -1.0), (0.0, 0.7), (0.0, 0.0), (1e-9, 3.0), (0.05, 40.0), (2.0, -0.01)] {
+            for &(a, s) in &[(0.3, 0.5), (-0.2, -1.0), (0.0, 0.7), (0.0, 0.0), (1e-9, 3.0), (0.05, 40.0), (2.0, -0.01)]
+            {
                 for k in 0..=400 {
                     let u = k as f64 / 400.0 + if k % 7 == 0 { 1e-13 } else { 0.0 };
                     let fast = sampler.sample(&wrinkles, a, s, u);
                     let slow = sample(&shape, &wrinkles, a, s, u);
                     let scale = 1.0 + a.abs() + s.abs();
-                    worst = worst.max((fast.fixed - slow.fixed).abs() / scale).max((fast.bulge_weight - slow.bulge_weight).abs());
+                    worst = worst
+                        .max((fast.fixed - slow.fixed).abs() / scale)
+                        .max((fast.bulge_weight - slow.bulge_weight).abs());
                 }
             }
             // Both invert f₁ to 1e-14; where f₁′ vanishes (a = 0, s ≠ 0, at u → 0) the parameters

@@ -39,17 +39,16 @@
 
 use std::sync::{Arc, Mutex};
 
+use faer::Side;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltError;
 use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
-    factorize_symbolic_cholesky,
+    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::utils::permute_self_adjoint_to_unsorted;
 use faer::sparse::{FaerError, SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
-use faer::Side;
 
 use super::supernodal::{SOLVE_BLOCK, SupernodalPlan, Workspace};
 use super::{SolveError, SparsePattern, SymmetricMatrix};

@@ -44,9 +44,9 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization, cholesky_in_place, cholesky_in_place_scratch};
 use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
-use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{Accum, MatMut, MatRef, Par};
 
 /// Supernodes at most this wide are factorized with direct loops; wider ones with faer's dense
@@ -262,7 +262,8 @@ impl SupernodalPlan {
             let below = d_pattern.len() - first;
             // Target row of each of d's rows from `first` on.
             work.row_map.clear();
-            work.row_map.extend(d_pattern[first..].iter().map(|&r| if r < end { r - begin } else { work.global_to_local[r] }));
+            work.row_map
+                .extend(d_pattern[first..].iter().map(|&r| if r < end { r - begin } else { work.global_to_local[r] }));
             let update = &mut work.update[..below * mid];
             if d_width * below * mid <= DIRECT_UPDATE_FLOPS {
                 // Column c of the update holds rows c.. (the lower triangle of the square part).
@@ -322,11 +323,10 @@ impl SupernodalPlan {
             let (mut top, bottom) = whole.split_at_row_mut(width);
             let (buffer, _) = work.dense.get_or_insert_with(|| (MemBuffer::new(self.dense_scratch), 0));
             let stack = MemStack::new(buffer);
-            cholesky_in_place(top.rb_mut(), LltRegularization::default(), Par::Seq, stack, Default::default()).map_err(
-                |error| match error {
+            cholesky_in_place(top.rb_mut(), LltRegularization::default(), Par::Seq, stack, Default::default())
+                .map_err(|error| match error {
                     LltError::NonPositivePivot { index } => LltError::NonPositivePivot { index: begin + index },
-                },
-            )?;
+                })?;
             solve_lower_triangular_in_place(top.rb().conjugate(), bottom.transpose_mut(), Par::Seq);
         }
         Ok(())

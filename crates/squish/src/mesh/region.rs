@@ -13,7 +13,6 @@
 //!
 //! Every function works on the parent mesh's ids and is deterministic (sorted outputs).
 
-
 use glam::DVec3;
 
 use super::{NO_FACE, Topology, TriMesh, face_normal_unnormalized};
@@ -214,13 +213,7 @@ impl BucketQueue {
             return None;
         }
         let current = if start.is_empty() { 0 } else { Self::index(low, width) };
-        Some(Self {
-            width,
-            buckets: vec![Vec::new(); slots as usize],
-            current,
-            draining: Vec::new(),
-            len: 0,
-        })
+        Some(Self { width, buckets: vec![Vec::new(); slots as usize], current, draining: Vec::new(), len: 0 })
     }
 
     #[inline]
@@ -451,7 +444,8 @@ mod tests {
             }
         }
         // Seeds spread far beyond the longest edge (a window of buckets wider than one edge).
-        let far: Vec<(u32, f64)> = (0..mesh.num_vertices() as u32).step_by(97).map(|v| (v, f64::from(v) * 1e-3)).collect();
+        let far: Vec<(u32, f64)> =
+            (0..mesh.num_vertices() as u32).step_by(97).map(|v| (v, f64::from(v) * 1e-3)).collect();
         for limit in [0.5, f64::INFINITY] {
             let fast = edge_path_distance_field(&mesh, &topology, &far, limit);
             let reference = reference_distances(&mesh, &topology, &far, limit);
@@ -466,7 +460,10 @@ mod tests {
         let centre: Vec<(u32, f64)> = vec![(480, 0.0), (481, 0.0)];
         let fast = edge_path_distance_field(&grid, &grid_topology, &centre, 1.3);
         let reference = reference_distances(&grid, &grid_topology, &centre, 1.3);
-        assert_eq!(fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(), reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>());
+        assert_eq!(
+            fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+            reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
+        );
     }
 
     #[test]

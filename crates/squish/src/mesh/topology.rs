@@ -212,7 +212,9 @@ impl Topology {
     /// The one-ring neighbours of `v`, in increasing id.
     pub fn vertex_neighbors(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
         let v = v as usize;
-        self.vertex_neighbors[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize].iter().copied()
+        self.vertex_neighbors[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize]
+            .iter()
+            .copied()
     }
 
     /// The edge joining `a` and `b`, if any.

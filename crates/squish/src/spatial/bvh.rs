@@ -136,7 +136,6 @@ impl TriangleBvh {
     pub fn leaf_indices(&self, leaf: usize) -> Option<[u32; 3]> {
         self.indices.get(leaf).copied()
     }
-
 }
 
 /// True if the two triangles have bit-identical corners (so `-0.0` and `0.0` differ).

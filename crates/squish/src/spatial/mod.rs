@@ -40,11 +40,11 @@ pub use aabb_tree::{AabbTree, PointTree, ProjectionPlane, Segment2Hit, SegmentTr
 pub use batch::{Batch, BatchHits};
 pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
+pub(crate) use flat_bvh::Visit;
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, Hit, Ray};
 pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
-pub(crate) use flat_bvh::Visit;
 pub use winding::{FastWinding, generalized_winding_number, penetration_depths, solid_angle};
 
 use crate::mesh::MeshError;

@@ -23,9 +23,9 @@
 use glam::DVec3;
 
 use super::bvh::{SegmentProbe, TriangleBvh, box_distance_squared};
-use super::flat_bvh::{Node, Visit};
 use super::closest::{barycentric_point, closest_point_on_triangle};
 use super::exact::{Crossing, segment_triangle};
+use super::flat_bvh::{Node, Visit};
 use crate::mesh::Aabb3;
 
 /// A crossing of a query segment or ray with a triangle of the tree.
