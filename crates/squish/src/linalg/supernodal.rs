@@ -361,6 +361,21 @@ impl SupernodalPlan {
             if x[begin * K..(begin + width) * K].iter().all(|&v| v == 0.0) {
                 continue;
             }
+            if width == 1 {
+                // Half the supernodes of a surface Laplacian: scatter directly (no buffer).
+                let at = begin * K;
+                let active: [bool; K] = std::array::from_fn(|c| x[at + c] != 0.0);
+                let xj: [f64; K] = std::array::from_fn(|c| if active[c] { x[at + c] / block[0] } else { x[at + c] });
+                x[at..at + K].copy_from_slice(&xj);
+                for (&row, &value) in pattern.iter().zip(&block[1..]) {
+                    for c in 0..K {
+                        if active[c] {
+                            x[row * K + c] -= value * xj[c];
+                        }
+                    }
+                }
+                continue;
+            }
             below.clear();
             below.resize(pattern.len(), [0.0; K]);
             for j in 0..width {
@@ -407,6 +422,14 @@ impl SupernodalPlan {
             let pattern = self.pattern(s);
             let rows = width + pattern.len();
             let block = &l[self.val_ptr[s]..self.val_ptr[s + 1]];
+            if width == 1 {
+                let at = begin * K;
+                let below = dot_indexed::<K>(&block[1..], pattern, x);
+                for c in 0..K {
+                    x[at + c] = (x[at + c] - below[c]) / block[0];
+                }
+                continue;
+            }
             // The pattern rows' values, gathered once for all the supernode's columns.
             gathered.clear();
             gathered.extend(pattern.iter().map(|&row| std::array::from_fn::<f64, K, _>(|c| x[row * K + c])));
@@ -426,6 +449,28 @@ impl SupernodalPlan {
             }
         }
     }
+}
+
+/// [`dot_rows`] with the rows read in place: `Σ_i values[i]·x[rows[i]·K + c]`, the same partial
+/// sums in the same order.
+#[inline]
+fn dot_indexed<const K: usize>(values: &[f64], rows: &[usize], x: &[f64]) -> [f64; K] {
+    let mut partial = [[0.0f64; K]; 4];
+    let mut chunks_v = values.chunks_exact(4);
+    let mut chunks_r = rows.chunks_exact(4);
+    for (v, r) in (&mut chunks_v).zip(&mut chunks_r) {
+        for lane in 0..4 {
+            for c in 0..K {
+                partial[lane][c] += v[lane] * x[r[lane] * K + c];
+            }
+        }
+    }
+    for (lane, (&v, &r)) in chunks_v.remainder().iter().zip(chunks_r.remainder()).enumerate() {
+        for c in 0..K {
+            partial[lane][c] += v * x[r * K + c];
+        }
+    }
+    std::array::from_fn(|c| (partial[0][c] + partial[1][c]) + (partial[2][c] + partial[3][c]))
 }
 
 /// `Σ_i values[i]·rows[i][c]` for each column c, in four interleaved partial sums combined in a
