@@ -265,7 +265,7 @@ impl EdgeRegion {
                 }
             }
             if len >= 3 {
-                f(face as u32, &polygon[..len]);
+                f(face, &polygon[..len]);
             }
         }
     }

@@ -451,46 +451,40 @@ impl SupernodalPlan {
     }
 }
 
-/// [`dot_rows`] with the rows read in place: `Σ_i values[i]·x[rows[i]·K + c]`, the same partial
-/// sums in the same order.
+/// `Σ_i values[i]·x[rows[i]·K + c]` for each column c (the rows read in place); see
+/// [`partial_sums`].
 #[inline]
 fn dot_indexed<const K: usize>(values: &[f64], rows: &[usize], x: &[f64]) -> [f64; K] {
-    let mut partial = [[0.0f64; K]; 4];
-    let mut chunks_v = values.chunks_exact(4);
-    let mut chunks_r = rows.chunks_exact(4);
-    for (v, r) in (&mut chunks_v).zip(&mut chunks_r) {
-        for lane in 0..4 {
-            for c in 0..K {
-                partial[lane][c] += v[lane] * x[r[lane] * K + c];
-            }
-        }
-    }
-    for (lane, (&v, &r)) in chunks_v.remainder().iter().zip(chunks_r.remainder()).enumerate() {
-        for c in 0..K {
-            partial[lane][c] += v * x[r * K + c];
-        }
-    }
-    std::array::from_fn(|c| (partial[0][c] + partial[1][c]) + (partial[2][c] + partial[3][c]))
+    partial_sums(values, |i| std::array::from_fn(|c| x[rows[i] * K + c]))
 }
 
-/// `Σ_i values[i]·rows[i][c]` for each column c, in four interleaved partial sums combined in a
-/// fixed order: the same rounding for a column whatever `K` (and whatever the thread count), and
-/// four independent chains instead of one long dependent one.
+/// `Σ_i values[i]·rows[i][c]` for each column c (the rows gathered beforehand); see
+/// [`partial_sums`].
 #[inline]
 fn dot_rows<const K: usize>(values: &[f64], rows: &[[f64; K]]) -> [f64; K] {
+    partial_sums(values, |i| rows[i])
+}
+
+/// `Σ_i values[i]·row(i)[c]` for each column c in four interleaved partial sums (term i goes to
+/// sum i mod 4) combined in a fixed order: the same rounding for a column whatever `K` (and
+/// whatever the thread count), and four independent chains instead of one long dependent one.
+#[inline(always)]
+fn partial_sums<const K: usize>(values: &[f64], row: impl Fn(usize) -> [f64; K]) -> [f64; K] {
     let mut partial = [[0.0f64; K]; 4];
-    let mut chunks_v = values.chunks_exact(4);
-    let mut chunks_r = rows.chunks_exact(4);
-    for (v, r) in (&mut chunks_v).zip(&mut chunks_r) {
-        for lane in 0..4 {
+    let chunks = values.chunks_exact(4);
+    let (remainder, full) = (chunks.remainder(), values.len() - values.len() % 4);
+    for (k, chunk) in chunks.enumerate() {
+        for (lane, &value) in chunk.iter().enumerate() {
+            let r = row(4 * k + lane);
             for c in 0..K {
-                partial[lane][c] += v[lane] * r[lane][c];
+                partial[lane][c] += value * r[c];
             }
         }
     }
-    for (lane, (&v, r)) in chunks_v.remainder().iter().zip(chunks_r.remainder()).enumerate() {
+    for (lane, &value) in remainder.iter().enumerate() {
+        let r = row(full + lane);
         for c in 0..K {
-            partial[lane][c] += v * r[c];
+            partial[lane][c] += value * r[c];
         }
     }
     std::array::from_fn(|c| (partial[0][c] + partial[1][c]) + (partial[2][c] + partial[3][c]))

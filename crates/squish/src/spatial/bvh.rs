@@ -384,7 +384,7 @@ mod tests {
             state ^= state << 17;
             state
         };
-        let mut coordinate = |next: &mut dyn FnMut() -> u64| (next() % 9) as f64 * 0.25 - 1.0;
+        let coordinate = |next: &mut dyn FnMut() -> u64| (next() % 9) as f64 * 0.25 - 1.0;
         let flat = [0.0, 1e-310, -1e-310];
         let (mut parallel, mut met) = (0, 0);
         for _ in 0..20_000 {
