@@ -185,8 +185,8 @@ fn relax(
 /// bits (tested against the binary heap). O(1) per entry with no reordering: with the scan for the
 /// shortest and longest edges, 1.4× faster than the radix queue on the benchmark's 1.5k-vertex
 /// ball, 1.2× on a 109 × 109 grid. `None` (then [`RadixQueue`]) for a mesh with a
-/// zero-length edge, or whose longest edge or seed spread is more than a few times its vertex
-/// count of shortest edges.
+/// zero-length edge, whose longest edge or seed spread is more than a few times its vertex count
+/// of shortest edges, or whose distances could reach 2³⁰ buckets.
 struct BucketQueue {
     width: f64,
     buckets: Vec<Vec<(f64, u32)>>,
@@ -209,7 +209,14 @@ impl BucketQueue {
         let (low, high) = start.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &(d, _)| (lo.min(d), hi.max(d)));
         let span = longest.sqrt().max(if start.is_empty() { 0.0 } else { high - low });
         let slots = (span / width).floor() + 3.0;
-        if !(width > 0.0 && width.is_finite() && slots.is_finite()) || slots > (4 * mesh.num_vertices() + 64) as f64 {
+        // The farthest distance a path can reach, in buckets: the margin of 10⁻⁶ bucket per edge
+        // must stay far above the rounding of `distance / width` (relative 2⁻⁵³), so the bucket
+        // indices stay below 2³⁰.
+        let farthest = (high + mesh.num_vertices() as f64 * longest.sqrt()) / width;
+        if !(width > 0.0 && width.is_finite() && slots.is_finite())
+            || slots > (4 * mesh.num_vertices() + 64) as f64
+            || !(farthest < f64::from(1u32 << 30))
+        {
             return None;
         }
         let current = if start.is_empty() { 0 } else { Self::index(low, width) };
@@ -430,6 +437,8 @@ mod tests {
         let [i, j] = topology.edges()[100];
         pinched.positions[j as usize] = pinched.positions[i as usize] + DVec3::splat(1e-9);
         let seeds: Vec<(u32, f64)> = [(0u32, 0.0), (17, 0.013), (17, 0.011), (400, 0.25), (401, -0.0)].to_vec();
+        // Seeds so far out that the bucket indices would lose the margin to rounding: radix too.
+        assert!(BucketQueue::for_mesh(&mesh, &topology, &[(1e12, 0)]).is_none());
         for (mesh, bucketed) in [(&mesh, true), (&pinched, false)] {
             assert_eq!(BucketQueue::for_mesh(mesh, &topology, &[(0.0, 0)]).is_some(), bucketed);
             for limit in [0.3, 1.0, 2.5, f64::INFINITY] {
