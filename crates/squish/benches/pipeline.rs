@@ -2,7 +2,8 @@
 //! a regression shows in the stage that caused it:
 //! - on a ~10k-vertex pair (the "small sphere – big sphere" bench scene, mid-animation):
 //!   intersection (§4.1), mapping (§4.2.2), the whole contact definition (ch. 4, up to the
-//!   contact zones), parametrization (§5.1, two factorizations and two solves), guide diffusion
+//!   contact zones), the edge-path distances that bound the parametrization's domain (§5.1),
+//!   parametrization (§5.1, two factorizations and two solves), guide diffusion
 //!   (§5.3, one factorization, one two-column solve), the deformation of one region (ch. 5) and
 //!   the full frame on a reused [`Deformer`];
 //! - on the hat–egg scene at quick size (a shell enveloping a rigid egg: many near misses), the
@@ -21,7 +22,7 @@ use squish::deform::direction_field::{DirectionParams, direction_field};
 use squish::deform::guide::{GuideParams, guide_fields};
 use squish::deform::parametrize::{ParametrizeParams, parametrize};
 use squish::deform::{ContactSet, RegionSolver, deform_region};
-use squish::mesh::{Topology, TriMesh, vertex_normals};
+use squish::mesh::{Topology, TriMesh, edge_path_distance_field, vertex_normals};
 use squish::pipeline::Deformer;
 use squish::pipeline::bench_scenes::{self, BenchScene, BenchSize};
 use squish::spatial::TriangleBvh;
@@ -107,6 +108,17 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
     let guide_params = GuideParams { constraint_weight_factor: deform_params.constraint_weight_factor };
 
     let mut group = group_settings(c, "deformation 10k");
+    // The search for the parametrization domain 𝒫 (Dijkstra from ∂𝒞's edge ends, §5.1).
+    let seeds: Vec<(u32, f64)> = contact_set
+        .boundary
+        .iter()
+        .flat_map(|b| {
+            [b.point.inside, b.point.outside].map(|v| (v, (mesh.positions[v as usize] - b.position).length()))
+        })
+        .collect();
+    group.bench_function("domain distances", |bench| {
+        bench.iter(|| black_box(edge_path_distance_field(mesh, topology, &seeds, parametrize_params.domain_radius)))
+    });
     group.bench_function("parametrization", |bench| {
         bench.iter(|| {
             let set = ContactSet::new(mesh, topology, &zones).expect("contact set");
