@@ -112,14 +112,16 @@ pub fn edge_path_distances(mesh: &TriMesh, topology: &Topology, sources: &[u32],
 }
 
 /// Shortest edge-path distances from seeds with starting distances `(vertex, distance)` (a
-/// vertex seeded twice keeps its smaller distance; seeds beyond `limit` or out of range are
-/// ignored), one per vertex, `f64::INFINITY` beyond `limit`: the distance from points lying on
-/// edges, such as the boundary points of a contact zone.
+/// vertex seeded twice keeps its smaller distance; a negative distance counts as 0; seeds beyond
+/// `limit` or out of range are ignored), one per vertex, `f64::INFINITY` beyond `limit`: the
+/// distance from points lying on edges, such as the boundary points of a contact zone.
 pub fn edge_path_distance_field(mesh: &TriMesh, topology: &Topology, seeds: &[(u32, f64)], limit: f64) -> Vec<f64> {
     let n = mesh.num_vertices();
     let mut distance = vec![f64::INFINITY; n];
     let mut start = Vec::with_capacity(seeds.len());
     for &(s, d) in seeds {
+        // A distance cannot be negative: such a seed starts at 0 (−0 is kept as is).
+        let d = if d < 0.0 { 0.0 } else { d };
         if (s as usize) < n && d <= limit && d < distance[s as usize] {
             distance[s as usize] = d;
             start.push((d, s));
@@ -439,6 +441,13 @@ mod tests {
         let seeds: Vec<(u32, f64)> = [(0u32, 0.0), (17, 0.013), (17, 0.011), (400, 0.25), (401, -0.0)].to_vec();
         // Seeds so far out that the bucket indices would lose the margin to rounding: radix too.
         assert!(BucketQueue::for_mesh(&mesh, &topology, &[(1e12, 0)]).is_none());
+        // Negative starting distances count as 0.
+        let negative = [(0u32, -0.5), (1, -0.1), (2, 0.0)];
+        let clamped = [(0u32, 0.0), (1, 0.0), (2, 0.0)];
+        assert_eq!(
+            edge_path_distance_field(&mesh, &topology, &negative, 1.0).iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+            reference_distances(&mesh, &topology, &clamped, 1.0).iter().map(|d| d.to_bits()).collect::<Vec<_>>()
+        );
         for (mesh, bucketed) in [(&mesh, true), (&pinched, false)] {
             assert_eq!(BucketQueue::for_mesh(mesh, &topology, &[(0.0, 0)]).is_some(), bucketed);
             for limit in [0.3, 1.0, 2.5, f64::INFINITY] {
