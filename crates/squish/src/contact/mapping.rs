@@ -11,9 +11,9 @@
 //! 2. **Projected regions** 𝒫_b(ℬ_a). The boundary of ℬ_a is the set of per-face segments joining
 //!    the two boundary points of each face piece, plus the parts of genuine mesh-boundary edges
 //!    inside ℬ_a (an open mesh). They are projected on the plane ⟂ d̂ ([`ProjectionPlane`]) and
-//!    oriented so that ℬ_a lies on their left, into a [`SegmentTree2`]. A vertex v of b is inside
+//!    oriented so that ℬ_a lies on their left, into [`SegmentSlabs`]. A vertex v of b is inside
 //!    𝒫_b(ℬ_a) iff it is front-facing (g_b ≤ 0) and its projection has a non-zero winding number
-//!    with respect to the projected segments (a ray along +u in the plane; the tree's exact,
+//!    with respect to the projected segments (a ray along +u in the plane; the exact,
 //!    perturbed crossings make it half-open at shared segment ends). On an edge from an inside
 //!    vertex i to an outside vertex j, α is the crossing of the projected edge with the segments
 //!    nearest to i, or the contour point t = g_i / (g_i − g_j) if j is back-facing and that is
@@ -36,7 +36,7 @@ use glam::{DVec2, DVec3};
 use super::{ContactError, ContactSide, EdgeRegion, Sample};
 use crate::linalg::EdgePoint;
 use crate::mesh::{Topology, TriMesh};
-use crate::spatial::{ProjectionPlane, Ray, SegmentTree2};
+use crate::spatial::{ProjectionPlane, Ray, SegmentSlabs};
 
 /// Marks a vertex outside a mapping region in [`SideMapping::vertex_slot`].
 pub const NO_SLOT: u32 = u32::MAX;
@@ -313,7 +313,7 @@ pub fn projected_region(
     if outline.segments.is_empty() {
         return Ok(Projected { region: EdgeRegion::empty(target_topology), ..Default::default() });
     }
-    let tree = SegmentTree2::new(&outline.segments)?;
+    let tree = SegmentSlabs::new(&outline.segments)?;
     let (mut lo, mut hi) = (DVec2::INFINITY, DVec2::NEG_INFINITY);
     for s in &outline.segments {
         lo = lo.min(s[0].min(s[1]));

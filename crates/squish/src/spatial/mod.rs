@@ -30,6 +30,7 @@ mod exact;
 mod flat_bvh;
 mod joint;
 mod queries;
+mod segment_slabs;
 mod self_intersection;
 #[cfg(test)]
 pub(crate) mod test_meshes;
@@ -43,6 +44,7 @@ pub use closest::closest_point_on_triangle;
 pub(crate) use flat_bvh::Visit;
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, Hit, Ray};
+pub use segment_slabs::SegmentSlabs;
 pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
 pub use winding::{FastWinding, generalized_winding_number, penetration_depths, solid_angle};
