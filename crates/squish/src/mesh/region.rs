@@ -215,10 +215,12 @@ impl BucketQueue {
         // must stay far above the rounding of `distance / width` (relative 2⁻⁵³), so the bucket
         // indices stay below 2³⁰.
         let farthest = (high + mesh.num_vertices() as f64 * longest.sqrt()) / width;
-        if !(width > 0.0 && width.is_finite() && slots.is_finite())
-            || slots > (4 * mesh.num_vertices() + 64) as f64
-            || !(farthest < f64::from(1u32 << 30))
-        {
+        let usable = width > 0.0
+            && width.is_finite()
+            && slots.is_finite()
+            && slots <= (4 * mesh.num_vertices() + 64) as f64
+            && farthest < f64::from(1u32 << 30);
+        if !usable {
             return None;
         }
         let current = if start.is_empty() { 0 } else { Self::index(low, width) };

@@ -70,9 +70,9 @@ impl SegmentSlabs {
         this.items = vec![0; this.slab_start[slabs]];
         for (i, b) in this.boxes.iter().enumerate() {
             let (first, last) = (this.slab(b.0.y), this.slab(b.1.y));
-            for k in first..=last {
-                this.items[next[k]] = i as u32;
-                next[k] += 1;
+            for slot in &mut next[first..=last] {
+                this.items[*slot] = i as u32;
+                *slot += 1;
             }
         }
         Ok(this)
