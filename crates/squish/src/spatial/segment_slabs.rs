@@ -156,7 +156,7 @@ mod tests {
             // so that queries pass through its vertices and along its edges.
             let count = 3 + (next() % 120) as usize;
             let lattice = case % 2 == 0;
-            let mut point = |next: &mut dyn FnMut() -> u64| {
+            let point = |next: &mut dyn FnMut() -> u64| {
                 let (x, y) = ((next() % 41) as f64 / 20.0 - 1.0, (next() % 41) as f64 / 20.0 - 1.0);
                 if lattice { DVec2::new(x, y) } else { DVec2::new(x + 1e-3 * (next() % 1000) as f64, y) }
             };
