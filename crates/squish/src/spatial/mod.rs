@@ -9,7 +9,8 @@
 //!   and [`Hit::entering`] gives the side for the *interior*/*exterior* tags;
 //! - **mapping** (§4.2.2): vertices are matched to the farthest point of the opposite mesh along
 //!   ±d̂ ([`TriangleBvh::ray_farthest`], [`TriangleBvh::ray_farthest_batch`]), and projected
-//!   contour segments are intersected with projected mesh edges in 2D ([`SegmentTree2`]);
+//!   contour segments are intersected with projected mesh edges in 2D ([`SegmentSlabs`], with
+//!   the answers of the general [`SegmentTree2`]);
 //! - **ball testing** (method A, §4.4.1): points within a radius ([`PointTree`]);
 //! - **quality measures and `squish info`**: self-intersecting faces ([`self_intersections`]),
 //!   inside/outside and penetration depth ([`TriangleBvh::winding_number`],
