@@ -87,7 +87,7 @@ pub struct DirectionParams<'a> {
 }
 
 /// Computes d̄ and d (see the module doc). `normals` are the input's area-weighted vertex normals;
-/// `parametrization` must come from [`super::parametrize()`] on the same `solver` this frame when
+/// `parametrization` must come from [`super::parametrize::parametrize()`] on the same `solver` this frame when
 /// several zone directions need a diffusion.
 pub fn direction_field(
     mesh: &TriMesh,

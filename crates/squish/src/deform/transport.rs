@@ -291,7 +291,7 @@ fn boundary_target(position: DVec3, target: DVec3, zone_direction: DVec3, epsilo
 }
 
 /// Computes the parallel-transport direction field (module doc). `parametrization` must come
-/// from [`super::parametrize()`] this frame; `normals` are the input's unit vertex normals.
+/// from [`super::parametrize::parametrize()`] this frame; `normals` are the input's unit vertex normals.
 pub fn transport_field(
     mesh: &TriMesh,
     solver: &mut RegionSolver,

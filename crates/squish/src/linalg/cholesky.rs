@@ -474,7 +474,7 @@ impl NumericFactor {
 
     /// Columns of `L` the last factorization computed: all of them for a whole factorization,
     /// those whose values changed and their ancestors for a partial one (see
-    /// [`super::supernodal`]).
+    /// `linalg::supernodal`).
     pub fn recomputed_columns(&self) -> usize {
         match self.layout {
             Layout::None => 0,

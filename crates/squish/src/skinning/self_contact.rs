@@ -436,7 +436,7 @@ fn report_zone(
 /// ε_c ≥ −P (P the typical penetration depth, see [`PairParams::contact_threshold_floor`]).
 pub const CONTACT_THRESHOLD_FLOOR: f64 = 1.0;
 
-/// The automatic contact gap as a fraction of the mean edge length (see [`separate`]). Both
+/// The automatic contact gap as a fraction of the mean edge length (see `separate`). Both
 /// sides sample 𝒮 at their own vertices; at the bottom of a fold, where 𝒮 bends sharply and the
 /// two zones meet at the crease, their chords cross unless the gap is a sizeable part of an
 /// edge: on a capsule bent to 150°, 13 faces still intersect with 0.05 edge, 4–5 with 0.25 and
