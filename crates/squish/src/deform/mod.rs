@@ -168,14 +168,29 @@ pub struct RegionDeformation {
     pub stats: DeformStats,
 }
 
-/// Signed volume of `positions` on the region's faces relative to `reference`.
-fn volume_about(triangles: &[[u32; 3]], positions: &[DVec3], reference: DVec3) -> f64 {
-    let mut sum = 0.0;
-    for tri in triangles {
+/// The signed volumes of `before` and `after` on the region's faces relative to `reference`, in
+/// one pass: a face none of whose vertices is marked in `moved` has the same cone in both, which
+/// is computed once (each sum gets the same terms in the same order as two separate passes, so
+/// the same bits). An empty `moved` marks every vertex.
+fn volumes_about(
+    triangles: &[[u32; 3]],
+    before: &[DVec3],
+    after: &[DVec3],
+    moved: &[bool],
+    reference: DVec3,
+) -> (f64, f64) {
+    let cone = |positions: &[DVec3], tri: &[u32; 3]| {
         let [a, b, c] = tri.map(|v| positions[v as usize] - reference);
-        sum += a.dot(b.cross(c));
+        a.dot(b.cross(c))
+    };
+    let (mut sum_before, mut sum_after) = (0.0, 0.0);
+    for tri in triangles {
+        let first = cone(before, tri);
+        sum_before += first;
+        let still = !moved.is_empty() && tri.iter().all(|&v| !moved[v as usize]);
+        sum_after += if still { first } else { cone(after, tri) };
     }
-    sum / 6.0
+    (sum_before / 6.0, sum_after / 6.0)
 }
 
 /// Deforms one working region with all its contact zones (thesis ch. 5; see the module doc).
@@ -293,8 +308,9 @@ impl RegionPlan {
         let mut stats = self.stats;
         stats.bulge_height = bulge_height;
         stats.applied_bulge_height = applied;
-        stats.volume_before = volume_about(&mesh.triangles, &mesh.positions, reference);
-        stats.volume_after = volume_about(&mesh.triangles, &positions, reference);
+        // Unmoved vertices keep their input bits (`positions`), so their faces' cones are shared.
+        (stats.volume_before, stats.volume_after) =
+            volumes_about(&mesh.triangles, &mesh.positions, &positions, &self.displacement.moved, reference);
         stats.timings.deformation += stage.elapsed();
         RegionDeformation {
             positions,

@@ -658,3 +658,28 @@ fn the_region_solver_can_move_to_another_thread() {
     assert_send::<RegionSolver>();
     assert_send::<RegionDeformation>();
 }
+
+#[test]
+fn one_pass_volumes_are_the_bits_of_two_passes() {
+    let mesh = shapes::icosphere(1.0, 3);
+    let reference = DVec3::new(0.1, -0.2, 0.05);
+    let moved: Vec<bool> = (0..mesh.num_vertices()).map(|v| v % 7 == 0 || mesh.positions[v].z > 0.5).collect();
+    let after: Vec<DVec3> = mesh
+        .positions
+        .iter()
+        .zip(&moved)
+        .map(|(&p, &m)| if m { p * 1.1 + DVec3::new(0.0, 0.0, 0.01) } else { p })
+        .collect();
+    let separate = |positions: &[DVec3]| {
+        let mut sum = 0.0;
+        for tri in &mesh.triangles {
+            let [a, b, c] = tri.map(|v| positions[v as usize] - reference);
+            sum += a.dot(b.cross(c));
+        }
+        sum / 6.0
+    };
+    let (before, after_volume) = volumes_about(&mesh.triangles, &mesh.positions, &after, &moved, reference);
+    assert_eq!(before.to_bits(), separate(&mesh.positions).to_bits());
+    assert_eq!(after_volume.to_bits(), separate(&after).to_bits());
+    assert!(after_volume > before);
+}
