@@ -6,9 +6,9 @@
 //! whose box meets the query's box (inclusive comparisons, so nothing the exact test could count
 //! is dropped), and each candidate goes through the same exact predicate
 //! ([`super::exact::segment_segment_2d`]). A contour has tens to hundreds of segments and is
-//! queried a few hundred times, once per frame and side: building the slabs is one counting sort
-//! (the tree's build was a quarter of the projected region's time), and a horizontal ray reads
-//! one slab.
+//! queried a few hundred times, once per frame and side: building the slabs is a sort of the
+//! segments' lowest points and a counting sort (the tree's build was a quarter of the projected
+//! region's time), and a horizontal ray reads one slab of about √m segments.
 
 use glam::DVec2;
 
@@ -23,9 +23,10 @@ pub struct SegmentSlabs {
     segments: Vec<[DVec2; 2]>,
     /// Per segment: its box (min, max).
     boxes: Vec<(DVec2, DVec2)>,
-    /// y of the bottom of slab 0 and the height of a slab (> 0).
-    bottom: f64,
-    height: f64,
+    /// The heights between slabs, increasing: slab k is `[tops[k − 1], tops[k])` (unbounded at
+    /// both ends). They are quantiles of the segments' lowest points, so each slab starts about
+    /// √m segments even when the contour has several far-apart parts.
+    tops: Vec<f64>,
     /// `items[slab_start[k]..slab_start[k + 1]]`: the segments meeting slab k, increasing.
     slab_start: Vec<usize>,
     items: Vec<u32>,
@@ -43,20 +44,15 @@ impl SegmentSlabs {
                 max: max.extend(0.0).to_array(),
             });
         }
-        let (bottom, top) =
-            boxes.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), b| (lo.min(b.0.y), hi.max(b.1.y)));
-        // About two segments per slab on a closed contour (each is in ~1–2 slabs).
+        // About √m slabs of about √m segments each.
         let slabs = ((segments.len() as f64).sqrt().ceil() as usize).clamp(1, 1024);
-        let span = top - bottom;
-        let height = if span > 0.0 && span.is_finite() { span / slabs as f64 } else { 1.0 };
-        let mut this = Self {
-            segments: segments.to_vec(),
-            boxes,
-            bottom: if bottom.is_finite() { bottom } else { 0.0 },
-            height,
-            slab_start: vec![0; slabs + 1],
-            items: Vec::new(),
-        };
+        let mut lows: Vec<f64> = boxes.iter().map(|b| b.0.y).collect();
+        lows.sort_unstable_by(f64::total_cmp);
+        let mut tops: Vec<f64> = (1..slabs).map(|k| lows[k * lows.len() / slabs]).collect();
+        tops.dedup();
+        let slabs = tops.len() + 1;
+        let mut this =
+            Self { segments: segments.to_vec(), boxes, tops, slab_start: vec![0; slabs + 1], items: Vec::new() };
         for b in &this.boxes {
             let (first, last) = (this.slab(b.0.y), this.slab(b.1.y));
             for k in first..=last {
@@ -78,14 +74,10 @@ impl SegmentSlabs {
         Ok(this)
     }
 
-    /// The slab of height y, clamped to the slabs: monotone in y, so two overlapping y-ranges
-    /// meet a common slab.
+    /// The slab of height y: monotone in y, so two overlapping y-ranges meet a common slab.
     #[inline]
     fn slab(&self, y: f64) -> usize {
-        let last = self.slab_start.len() - 2;
-        let k = (y - self.bottom) / self.height;
-        // NaN-free for finite input; `as` saturates negatives to 0.
-        (k.max(0.0) as usize).min(last)
+        self.tops.partition_point(|&top| top <= y)
     }
 
     /// The segments, in input order.
@@ -181,6 +173,28 @@ mod tests {
         let mut out = vec![Segment2Hit { segment: 0, s: 0.0, t: 0.0 }];
         empty.crossings(DVec2::ZERO, DVec2::ONE, &mut out);
         assert!(out.is_empty());
+        // Two far-apart contours, one tiny: the slabs still split the big one.
+        let ring = |centre: DVec2, radius: f64, count: usize| -> Vec<[DVec2; 2]> {
+            let at = |k: usize| {
+                let a = k as f64 / count as f64 * std::f64::consts::TAU;
+                centre + radius * DVec2::new(a.cos(), a.sin())
+            };
+            (0..count).map(|k| [at(k), at(k + 1)]).collect()
+        };
+        let mut parts = ring(DVec2::ZERO, 1.0, 400);
+        parts.extend(ring(DVec2::new(0.0, 1e6), 1e-3, 12));
+        let (slabs, tree) = (SegmentSlabs::new(&parts).unwrap(), SegmentTree2::new(&parts).unwrap());
+        assert!(slabs.slab_start.len() > 10);
+        let widest = (0..slabs.slab_start.len() - 1).map(|k| slabs.slab_start[k + 1] - slabs.slab_start[k]).max();
+        assert!(widest.unwrap() < 80, "{widest:?}");
+        let rays: Vec<[DVec2; 2]> = (0..200)
+            .map(|k| {
+                let p = DVec2::new(0.3, k as f64 / 100.0 - 1.0);
+                [p, DVec2::new(5.0, p.y)]
+            })
+            .chain([[DVec2::new(-0.0005, 1e6), DVec2::new(5.0, 1e6)]])
+            .collect();
+        assert_eq!(slabs.crossings_batch(&rays), tree.crossings_batch(&rays));
         // All segments on one horizontal line (zero-height span).
         let flat = [[DVec2::new(0.0, 0.5), DVec2::new(1.0, 0.5)], [DVec2::new(1.0, 0.5), DVec2::new(2.0, 0.5)]];
         let slabs = SegmentSlabs::new(&flat).unwrap();
