@@ -216,6 +216,12 @@ impl ContactSet {
         self.vertex_zone.iter().filter(|&&z| z != NO_ZONE).count()
     }
 
+    /// The x, y and z components of each boundary point's zone direction (in the order of
+    /// [`Self::boundary`]): the constraint values of the direction diffusion (§5.2.2).
+    pub fn boundary_direction_components(&self) -> [Vec<f64>; 3] {
+        std::array::from_fn(|axis| self.boundary.iter().map(|b| self.directions[b.zone as usize][axis]).collect())
+    }
+
     /// True if some boundary point of ∂𝒞 belongs to a zone whose direction differs from the first
     /// owner's: the direction field then needs the diffusion of §5.2.2.
     pub fn has_several_directions(&self) -> bool {

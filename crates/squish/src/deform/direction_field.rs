@@ -175,10 +175,7 @@ fn diffuse_mapping_directions(
     let columns: &[Vec<f64>] = match &parametrization.diffused_directions {
         Some(columns) => columns,
         None => {
-            let component = |axis: usize| -> Vec<f64> {
-                contact.boundary.iter().map(|b| contact.directions[b.zone as usize][axis]).collect()
-            };
-            let (x, y, z) = (component(0), component(1), component(2));
+            let [x, y, z] = contact.boundary_direction_components();
             let rhs = |values| RightHandSide { constraint_values: Some(values), ..Default::default() };
             solved =
                 poisson.solve_many(&[rhs(&x), rhs(&y), rhs(&z)]).map_err(DeformError::solve("direction diffusion"))?;

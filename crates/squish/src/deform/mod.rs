@@ -171,7 +171,7 @@ pub struct RegionDeformation {
 /// The signed volumes of `before` and `after` on the region's faces relative to `reference`, in
 /// one pass: a face none of whose vertices is marked in `moved` has the same cone in both, which
 /// is computed once (each sum gets the same terms in the same order as two separate passes, so
-/// the same bits). An empty `moved` marks every vertex.
+/// the same bits).
 fn volumes_about(
     triangles: &[[u32; 3]],
     before: &[DVec3],
@@ -187,7 +187,7 @@ fn volumes_about(
     for tri in triangles {
         let first = cone(before, tri);
         sum_before += first;
-        let still = !moved.is_empty() && tri.iter().all(|&v| !moved[v as usize]);
+        let still = tri.iter().all(|&v| !moved[v as usize]);
         sum_after += if still { first } else { cone(after, tri) };
     }
     (sum_before / 6.0, sum_after / 6.0)

@@ -227,14 +227,14 @@ pub(crate) fn parametrize_and_diffuse(
     }
     let poisson = solver.poisson(generation, "Poisson")?;
     let mut rhs = vec![RightHandSide { load: Some(&load), ..Default::default() }];
-    let directions: Vec<[f64; 3]> = if diffuse_directions && contact.has_several_directions() {
-        contact.boundary.iter().map(|b| contact.directions[b.zone as usize].to_array()).collect()
-    } else {
-        Vec::new()
-    };
-    let components: Vec<Vec<f64>> =
-        (0..3).map(|axis| directions.iter().map(|d| d[axis]).collect()).filter(|c: &Vec<f64>| !c.is_empty()).collect();
-    rhs.extend(components.iter().map(|values| RightHandSide { constraint_values: Some(values), ..Default::default() }));
+    let components =
+        (diffuse_directions && contact.has_several_directions()).then(|| contact.boundary_direction_components());
+    rhs.extend(
+        components
+            .iter()
+            .flatten()
+            .map(|values| RightHandSide { constraint_values: Some(values), ..Default::default() }),
+    );
     let mut columns = poisson.solve_many(&rhs).map_err(DeformError::solve("Poisson"))?.into_iter();
     let mut distance = columns.next().unwrap_or_default();
     let diffused_directions = match (columns.next(), columns.next(), columns.next()) {

@@ -58,7 +58,7 @@ mod supernodal;
 mod timing;
 
 #[cfg(test)]
-mod test_support;
+pub(crate) mod test_support;
 
 pub use cholesky::{NumericFactor, SymbolicFactor};
 pub use constraints::{

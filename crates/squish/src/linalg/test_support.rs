@@ -24,6 +24,11 @@ impl Lcg {
     pub fn next_signed(&mut self) -> f64 {
         2.0 * self.next_unit() - 1.0
     }
+
+    /// Uniform in `0..n` (n > 0).
+    pub fn next_index(&mut self, n: usize) -> usize {
+        ((self.next_unit() * n as f64) as usize).min(n - 1)
+    }
 }
 
 /// The boundary `phi = 0` of the removed side `phi > 0`, the way the contact stage produces it:

@@ -79,7 +79,19 @@ impl<T> Batch<T> {
 
 impl<T: Clone + Send> Batch<T> {
     /// Runs `run(query, out)` (which must clear `out` and fill it) on every query in parallel.
+    /// A batch of at most one chunk runs on the calling thread (no task to split).
     pub(crate) fn gather<Q: Sync>(queries: &[Q], run: impl Fn(&Q, &mut Vec<T>) + Sync) -> Self {
+        if queries.len() <= CHUNK {
+            let mut offsets = Vec::with_capacity(queries.len() + 1);
+            let (mut hits, mut scratch) = (Vec::new(), Vec::new());
+            offsets.push(0);
+            for q in queries {
+                run(q, &mut scratch);
+                hits.extend_from_slice(&scratch);
+                offsets.push(hits.len());
+            }
+            return Self { offsets, hits };
+        }
         let chunks: Vec<(Vec<usize>, Vec<T>)> = queries
             .par_chunks(CHUNK)
             .map(|chunk| {

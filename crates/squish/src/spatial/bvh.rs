@@ -263,6 +263,7 @@ pub(super) fn box_distance_squared(mins: DVec3, maxs: DVec3, p: DVec3) -> f64 {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
     use crate::mesh::shapes;
 
     fn leaf_node(tree: &TriangleBvh, leaf: usize) -> super::super::flat_bvh::Node {
@@ -377,22 +378,16 @@ mod tests {
         // Segments along an axis or in a coordinate plane (one or two zero or subnormal extents),
         // against boxes around, touching and missing them, on a coarse lattice so that endpoints
         // and box faces coincide often.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
-        let coordinate = |next: &mut dyn FnMut() -> u64| (next() % 9) as f64 * 0.25 - 1.0;
+        let mut rng = Lcg::new(11);
+        let coordinate = |rng: &mut Lcg| rng.next_index(9) as f64 * 0.25 - 1.0;
         let flat = [0.0, 1e-310, -1e-310];
         let (mut parallel, mut met) = (0, 0);
         for _ in 0..20_000 {
-            let a = DVec3::new(coordinate(&mut next), coordinate(&mut next), coordinate(&mut next));
-            let mut d = DVec3::new(coordinate(&mut next), coordinate(&mut next), coordinate(&mut next));
+            let a = DVec3::new(coordinate(&mut rng), coordinate(&mut rng), coordinate(&mut rng));
+            let mut d = DVec3::new(coordinate(&mut rng), coordinate(&mut rng), coordinate(&mut rng));
             for k in 0..3 {
-                if next() % 3 == 0 {
-                    d[k] = flat[(next() % 3) as usize];
+                if rng.next_index(3) == 0 {
+                    d[k] = flat[rng.next_index(3)];
                 }
             }
             let probe = SegmentProbe::new(a, a + d);
@@ -400,8 +395,8 @@ mod tests {
                 continue;
             }
             parallel += 1;
-            let p = DVec3::new(coordinate(&mut next), coordinate(&mut next), coordinate(&mut next));
-            let q = DVec3::new(coordinate(&mut next), coordinate(&mut next), coordinate(&mut next));
+            let p = DVec3::new(coordinate(&mut rng), coordinate(&mut rng), coordinate(&mut rng));
+            let q = DVec3::new(coordinate(&mut rng), coordinate(&mut rng), coordinate(&mut rng));
             let (mins, maxs) = (p.min(q), p.max(q));
             let vector = probe.clip_parallel(mins, maxs);
             let reference = probe.clip_axis_by_axis(mins, maxs);

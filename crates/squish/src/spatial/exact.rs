@@ -497,23 +497,18 @@ mod tests {
         }
     }
     use super::*;
+    use crate::linalg::test_support::Lcg;
 
     #[test]
     fn the_inlined_orient3d_filter_returns_robusts_bits() {
         assert_eq!(ROBUST_EPSILON, 2f64.powi(-53));
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Lcg::new(13);
         let mut filtered = 0;
         for k in 0..30_000 {
-            let mut point = || DVec3::new(next(), next(), next());
+            let mut point = || DVec3::new(rng.next_signed(), rng.next_signed(), rng.next_signed());
             let (a, b, c) = (point(), point(), point());
             // Generic points, then points nearly in the plane (the filter fails, robust decides).
-            let d = if k % 3 == 0 { a + (b - a) * next() + (c - a) * next() } else { point() };
+            let d = if k % 3 == 0 { a + (b - a) * rng.next_signed() + (c - a) * rng.next_signed() } else { point() };
             let ours = orient3d(a, b, c, d);
             let theirs = robust::orient3d(c3(a), c3(b), c3(c), c3(d));
             assert_eq!(ours.to_bits(), theirs.to_bits(), "{a} {b} {c} {d}");

@@ -112,18 +112,6 @@ impl SegmentSlabs {
 
     /// [`Self::crossings`] for each query segment `[p, q]`, in parallel; results in input order.
     pub fn crossings_batch(&self, queries: &[[DVec2; 2]]) -> Batch<Segment2Hit> {
-        if queries.len() < 256 {
-            // One task: a contour's queries take microseconds.
-            let mut offsets = Vec::with_capacity(queries.len() + 1);
-            let (mut hits, mut scratch) = (Vec::new(), Vec::new());
-            offsets.push(0);
-            for &[p, q] in queries {
-                self.crossings(p, q, &mut scratch);
-                hits.extend_from_slice(&scratch);
-                offsets.push(hits.len());
-            }
-            return Batch::from_parts(offsets, hits);
-        }
         Batch::gather(queries, |&[p, q], out| self.crossings(p, q, out))
     }
 }
@@ -132,34 +120,29 @@ impl SegmentSlabs {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
     use crate::spatial::SegmentTree2;
 
     #[test]
     fn the_slabs_answer_like_the_tree() {
-        let mut state = 0x853c_49e6_748f_ea9bu64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = Lcg::new(17);
         for case in 0..40 {
             // A closed polygon (shared endpoints, as a region outline), on a lattice half the time
             // so that queries pass through its vertices and along its edges.
-            let count = 3 + (next() % 120) as usize;
+            let count = 3 + rng.next_index(120);
             let lattice = case % 2 == 0;
-            let point = |next: &mut dyn FnMut() -> u64| {
-                let (x, y) = ((next() % 41) as f64 / 20.0 - 1.0, (next() % 41) as f64 / 20.0 - 1.0);
-                if lattice { DVec2::new(x, y) } else { DVec2::new(x + 1e-3 * (next() % 1000) as f64, y) }
+            let point = |rng: &mut Lcg| {
+                let (x, y) = (rng.next_index(41) as f64 / 20.0 - 1.0, rng.next_index(41) as f64 / 20.0 - 1.0);
+                if lattice { DVec2::new(x, y) } else { DVec2::new(x + 1e-3 * rng.next_index(1000) as f64, y) }
             };
-            let corners: Vec<DVec2> = (0..count).map(|_| point(&mut next)).collect();
+            let corners: Vec<DVec2> = (0..count).map(|_| point(&mut rng)).collect();
             let segments: Vec<[DVec2; 2]> = (0..count).map(|k| [corners[k], corners[(k + 1) % count]]).collect();
             let tree = SegmentTree2::new(&segments).unwrap();
             let slabs = SegmentSlabs::new(&segments).unwrap();
-            let mut queries: Vec<[DVec2; 2]> = (0..300).map(|_| [point(&mut next), point(&mut next)]).collect();
+            let mut queries: Vec<[DVec2; 2]> = (0..300).map(|_| [point(&mut rng), point(&mut rng)]).collect();
             // Horizontal rays to the right, as the inside test casts them.
             queries.extend((0..300).map(|_| {
-                let p = point(&mut next);
+                let p = point(&mut rng);
                 [p, DVec2::new(5.0, p.y)]
             }));
             queries.push([DVec2::new(-3.0, -3.0), DVec2::new(-2.0, -2.5)]);
