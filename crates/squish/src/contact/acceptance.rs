@@ -6,6 +6,7 @@ use glam::{DMat3, DVec3};
 use super::export::{LABEL_CONTACT, LABEL_INTERSECTION, LABEL_MAPPING, LABEL_OUTSIDE};
 use super::test_support::*;
 use super::*;
+use crate::linalg::test_support::Lcg;
 use crate::mesh::{mean_edge_length, shapes};
 
 fn run(a: &Owned, b: &Owned, params: &PairParams) -> PairContact {
@@ -570,11 +571,8 @@ fn timings_for_a_ten_thousand_vertex_pair() {
 /// touching a cube's edges and corners): never a panic, and every output finite.
 #[test]
 fn random_and_degenerate_configurations_give_finite_results() {
-    let mut seed = 0x5eed_u64;
-    let mut rand = move || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut lcg = Lcg::from_state(0x5eed);
+    let mut rand = move || lcg.next_unit();
     let shapes_a = [shapes::icosphere(0.6, 3), shapes::cube(1.0, 4), shapes::capsule(0.3, 1.0, 16, 6, 8)];
     let shapes_b = [shapes::grid(3.0, 3.0, 30, 30), shapes::icosphere(1.0, 3), shapes::cube(1.2, 6)];
     let mut non_empty = 0;

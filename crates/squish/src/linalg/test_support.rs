@@ -14,6 +14,12 @@ impl Lcg {
         Self(seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407))
     }
 
+    /// The generator whose internal state is `state`: its first value is the one after `state`
+    /// (`new(seed)` is `from_state` of the state after `seed`).
+    pub fn from_state(state: u64) -> Self {
+        Self(state)
+    }
+
     /// Uniform in [0, 1).
     pub fn next_unit(&mut self) -> f64 {
         self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

@@ -335,13 +335,11 @@ impl ProjectionPlane {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
 
     fn lcg(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
+        let mut lcg = Lcg::from_state(seed);
+        move || lcg.next_signed()
     }
 
     #[test]

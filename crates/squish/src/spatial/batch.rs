@@ -166,15 +166,13 @@ impl TriangleBvh {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
     use crate::mesh::{Topology, shapes};
     use std::time::Instant;
 
     fn pseudo_random_segments(n: usize, seed: u64, scale: f64) -> Vec<[DVec3; 2]> {
-        let mut s = seed;
-        let mut rnd = move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * scale
-        };
+        let mut lcg = Lcg::from_state(seed);
+        let mut rnd = move || lcg.next_signed() * scale;
         (0..n).map(|_| [DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd())]).collect()
     }
 

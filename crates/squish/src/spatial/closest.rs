@@ -99,6 +99,7 @@ pub(crate) fn barycentric_point(t: &[DVec3; 3], bary: [f64; 3]) -> DVec3 {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
 
     /// Brute force: the best of a fine barycentric grid.
     fn sampled_distance(p: DVec3, t: &[DVec3; 3]) -> f64 {
@@ -116,11 +117,8 @@ mod tests {
     #[test]
     fn closest_point_is_no_farther_than_any_sample_and_close_to_the_best() {
         let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.1, 0.0), DVec3::new(0.5, 1.5, 0.3)];
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
-        };
+        let mut lcg = Lcg::from_state(7);
+        let mut rnd = || lcg.next_unit() * 6.0 - 3.0;
         for _ in 0..300 {
             let p = DVec3::new(rnd(), rnd(), rnd());
             let bary = closest_point_on_triangle(p, &t);

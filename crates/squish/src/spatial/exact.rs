@@ -466,11 +466,8 @@ mod tests {
         // Corners sharing one coordinate, points on, above and below their plane, with
         // coordinates where the float determinant cancels: the factorized value has the exact
         // sign (the adaptive predicate's) and matches its value closely.
-        let mut state = 7u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 8.0
-        };
+        let mut lcg = Lcg::from_state(7);
+        let mut next = || (lcg.next_unit() - 0.5) * 8.0;
         for axis in 0..3 {
             for _ in 0..2000 {
                 let plane = (next() * 4.0).round() / 4.0;

@@ -397,13 +397,11 @@ fn split(items: &mut [Item], depth: usize) -> usize {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
 
     fn random_boxes(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
-        let mut state = seed;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut lcg = Lcg::from_state(seed);
+        let mut next = || lcg.next_unit();
         (0..n)
             .map(|_| {
                 let c = DVec3::new(next(), next(), next()) * 10.0;

@@ -343,6 +343,7 @@ impl TriangleBvh {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
     use crate::mesh::{TriMesh, shapes};
 
     fn brute_force_hits(mesh: &TriMesh, a: DVec3, b: DVec3) -> Vec<(u32, f64)> {
@@ -464,11 +465,8 @@ mod tests {
         let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
         mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
         let tree = TriangleBvh::new(&mesh).unwrap();
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
-        };
+        let mut lcg = Lcg::from_state(12345);
+        let mut next = || lcg.next_unit() * 3.0 - 1.5;
         let mut hits = Vec::new();
         let mut vertex_segments: Vec<(DVec3, DVec3)> =
             mesh.positions.iter().step_by(7).map(|&v| (2.0 * v, -1.5 * v + DVec3::new(0.0, 0.0, 0.3))).collect();

@@ -168,6 +168,7 @@ fn degenerate_case(t1: &[DVec3; 3], degenerate1: bool, t2: &[DVec3; 3], n2: [f64
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
 
     fn t(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [DVec3; 3] {
         [DVec3::from_array(a), DVec3::from_array(b), DVec3::from_array(c)]
@@ -314,11 +315,8 @@ mod tests {
 
     #[test]
     fn agrees_with_a_separating_axis_reference_on_random_pairs() {
-        let mut s = 12345u64;
-        let mut rnd = move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut lcg = Lcg::from_state(12345);
+        let mut rnd = move || lcg.next_signed();
         let (mut yes, mut no) = (0, 0);
         for _ in 0..20000 {
             let c = DVec3::new(rnd(), rnd(), rnd()) * 0.6;

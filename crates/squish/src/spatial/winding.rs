@@ -224,6 +224,7 @@ fn cluster_of<'t>(triangles: impl Iterator<Item = &'t [DVec3; 3]> + Clone) -> Cl
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::test_support::Lcg;
     use crate::mesh::shapes;
 
     /// The winding number from a ray cast along `dir` (for tests comparing directions).
@@ -236,11 +237,8 @@ mod tests {
     }
 
     fn sample_points(n: usize, scale: f64) -> Vec<DVec3> {
-        let mut s = 77u64;
-        let mut rnd = move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * scale
-        };
+        let mut lcg = Lcg::from_state(77);
+        let mut rnd = move || lcg.next_signed() * scale;
         (0..n).map(|_| DVec3::new(rnd(), rnd(), rnd())).collect()
     }
 
