@@ -240,7 +240,8 @@ pub struct FactorizationReport {
     pub vertices: usize,
     pub matrix_nonzeros: usize,
     pub factor_nonzeros: usize,
-    pub supernodal: bool,
+    /// Supernodes of the factor (dense column blocks).
+    pub supernodes: usize,
     /// The symbolic analysis (once per region).
     pub symbolic_ms: f64,
     /// The fastest of 5 in-place numeric refactorizations: what a frame pays per system.
@@ -254,7 +255,7 @@ impl FactorizationReport {
             vertices: t.vertices,
             matrix_nonzeros: t.matrix_nonzeros,
             factor_nonzeros: t.factor_nonzeros,
-            supernodal: t.supernodal,
+            supernodes: t.supernodes,
             symbolic_ms: ms(t.symbolic),
             numeric_ms: ms(t.refactorization),
         }

@@ -55,6 +55,7 @@ mod operators;
 mod pattern;
 mod solve;
 mod supernodal;
+mod symbolic;
 mod timing;
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! Our numeric supernodal Cholesky on faer's symbolic structure, with partial refactorization
+//! Our numeric supernodal Cholesky on the structure of [`super::symbolic`], with partial refactorization
 //! (thesis ch. 7 §5.2: "localize and adjust the problems" instead of refactorizing everything,
 //! after Herholz et al.).
 //!
@@ -17,7 +17,7 @@
 //! same whatever order, split or thread count processes them. A factorization that failed, or a
 //! factor built for other values of another analysis, is recomputed whole.
 //!
-//! **Algorithm.** Left-looking supernodal LLᵀ in faer's storage (supernode `s` holds columns
+//! **Algorithm.** Left-looking supernodal LLᵀ in faer's supernodal storage (supernode `s` holds columns
 //! `begin[s]..end[s]` as one column-major block: the dense diagonal block, then the rows of its
 //! pattern). For supernode `s`: scatter `A`'s columns; subtract
 //! the update `L_d,rows·L_d,colsᵀ` of every descendant `d` whose pattern meets `s`'s columns
@@ -46,8 +46,9 @@ use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::{Accum, MatMut, MatRef, Par};
+
+use super::symbolic::SupernodalStructure;
 
 /// Supernodes at most this wide are factorized with direct loops; wider ones with faer's dense
 /// Cholesky and triangular solve. (Tuned on spheres of 258–41k vertices and a 109 × 109 grid:
@@ -62,7 +63,7 @@ const DIRECT_UPDATE_FLOPS: usize = 64;
 /// Right-hand sides solved together in one pass (more are solved in groups of this many).
 pub(super) const SOLVE_BLOCK: usize = 4;
 
-/// The structure of a supernodal factor as our kernel walks it, derived once from faer's analysis.
+/// The structure of a supernodal factor as our kernel walks it, derived once from the analysis.
 #[derive(Debug)]
 pub(super) struct SupernodalPlan {
     n: usize,
@@ -101,15 +102,20 @@ impl std::fmt::Debug for Workspace {
 }
 
 impl SupernodalPlan {
-    pub(super) fn new(raw: &SymbolicSupernodalCholesky<usize>) -> Self {
-        let n_super = raw.n_supernodes();
-        let n = raw.nrows();
-        let begin = raw.supernode_begin()[..n_super].to_vec();
-        let end = raw.supernode_end()[..n_super].to_vec();
-        let pattern_ptr = raw.col_ptr_for_row_idx()[..n_super].to_vec();
-        let pattern_len = raw.nnz_per_super()[..n_super].to_vec();
-        let row_idx = raw.row_idx().to_vec();
-        let val_ptr = raw.col_ptr_for_val()[..=n_super].to_vec();
+    pub(super) fn new(structure: &SupernodalStructure) -> Self {
+        let n_super = structure.num_supernodes();
+        let n = structure.dimension();
+        let begin = structure.begin[..n_super].to_vec();
+        let end = structure.begin[1..].to_vec();
+        let pattern_ptr = structure.pattern_ptr[..n_super].to_vec();
+        let pattern_len: Vec<usize> = structure.pattern_ptr.windows(2).map(|w| w[1] - w[0]).collect();
+        let row_idx = structure.row_idx.clone();
+        let mut val_ptr = Vec::with_capacity(n_super + 1);
+        val_ptr.push(0);
+        for s in 0..n_super {
+            let width = end[s] - begin[s];
+            val_ptr.push(val_ptr[s] + width * (width + pattern_len[s]));
+        }
         let mut super_of_col = vec![0u32; n];
         for s in 0..n_super {
             super_of_col[begin[s]..end[s]].fill(s as u32);

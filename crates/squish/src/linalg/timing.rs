@@ -15,8 +15,8 @@ pub struct FactorizationTiming {
     pub matrix_nonzeros: usize,
     /// Stored entries of the Cholesky factor (fill-in included).
     pub factor_nonzeros: usize,
-    /// True if faer chose its supernodal algorithm.
-    pub supernodal: bool,
+    /// Supernodes of the factor (dense column blocks).
+    pub supernodes: usize,
     /// Building the sparsity pattern from the topology.
     pub pattern: Duration,
     /// Symbolic analysis (AMD ordering, elimination tree): once per region.
@@ -61,7 +61,7 @@ pub fn time_laplacian_factorization(
         vertices: mesh.num_vertices(),
         matrix_nonzeros: pattern.nnz(),
         factor_nonzeros: symbolic.factor_len(),
-        supernodal: symbolic.is_supernodal(),
+        supernodes: symbolic.num_supernodes(),
         pattern: pattern_time,
         symbolic: symbolic_time,
         first_numeric,
