@@ -2,8 +2,10 @@
 //! numeric from scratch, as the first frame pays it, (b) numeric refactorization with new
 //! values on the same pattern and storage, as every later frame pays it, and (c) the same when
 //! only a cap of the sphere is coupled (the rows outside the parametrization domain are
-//! decoupled and left out), with the same cap (the submatrix analysis reused) and with a cap that
-//! alternates between two positions (one submatrix analysis per factorization), (d) a partial
+//! decoupled and left out), with the same cap (the submatrix analysis reused), with a cap that
+//! alternates between two positions (both analyses stay cached: a whole numeric factorization of
+//! the submatrix each time) and with a cap that moves through four positions (one new submatrix
+//! analysis per factorization, as a moving contact pays it), (d) a partial
 //! refactorization: only the values around one point change (a contact moving on a static
 //! object: the supernodes there and their ancestors are recomputed), and (e) solves of one and of
 //! three right-hand sides.
@@ -113,7 +115,7 @@ fn factorization(c: &mut Criterion) {
         // A cap of about a quarter of the sphere coupled: the same cap twice, then two caps.
         let same_cap = [decouple_below(&variants[0], &mesh, 0.5), decouple_below(&variants[1], &mesh, 0.5)];
         let moving_cap = [decouple_below(&variants[0], &mesh, 0.5), decouple_below(&variants[1], &mesh, 0.45)];
-        for (name, caps) in [("refactorize-cap", &same_cap), ("refactorize-moving-cap", &moving_cap)] {
+        for (name, caps) in [("refactorize-cap", &same_cap[..]), ("refactorize-moving-cap", &moving_cap[..])] {
             let mut factor = NumericFactor::factorize_new(&symbolic, &caps[0]).expect("factorization");
             let mut which = 0;
             group.bench_function(BenchmarkId::new(name, &label), |b| {
@@ -123,6 +125,22 @@ fn factorization(c: &mut Criterion) {
                 })
             });
         }
+        // More positions than a symbolic factor keeps analyses of: each factorization analyzes.
+        let travelling_cap: Vec<SymmetricMatrix> =
+            [0.5, 0.48, 0.46, 0.44].iter().map(|&z| decouple_below(&variants[0], &mesh, z)).collect();
+        let mut factor = NumericFactor::factorize_new(&symbolic, &travelling_cap[0]).expect("factorization");
+        let before = factor.reduced_analyses();
+        for position in [1, 2, 3, 0] {
+            factor.factorize(&travelling_cap[position]).expect("refactorization");
+        }
+        assert_eq!(factor.reduced_analyses() - before, 4, "each position of the cap is analyzed anew");
+        let mut position = 0;
+        group.bench_function(BenchmarkId::new("analyze-and-factorize-travelling-cap", &label), |b| {
+            b.iter(|| {
+                position = (position + 1) % travelling_cap.len();
+                factor.factorize(black_box(&travelling_cap[position])).expect("refactorization");
+            })
+        });
     }
     group.finish();
 }
