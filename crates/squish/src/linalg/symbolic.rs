@@ -606,6 +606,34 @@ mod tests {
     }
 
     #[test]
+    fn forests_diagonals_and_empty_matrices_are_analyzed() {
+        // Two separate meshes (an elimination forest of two trees, as two contact zones' domains
+        // give), in a random order.
+        let mut two = shapes::icosphere(1.0, 2);
+        two.append(&shapes::grid(1.0, 1.0, 9, 7));
+        let (n, col_ptr, row_idx, order) = mesh_pattern(&two, 4);
+        let s = analyze(n, &col_ptr, &row_idx, None, &order).unwrap();
+        let truth = brute_force_columns(&s);
+        let upper = Pattern::upper(n, &s.a_col_ptr, &s.a_row_idx, &(0..n).collect::<Vec<_>>());
+        let parent = elimination_tree(&upper);
+        assert_eq!(parent.iter().filter(|&&p| p == NONE).count(), 2, "one root per mesh");
+        let counts = column_counts(&parent, &s.a_col_ptr, &s.a_row_idx);
+        assert!((0..n).all(|j| counts[j] == truth[j].len() + 1));
+        // A diagonal matrix: every column is a root of its own, and relaxation merges a supernode
+        // only into its parent, so each stays a 1 × 1 block.
+        let n = 6;
+        let col_ptr: Vec<usize> = (0..=n).collect();
+        let row_idx: Vec<usize> = (0..n).collect();
+        let s = analyze(n, &col_ptr, &row_idx, None, &[5, 4, 3, 2, 1, 0]).unwrap();
+        assert_eq!(s.num_supernodes(), n, "roots are never merged");
+        assert_eq!(s.factor_len(), n);
+        assert!(s.row_idx.is_empty());
+        // The empty matrix.
+        let s = analyze(0, &[0], &[], None, &[]).unwrap();
+        assert_eq!((s.num_supernodes(), s.factor_len(), s.dimension()), (0, 0, 0));
+    }
+
+    #[test]
     fn invalid_input_is_an_error() {
         let (n, col_ptr, row_idx, _) = mesh_pattern(&shapes::icosphere(1.0, 1), 1);
         let mut repeated: Vec<usize> = (0..n).collect();
