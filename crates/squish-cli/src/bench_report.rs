@@ -110,6 +110,8 @@ pub struct Breakdown {
     pub other: f64,
     /// Of parametrization, directions and guide: numeric factorizations (the thesis' s.).
     pub factorization: f64,
+    /// Of the factorizations: symbolic analyses of coupled-row submatrices.
+    pub analysis: f64,
 }
 
 impl Breakdown {
@@ -138,6 +140,7 @@ impl Breakdown {
             deformation: ms(t.deformation),
             other: ms(total) - named,
             factorization: ms(t.factorization),
+            analysis: ms(t.analysis),
         }
     }
 
@@ -156,6 +159,7 @@ impl Breakdown {
             deformation: p(self.deformation),
             other: p(self.other),
             factorization: p(self.factorization),
+            analysis: p(self.analysis),
         }
     }
 }
@@ -442,10 +446,10 @@ pub fn print_table(report: &BenchReport) {
     }
     println!();
     println!(
-        "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions; s. = factorizations, part of p./di./g.)"
+        "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions; s. = factorizations, part of p./di./g.; an. = submatrix analyses, part of s.)"
     );
     println!(
-        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
+        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
         "scene",
         "setup",
         "reg.",
@@ -458,6 +462,7 @@ pub fn print_table(report: &BenchReport) {
         "de.",
         "other",
         "s.",
+        "an.",
         "fact.",
         "rows",
         "recomp.",
@@ -469,7 +474,7 @@ pub fn print_table(report: &BenchReport) {
         let Some(single) = &scene.single else { continue };
         let b = &single.breakdown_percent;
         println!(
-            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
+            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>5.1} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
             scene.name,
             b.setup,
             b.regions,
@@ -482,6 +487,7 @@ pub fn print_table(report: &BenchReport) {
             b.deformation,
             b.other,
             b.factorization,
+            b.analysis,
             single.numeric_factorizations_per_frame,
             single.factorized_rows_per_frame,
             single.recomputed_rows_per_frame,

@@ -16,6 +16,8 @@ pub struct StageMillis {
     pub guide: f64,
     pub deformation: f64,
     pub factorization: f64,
+    /// Of the factorizations: symbolic analyses of coupled-row submatrices.
+    pub analysis: f64,
 }
 
 impl From<&StageTimes> for StageMillis {
@@ -31,6 +33,7 @@ impl From<&StageTimes> for StageMillis {
             guide: ms(t.guide),
             deformation: ms(t.deformation),
             factorization: ms(t.factorization),
+            analysis: ms(t.analysis),
         }
     }
 }

@@ -74,6 +74,10 @@ pub struct StageTimings {
     pub deformation: Duration,
     /// Of the above: time spent assembling and numerically factorizing the three systems.
     pub factorization: Duration,
+    /// Of the factorizations: symbolic analyses of coupled-row submatrices (when a system's
+    /// coupled rows changed, see [`crate::linalg::NumericFactor`]).
+    #[serde(default)]
+    pub analysis: Duration,
     /// The whole call.
     pub total: Duration,
 }
@@ -354,6 +358,7 @@ pub fn plan_region(
     let recomputed_rows_before = solver.recomputed_rows();
     let reduced_analyses_before = solver.reduced_analyses();
     let factorization_time_before = solver.factorization_time();
+    let analysis_time_before = solver.analysis_time();
     let mut timings = StageTimings::default();
     let mut fallbacks = FallbackCounters::default();
 
@@ -446,6 +451,7 @@ pub fn plan_region(
     }
     timings.deformation = stage.elapsed();
     timings.factorization = solver.factorization_time().saturating_sub(factorization_time_before);
+    timings.analysis = solver.analysis_time().saturating_sub(analysis_time_before);
     timings.total = start.elapsed();
 
     let stats = DeformStats {

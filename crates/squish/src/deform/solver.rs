@@ -127,6 +127,16 @@ impl RegionSolver {
         factors.into_iter().flatten().map(NumericFactor::reduced_analyses).sum()
     }
 
+    /// Time spent in those analyses so far (part of [`Self::factorization_time`]).
+    pub fn analysis_time(&self) -> Duration {
+        let factors = [
+            self.heat.as_ref().map(ConstrainedSolver::factor),
+            self.poisson.as_ref().map(ConstrainedSolver::factor),
+            self.guide.as_ref().map(|g| &g.factor),
+        ];
+        factors.into_iter().flatten().map(NumericFactor::analysis_time).sum()
+    }
+
     /// Total time spent assembling constraints into and numerically factorizing the systems,
     /// summed over the systems (the heat and Poisson factorizations run concurrently, so this can
     /// exceed the wall-clock time of a frame's parametrization).

@@ -40,6 +40,7 @@
 //! columns are solved together.
 
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
@@ -353,6 +354,8 @@ pub struct NumericFactor {
     /// The diagonal of the decoupled rows (their 1 × 1 blocks) in the reduced layout.
     diagonal: Vec<f64>,
     reduced_analyses: usize,
+    /// Time those analyses took.
+    analysis_time: Duration,
     /// False: always factorize the whole pattern (tests compare the two layouts).
     reduce: bool,
 }
@@ -379,6 +382,7 @@ impl NumericFactor {
             coupled: Vec::new(),
             diagonal: Vec::new(),
             reduced_analyses: 0,
+            analysis_time: Duration::ZERO,
             reduce: true,
         })
     }
@@ -414,6 +418,11 @@ impl NumericFactor {
     /// of coupled rows changes).
     pub fn reduced_analyses(&self) -> usize {
         self.reduced_analyses
+    }
+
+    /// Total time of those analyses (part of the factorizations' time).
+    pub fn analysis_time(&self) -> Duration {
+        self.analysis_time
     }
 
     /// Makes the next factorization a whole one (for timing the kernel): forgets the values the
@@ -521,8 +530,12 @@ impl NumericFactor {
         }
         let reusable = self.reduced.as_ref().is_some_and(|r| r.shared.coupled == self.coupled);
         if !reusable {
+            let start = Instant::now();
             let (shared, new) = self.symbolic.rows_analysis(&self.coupled)?;
-            self.reduced_analyses += usize::from(new);
+            if new {
+                self.reduced_analyses += 1;
+                self.analysis_time += start.elapsed();
+            }
             let (numeric, rhs) = match self.reduced.take() {
                 Some(previous) => (previous.numeric.reuse_for(&shared.analysis)?, previous.rhs),
                 None => (Numeric::new(&shared.analysis)?, Vec::new()),

@@ -136,6 +136,9 @@ pub struct StageTimes {
     pub deformation: Duration,
     /// Of the ch. 5 stages: time in numeric factorizations.
     pub factorization: Duration,
+    /// Of the factorizations: symbolic analyses of coupled-row submatrices.
+    #[serde(default)]
+    pub analysis: Duration,
     /// Choosing the working regions and updating their caches (wall clock).
     #[serde(default)]
     pub regions: Duration,
@@ -883,6 +886,7 @@ impl Deformer {
                     stages.guide += s.timings.guide;
                     stages.deformation += s.timings.deformation;
                     stages.factorization += s.timings.factorization;
+                    stages.analysis += s.timings.analysis;
                     rs.deformed = true;
                     rs.extent = outcome.extent;
                     rs.extent_clamped = outcome.clamped;
@@ -1116,11 +1120,15 @@ fn combine(
         t.num_boundary_points += s.num_boundary_points;
         t.outer_boundary_moved += s.outer_boundary_moved;
         t.numeric_factorizations += s.numeric_factorizations;
+        t.factorized_rows += s.factorized_rows;
+        t.recomputed_rows += s.recomputed_rows;
+        t.reduced_analyses += s.reduced_analyses;
         t.timings.parametrization += s.timings.parametrization;
         t.timings.directions += s.timings.directions;
         t.timings.guide += s.timings.guide;
         t.timings.deformation += s.timings.deformation;
         t.timings.factorization += s.timings.factorization;
+        t.timings.analysis += s.timings.analysis;
         t.timings.total += s.timings.total;
         t.fallbacks.direction_blend += s.fallbacks.direction_blend;
         t.fallbacks.bulge_map += s.fallbacks.bulge_map;

@@ -259,6 +259,12 @@ fn regions_holding_the_deformation_match_the_whole_object() {
                 assert!(worst <= 1e-12 * moved && worst <= 1e-6, "{name}: {worst:.3e} vs {moved:.3e}");
             }
             assert!(result.stats.objects[1].relative_volume_change.abs() <= 1e-9);
+            // The object's figures sum its regions' (a cut region's counts were once dropped).
+            let stats = &result.deformations[1].as_ref().unwrap().stats;
+            assert_eq!(stats.numeric_factorizations, 3, "{name}: heat, Poisson, guide");
+            assert!(stats.factorized_rows > 0 && stats.recomputed_rows <= stats.factorized_rows, "{name}: {stats:?}");
+            assert_eq!(stats.reduced_analyses > 0, stats.timings.analysis > Duration::ZERO, "{name}: {stats:?}");
+            assert!(stats.timings.analysis <= stats.timings.factorization, "{name}: {stats:?}");
         }
     }
 }
