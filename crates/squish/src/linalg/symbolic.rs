@@ -16,8 +16,9 @@
 //!    The rule and its thresholds are CHOLMOD's as faer uses them by default
 //!    ([`RELAX`]: up to 4 columns always, up to 16 with ≤ 80 % zeros, up to 48 with ≤ 10 %,
 //!    beyond with ≤ 5 %); our numeric kernel was tuned on those supernodes;
-//! 5. the **row pattern** of every supernode below its diagonal block: the rows of `A`'s columns
-//!    in it and of its children's patterns, increasing.
+//! 5. the **row pattern** of every supernode below its diagonal block (those of its last column,
+//!    as many as its count says), filled row by row by climbing the supernodal tree from each
+//!    entry of `A`, so that it comes out sorted.
 //!
 //! **Why our own.** A contact that moves changes the coupled rows of a system every frame, and
 //! the submatrix on them ([`super::NumericFactor`]) needs a new analysis each time: about a tenth
@@ -130,7 +131,11 @@ pub(super) fn analyze(
     // 3–5.
     let counts = column_counts(&parent, &a_col_ptr, &a_row_idx);
     let begin = relaxed_supernodes(&parent, &counts);
-    let (pattern_ptr, pattern) = supernode_patterns(&parent, &begin, &a_col_ptr, &a_row_idx);
+    // Row i of A below the diagonal, in the final order: the AMD-order upper column of the node
+    // that became i (a row of A lies on its columns' ancestors, which the postorder keeps after
+    // them, so every j < i).
+    let row_entries = |i: usize| upper.column(post[i]).iter().map(|&k| post_inverse[k]);
+    let (pattern_ptr, pattern) = supernode_patterns(&parent, &counts, &begin, row_entries);
     Ok(SupernodalStructure { forward, inverse, begin, pattern_ptr, row_idx: pattern, a_col_ptr, a_row_idx, a_slot })
 }
 
@@ -381,13 +386,20 @@ fn relaxed_supernodes(parent: &[usize], counts: &[usize]) -> Vec<usize> {
     begin
 }
 
-/// The row pattern of every supernode below its diagonal block, increasing (see the module doc):
-/// `(pattern_ptr, rows)`.
-fn supernode_patterns(
+/// The row pattern of every supernode below its diagonal block, increasing: `(pattern_ptr, rows)`.
+///
+/// Every column of a supernode descends from its last one, so the supernode's rows below its
+/// block are those of its last column, `counts[last] − 1` of them: the storage is laid out from
+/// the counts. Row `i` of `L` lies in the pattern of exactly the supernodes its row subtree passes
+/// through below `i`, so each entry `A(i, j)`, `j < i`, climbs the supernodal tree from `j`'s
+/// supernode, appending `i` to each supernode not yet visited for `i`, and stops at the one holding
+/// `i`. Rows are visited in increasing order, so the patterns come out sorted, without merging
+/// children's patterns or sorting. `row_entries(i)` lists the columns `j < i` of row `i` of `A`.
+fn supernode_patterns<R: Iterator<Item = usize>>(
     parent: &[usize],
+    counts: &[usize],
     begin: &[usize],
-    a_col_ptr: &[usize],
-    a_row_idx: &[usize],
+    row_entries: impl Fn(usize) -> R,
 ) -> (Vec<usize>, Vec<usize>) {
     let n = parent.len();
     let supernodes = begin.len() - 1;
@@ -395,54 +407,35 @@ fn supernode_patterns(
     for s in 0..supernodes {
         super_of[begin[s]..begin[s + 1]].fill(s);
     }
-    // Children lists of the supernodal tree.
-    let (mut child_ptr, mut children) = (vec![0usize; supernodes + 1], vec![0usize; supernodes]);
-    let super_parent = |s: usize| {
-        let up = parent[begin[s + 1] - 1];
-        (up != NONE).then(|| super_of[up])
-    };
-    for s in 0..supernodes {
-        if let Some(p) = super_parent(s) {
-            child_ptr[p + 1] += 1;
-        }
-    }
-    for s in 0..supernodes {
-        child_ptr[s + 1] += child_ptr[s];
-    }
-    let mut next = child_ptr.clone();
-    for s in 0..supernodes {
-        if let Some(p) = super_parent(s) {
-            children[next[p]] = s;
-            next[p] += 1;
-        }
-    }
+    let super_parent: Vec<usize> = (0..supernodes)
+        .map(|s| {
+            let up = parent[begin[s + 1] - 1];
+            if up == NONE { NONE } else { super_of[up] }
+        })
+        .collect();
     let mut pattern_ptr = Vec::with_capacity(supernodes + 1);
     pattern_ptr.push(0);
-    let mut rows = Vec::new();
-    let mut mark = vec![NONE; n];
     for s in 0..supernodes {
-        let (first, end) = (begin[s], begin[s + 1]);
-        let start = rows.len();
-        for j in first..end {
-            for &i in &a_row_idx[a_col_ptr[j]..a_col_ptr[j + 1]] {
-                if i >= end && mark[i] != s {
-                    mark[i] = s;
-                    rows.push(i);
-                }
-            }
-        }
-        for &c in &children[child_ptr[s]..child_ptr[s + 1]] {
-            for k in pattern_ptr[c]..pattern_ptr[c + 1] {
-                let i = rows[k];
-                if i >= end && mark[i] != s {
-                    mark[i] = s;
-                    rows.push(i);
-                }
-            }
-        }
-        rows[start..].sort_unstable();
-        pattern_ptr.push(rows.len());
+        let below = counts[begin[s + 1] - 1] - 1;
+        pattern_ptr.push(pattern_ptr[s] + below);
     }
+    let mut next = pattern_ptr[..supernodes].to_vec();
+    let mut rows = vec![0usize; pattern_ptr[supernodes]];
+    let mut mark = vec![NONE; supernodes];
+    for i in 0..n {
+        let home = super_of[i];
+        mark[home] = i;
+        for j in row_entries(i) {
+            let mut s = super_of[j];
+            while mark[s] != i {
+                mark[s] = i;
+                rows[next[s]] = i;
+                next[s] += 1;
+                s = super_parent[s];
+            }
+        }
+    }
+    debug_assert!((0..supernodes).all(|s| next[s] == pattern_ptr[s + 1]), "pattern lengths match the counts");
     (pattern_ptr, rows)
 }
 
