@@ -119,22 +119,23 @@ impl RegionSolver {
     /// systems (one each time a system's set of coupled rows changes; the region's own analysis
     /// is [`Self::symbolic_analyses`]).
     pub fn reduced_analyses(&self) -> usize {
-        let factors = [
-            self.heat.as_ref().map(ConstrainedSolver::factor),
-            self.poisson.as_ref().map(ConstrainedSolver::factor),
-            self.guide.as_ref().map(|g| &g.factor),
-        ];
-        factors.into_iter().flatten().map(NumericFactor::reduced_analyses).sum()
+        self.factors().map(NumericFactor::reduced_analyses).sum()
     }
 
     /// Time spent in those analyses so far (part of [`Self::factorization_time`]).
     pub fn analysis_time(&self) -> Duration {
-        let factors = [
+        self.factors().map(NumericFactor::analysis_time).sum()
+    }
+
+    /// The heat, Poisson and guide factors built so far.
+    fn factors(&self) -> impl Iterator<Item = &NumericFactor> {
+        [
             self.heat.as_ref().map(ConstrainedSolver::factor),
             self.poisson.as_ref().map(ConstrainedSolver::factor),
             self.guide.as_ref().map(|g| &g.factor),
-        ];
-        factors.into_iter().flatten().map(NumericFactor::analysis_time).sum()
+        ]
+        .into_iter()
+        .flatten()
     }
 
     /// Total time spent assembling constraints into and numerically factorizing the systems,

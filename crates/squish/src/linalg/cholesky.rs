@@ -77,27 +77,34 @@ struct Analysis {
     permuted: SymbolicSparseColMat<usize>,
     /// Entry `k` of `permuted` is value slot `permuted_slot[k]` of the region's matrices.
     permuted_slot: Vec<usize>,
-    /// Stored values of `L`.
-    factor_len: usize,
     /// Our numeric kernel's walk of the supernodes ([`super::supernodal`]).
     plan: SupernodalPlan,
 }
 
 impl Analysis {
-    /// Analyzes the lower-triangular `structure`, whose entry `k` holds the region's value slot
-    /// `entry_slot[k]` (`None`: slot `k`), in the fill-reducing order `order` (`order[new] = old`).
+    /// Analyzes the lower triangle `col_ptr`, `row_idx` of `n` columns, whose entry `k` holds the
+    /// region's value slot `entry_slot[k]` (`None`: slot `k`), in the fill-reducing order `order`
+    /// (`order[new] = old`).
     fn new(
-        structure: SymbolicSparseColMatRef<'_, usize>,
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
         entry_slot: Option<&[usize]>,
         order: &[usize],
     ) -> Result<Self, SolveError> {
-        let n = structure.nrows();
-        let analyzed = symbolic::analyze(n, structure.col_ptr(), structure.row_idx(), entry_slot, order)?;
-        let plan = SupernodalPlan::new(&analyzed);
-        let factor_len = analyzed.factor_len();
-        let symbolic::SupernodalStructure { forward, inverse, a_col_ptr, a_row_idx, a_slot, .. } = analyzed;
+        let symbolic::SupernodalStructure {
+            forward,
+            inverse,
+            begin,
+            pattern_ptr,
+            row_idx,
+            a_col_ptr,
+            a_row_idx,
+            a_slot,
+        } = symbolic::analyze(n, col_ptr, row_idx, entry_slot, order)?;
+        let plan = SupernodalPlan::new(n, begin, pattern_ptr, row_idx);
         let permuted = SymbolicSparseColMat::new_unsorted_checked(n, n, a_col_ptr, None, a_row_idx);
-        Ok(Self { forward, inverse, permuted, permuted_slot: a_slot, factor_len, plan })
+        Ok(Self { forward, inverse, permuted, permuted_slot: a_slot, plan })
     }
 
     /// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
@@ -143,7 +150,8 @@ impl SymbolicFactor {
     /// Runs the symbolic analysis (AMD ordering + elimination tree) of `pattern`.
     pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
         let order = Analysis::amd_order(pattern.structure())?;
-        let analysis = Analysis::new(pattern.structure(), None, &order)?;
+        let n = pattern.num_vertices();
+        let analysis = Analysis::new(n, pattern.col_ptr(), pattern.row_idx(), None, &order)?;
         Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, recent_rows: Mutex::new(Vec::new()) }))
     }
 
@@ -159,7 +167,7 @@ impl SymbolicFactor {
 
     /// Number of stored values of the factor `L` (fill-in included).
     pub fn factor_len(&self) -> usize {
-        self.analysis.factor_len
+        self.analysis.plan.factor_len()
     }
 
     /// Supernodes of the factor: the dense column blocks our kernel works on.
@@ -214,10 +222,9 @@ impl SymbolicFactor {
             }
             sub_col_ptr.push(sub_row_idx.len());
         }
-        let structure = SymbolicSparseColMat::new_checked(m, m, sub_col_ptr, None, sub_row_idx);
         let sub_forward: Vec<usize> =
             self.analysis.forward.iter().filter(|&&v| in_rows[v]).map(|&v| local[v]).collect();
-        Analysis::new(structure.as_ref(), Some(&entry_slot), &sub_forward)
+        Analysis::new(m, &sub_col_ptr, &sub_row_idx, Some(&entry_slot), &sub_forward)
     }
 }
 
@@ -241,7 +248,7 @@ struct Numeric {
 impl Numeric {
     fn new(analysis: &Analysis) -> Result<Self, SolveError> {
         Ok(Self {
-            l_values: vec![0.0; analysis.factor_len],
+            l_values: vec![0.0; analysis.plan.factor_len()],
             permuted_values: vec![0.0; analysis.permuted_slot.len()],
             valid: false,
             changed: Vec::new(),
@@ -256,7 +263,7 @@ impl Numeric {
     /// there cost page faults). The next factorization is a whole one.
     fn reuse_for(mut self, analysis: &Analysis) -> Result<Self, SolveError> {
         self.l_values.clear();
-        self.l_values.resize(analysis.factor_len, 0.0);
+        self.l_values.resize(analysis.plan.factor_len(), 0.0);
         self.permuted_values.clear();
         self.permuted_values.resize(analysis.permuted_slot.len(), 0.0);
         self.valid = false;

@@ -48,8 +48,6 @@ use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::SparseColMatRef;
 use faer::{Accum, MatMut, MatRef, Par};
 
-use super::symbolic::SupernodalStructure;
-
 /// Supernodes at most this wide are factorized with direct loops; wider ones with faer's dense
 /// Cholesky and triangular solve. (Tuned on spheres of 258–41k vertices and a 109 × 109 grid:
 /// 8 beats 4, 12, 16 and 32.)
@@ -102,14 +100,15 @@ impl std::fmt::Debug for Workspace {
 }
 
 impl SupernodalPlan {
-    pub(super) fn new(structure: &SupernodalStructure) -> Self {
-        let n_super = structure.num_supernodes();
-        let n = structure.dimension();
-        let begin = structure.begin[..n_super].to_vec();
-        let end = structure.begin[1..].to_vec();
-        let pattern_ptr = structure.pattern_ptr[..n_super].to_vec();
-        let pattern_len: Vec<usize> = structure.pattern_ptr.windows(2).map(|w| w[1] - w[0]).collect();
-        let row_idx = structure.row_idx.clone();
+    /// The plan of `n` columns in the supernodes `begin` (supernode `s` holds columns
+    /// `begin[s]..begin[s + 1]`) whose rows below their blocks are
+    /// `row_idx[pattern_ptr[s]..pattern_ptr[s + 1]]` (see [`super::symbolic::SupernodalStructure`]).
+    pub(super) fn new(n: usize, mut begin: Vec<usize>, mut pattern_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
+        let n_super = begin.len() - 1;
+        let end = begin[1..].to_vec();
+        begin.truncate(n_super);
+        let pattern_len: Vec<usize> = pattern_ptr.windows(2).map(|w| w[1] - w[0]).collect();
+        pattern_ptr.truncate(n_super);
         let mut val_ptr = Vec::with_capacity(n_super + 1);
         val_ptr.push(0);
         for s in 0..n_super {
@@ -172,6 +171,12 @@ impl SupernodalPlan {
             max_update,
             dense_scratch,
         }
+    }
+
+    /// Stored values of `L`: every supernode a dense block of its columns × (its columns + its
+    /// pattern rows).
+    pub(super) fn factor_len(&self) -> usize {
+        self.val_ptr[self.len()]
     }
 
     /// Number of supernodes.

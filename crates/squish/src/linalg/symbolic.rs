@@ -58,6 +58,7 @@ pub(super) struct SupernodalStructure {
     pub a_slot: Vec<usize>,
 }
 
+#[cfg(test)]
 impl SupernodalStructure {
     pub fn dimension(&self) -> usize {
         self.forward.len()
@@ -149,26 +150,8 @@ impl Pattern {
     /// The strict upper triangle of `PAPᵀ` by column (column `max(p, q)` holds row `min(p, q)`),
     /// from `A`'s lower triangle and `inverse[old] = new`.
     fn upper(n: usize, col_ptr: &[usize], row_idx: &[usize], inverse: &[usize]) -> Self {
-        let mut ptr = vec![0usize; n + 1];
-        let entries = || (0..n).flat_map(move |j| row_idx[col_ptr[j]..col_ptr[j + 1]].iter().map(move |&i| (i, j)));
-        for (i, j) in entries() {
-            if i != j {
-                ptr[inverse[i].max(inverse[j]) + 1] += 1;
-            }
-        }
-        for k in 0..n {
-            ptr[k + 1] += ptr[k];
-        }
-        let mut next = ptr.clone();
-        let mut idx = vec![0; ptr[n]];
-        for (i, j) in entries() {
-            if i != j {
-                let (p, q) = (inverse[i], inverse[j]);
-                let column = p.max(q);
-                idx[next[column]] = p.min(q);
-                next[column] += 1;
-            }
-        }
+        let place = |p: usize, q: usize| (p != q).then(|| (p.max(q), p.min(q)));
+        let (ptr, idx) = permuted_by_column(n, col_ptr, row_idx, inverse, place, |_, _| {});
         Self { ptr, idx }
     }
 
@@ -186,27 +169,46 @@ fn lower_in_order(
     slot: Option<&[usize]>,
     inverse: &[usize],
 ) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let mut slots = vec![0; col_ptr[n]];
+    let place = |p: usize, q: usize| Some((p.min(q), p.max(q)));
+    let (ptr, rows) = permuted_by_column(n, col_ptr, row_idx, inverse, place, |at, k| {
+        slots[at] = slot.map_or(k, |s| s[k]);
+    });
+    (ptr, rows, slots)
+}
+
+/// The entries of `A`'s lower triangle renumbered by `inverse[old] = new` and bucketed by column
+/// (a counting sort): `place(p, q)` gives the (column, row) of the entry at new indices (row p,
+/// column q), `None` to leave it out; `placed(position, k)` is told where entry `k` went.
+fn permuted_by_column(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    inverse: &[usize],
+    place: impl Fn(usize, usize) -> Option<(usize, usize)>,
+    mut placed: impl FnMut(usize, usize),
+) -> (Vec<usize>, Vec<usize>) {
+    let entries =
+        || (0..n).flat_map(move |j| (col_ptr[j]..col_ptr[j + 1]).map(move |k| (k, inverse[row_idx[k]], inverse[j])));
     let mut ptr = vec![0usize; n + 1];
-    for j in 0..n {
-        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
-            ptr[inverse[i].min(inverse[j]) + 1] += 1;
+    for (_, p, q) in entries() {
+        if let Some((column, _)) = place(p, q) {
+            ptr[column + 1] += 1;
         }
     }
     for k in 0..n {
         ptr[k + 1] += ptr[k];
     }
     let mut next = ptr.clone();
-    let (mut rows, mut slots) = (vec![0; ptr[n]], vec![0; ptr[n]]);
-    for j in 0..n {
-        for k in col_ptr[j]..col_ptr[j + 1] {
-            let (p, q) = (inverse[row_idx[k]], inverse[j]);
-            let column = p.min(q);
-            rows[next[column]] = p.max(q);
-            slots[next[column]] = slot.map_or(k, |s| s[k]);
+    let mut rows = vec![0; ptr[n]];
+    for (k, p, q) in entries() {
+        if let Some((column, row)) = place(p, q) {
+            rows[next[column]] = row;
+            placed(next[column], k);
             next[column] += 1;
         }
     }
-    (ptr, rows, slots)
+    (ptr, rows)
 }
 
 /// The elimination tree (`NONE` for roots) from the strict upper triangle by column (Liu).
