@@ -306,7 +306,13 @@ pub fn guide_fields(
     let weighted: Vec<(u32, f64)> = amplitude_constraints.iter().map(|c| (c.vertex, c.weight)).collect();
     let amplitude_values: Vec<f64> = amplitude_constraints.iter().map(|c| c.value).collect();
     let slope_values: Vec<f64> = slope_constraints.iter().map(|c| c.value).collect();
-    let system = solver.factorize_guide(mesh, &deformable_weights, &weighted, params.constraint_weight_factor)?;
+    let system = solver.factorize_guide(
+        mesh,
+        &deformable_weights,
+        &weighted,
+        params.constraint_weight_factor,
+        parametrization.generation,
+    )?;
     let columns =
         system.solve(&weighted, &[&amplitude_values, &slope_values]).map_err(DeformError::solve("guide diffusion"))?;
     let [amplitude, slope]: [Vec<f64>; 2] =

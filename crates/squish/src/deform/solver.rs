@@ -4,7 +4,8 @@
 //! frame. It owns the region's [`SparsePattern`] and its one symbolic Cholesky analysis, and three
 //! numeric factorizations that are refactorized in place each frame (no symbolic analysis, no
 //! allocation of `L` after the first frame):
-//! - **heat**: `M_w + tK_w + λCᵀC + λ·(outer-boundary rows)` (§5.1 step 1);
+//! - **heat**: `M_w + tK_w + λCᵀC + λ·(outer-boundary rows)` (§5.1 step 1); its `tK_w` is the
+//!   Poisson system's `K_w` scaled (same face weights), not a second sum of cotangents;
 //! - **Poisson**: `K_w + λCᵀC` (§5.1 step 3). With the same ∂𝒞 constraint rows, this is exactly
 //!   the matrix of the multi-contact direction diffusion of §5.2.2 (only the right-hand side
 //!   differs), so that diffusion reuses this factorization as the thesis says ("reusing the matrix
@@ -12,7 +13,10 @@
 //! - **guide**: `K_𝒟 + λ·diag(ω)` for the amplitude and slope diffusions of §5.3, which share one
 //!   factorization (two right-hand sides). Its vertex constraints have individual weights ω (see
 //!   [`super::guide`]), which [`ConstrainedSolver`] does not offer, so this system is assembled
-//!   here on the same pattern and symbolic analysis.
+//!   here on the same pattern and symbolic analysis. When 𝒟 lies within the parametrized domain
+//!   (its coupled rows among the heat system's, and not many fewer), it is factorized on the heat
+//!   system's rows, reusing their analysis of the same frame (the region's own analysis when the
+//!   heat system was factorized whole).
 //!
 //! The Poisson factorization carries the *generation* of the parametrization that made it, so a
 //! later stage cannot silently use the factorization of another frame.
@@ -187,10 +191,15 @@ impl RegionSolver {
         self.generation += 1;
         self.poisson_generation = 0;
         let pattern = Arc::clone(&self.pattern);
-        let heat_operator = assemble(&mut self.heat_operator, mesh, &pattern, face_weights, 1.0, time)
-            .map_err(DeformError::solve("heat"))?;
+        // Both share K_w (same face weights): the heat step scales the Poisson values by t.
         let poisson_operator = assemble(&mut self.poisson_operator, mesh, &pattern, face_weights, 0.0, 1.0)
             .map_err(DeformError::solve("Poisson"))?;
+        // (On the first frame too, so that a frame's bits do not depend on the frames before it.)
+        let heat_operator = self.heat_operator.get_or_insert_with(|| poisson_operator.clone());
+        heat_operator
+            .reassemble_from_stiffness(mesh, poisson_operator, 1.0, time)
+            .map_err(DeformError::solve("heat"))?;
+        let heat_operator = &*heat_operator;
         let symbolic = &self.symbolic;
         let (heat, poisson) = (&mut self.heat, &mut self.poisson);
         let timed = |slot: &mut Option<ConstrainedSolver>, operator: &Operator, constraints: &[EdgeConstraint]| {
@@ -236,12 +245,18 @@ impl RegionSolver {
 
     /// Assembles and factorizes the guide system `K_𝒟 + λ·diag(ω)` (`weighted`: `(vertex, ω)`
     /// pairs; the stiffness weights `face_weights` are the area fractions inside 𝒟).
+    ///
+    /// With the `generation` of the current parametrization, a guide system coupling only rows
+    /// that the heat system of that parametrization couples (𝒟 lies within the parametrized
+    /// domain) is factorized on the heat system's rows, whose analysis is already made
+    /// ([`NumericFactor::factorize_within`]); 0 (or a stale generation) analyzes its own rows.
     pub(crate) fn factorize_guide(
         &mut self,
         mesh: &TriMesh,
         face_weights: &[f64],
         weighted: &[(u32, f64)],
         lambda: f64,
+        generation: u64,
     ) -> Result<&mut WeightedSystem, DeformError> {
         let pattern = Arc::clone(&self.pattern);
         let operator = assemble(&mut self.guide_operator, mesh, &pattern, face_weights, 0.0, 1.0)
@@ -250,8 +265,10 @@ impl RegionSolver {
             Some(system) => system,
             None => self.guide.insert(WeightedSystem::new(&self.symbolic).map_err(DeformError::solve("guide"))?),
         };
+        let current = generation != 0 && generation == self.poisson_generation;
+        let within = self.heat.as_ref().filter(|_| current).map(ConstrainedSolver::factor);
         let start = Instant::now();
-        let result = system.factorize(operator, weighted, lambda);
+        let result = system.factorize(operator, weighted, lambda, within);
         self.factorization_time += start.elapsed();
         self.numeric_factorizations += 1;
         self.factorized_rows += system.factor.factorized_rows();
@@ -339,7 +356,13 @@ impl WeightedSystem {
         })
     }
 
-    fn factorize(&mut self, operator: &Operator, weighted: &[(u32, f64)], lambda: f64) -> Result<(), SolveError> {
+    fn factorize(
+        &mut self,
+        operator: &Operator,
+        weighted: &[(u32, f64)],
+        lambda: f64,
+        within: Option<&NumericFactor>,
+    ) -> Result<(), SolveError> {
         let pattern = Arc::clone(operator.pattern());
         let n = pattern.num_vertices();
         if !operator.matrix().same_pattern(&self.matrix) {
@@ -383,7 +406,7 @@ impl WeightedSystem {
                 values[pattern.diag_slot(v as u32)] += 1.0;
             }
         }
-        self.factor.factorize(&self.matrix)
+        self.factor.factorize_within(&self.matrix, within)
     }
 
     /// Solves for several sets of constraint values: `values[c][k]` is the value of constraint `k`
@@ -427,6 +450,7 @@ impl WeightedSystem {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::ConstraintParams;
     use crate::mesh::shapes;
 
     #[test]
@@ -440,7 +464,7 @@ mod tests {
         let weights = vec![1.0; mesh.num_triangles()];
         let (north, south) = (0u32, 3u32);
         let mean = |solver: &mut RegionSolver, w: &[(u32, f64)]| {
-            let system = solver.factorize_guide(&mesh, &weights, w, 1e-4).unwrap();
+            let system = solver.factorize_guide(&mesh, &weights, w, 1e-4, 0).unwrap();
             let columns = system.solve(w, &[&[0.0, 1.0]]).unwrap();
             columns[0].iter().sum::<f64>() / mesh.num_vertices() as f64
         };
@@ -455,6 +479,42 @@ mod tests {
     }
 
     #[test]
+    fn the_guide_system_factorizes_on_the_heat_systems_rows_when_they_hold_its_own() {
+        // A cap parametrized (faces below z = −0.4) and a slightly smaller 𝒟 (below z = −0.5).
+        let mesh = shapes::icosphere(1.0, 4);
+        let topology = Topology::new(&mesh);
+        let below = |z: f64| -> Vec<f64> {
+            let inside = |t: &[u32; 3]| t.iter().all(|&v| mesh.positions[v as usize].z < z);
+            mesh.triangles.iter().map(|t| if inside(t) { 1.0 } else { 0.0 }).collect()
+        };
+        let (domain, deformable) = (below(-0.4), below(-0.5));
+        let bottom = (0..mesh.num_vertices() as u32)
+            .min_by(|&a, &b| mesh.positions[a as usize].z.total_cmp(&mesh.positions[b as usize].z));
+        let bottom = bottom.unwrap();
+        let constraints = [EdgeConstraint::on_edge(bottom, bottom, 0.0, 1.0)];
+        let weighted = [(bottom, 1.0)];
+        let params = ConstraintParams::default();
+        let solve_guide = |generation: u64| {
+            let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
+            let current = solver.factorize_distance_systems(&mesh, &domain, 0.01, &constraints, &constraints, &params);
+            let current = current.unwrap();
+            let heat_rows = solver.heat.as_ref().unwrap().factor().factorized_rows();
+            let analyses = solver.reduced_analyses();
+            let generation = if generation == 0 { 0 } else { current };
+            let system = solver.factorize_guide(&mesh, &deformable, &weighted, 100.0, generation).unwrap();
+            let x = system.solve(&weighted, &[&[2.0]]).unwrap().remove(0);
+            let guide_rows = system.factor.factorized_rows();
+            (x, heat_rows, guide_rows, solver.reduced_analyses() - analyses)
+        };
+        let (own, heat_rows, own_rows, own_analyses) = solve_guide(0);
+        let (within, _, within_rows, within_analyses) = solve_guide(1);
+        assert!(own_rows < heat_rows && heat_rows < mesh.num_vertices() / 2, "{own_rows} {heat_rows}");
+        assert_eq!((own_analyses, within_rows, within_analyses), (1, heat_rows, 0));
+        let difference = own.iter().zip(&within).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(difference < 1e-12 && (within[bottom as usize] - 2.0).abs() < 1e-3, "{difference}");
+    }
+
+    #[test]
     fn vertices_without_anchored_component_are_pinned_to_zero() {
         let mesh = shapes::icosphere(1.0, 2);
         let topology = Topology::new(&mesh);
@@ -462,7 +522,7 @@ mod tests {
         // Only faces touching vertex 0 are in the domain; the constraint sits elsewhere.
         let weights: Vec<f64> = mesh.triangles.iter().map(|t| if t.contains(&0) { 1.0 } else { 0.0 }).collect();
         let w = [(5u32, 1.0)];
-        let system = solver.factorize_guide(&mesh, &weights, &w, 100.0).unwrap();
+        let system = solver.factorize_guide(&mesh, &weights, &w, 100.0, 0).unwrap();
         let x = system.solve(&w, &[&[3.0]]).unwrap().remove(0);
         assert!((x[5] - 3.0).abs() < 1e-12);
         assert_eq!(x[0], 0.0);

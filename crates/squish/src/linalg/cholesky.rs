@@ -60,6 +60,13 @@ pub const REDUCE_MAX_COUPLED_FRACTION: f64 = 0.75;
 /// as the analysis of a submatrix.
 pub const REDUCE_MIN_DIMENSION: usize = 256;
 
+/// [`NumericFactor::factorize_within`] factorizes at most this fraction more rows than the
+/// matrix couples to avoid an analysis of its own. An analysis costs about as much as the numeric
+/// factorization of the same rows, and the flops grow faster than the rows: the guide system of
+/// fingers–palm's palm (1 426 of 2 162 rows, factorized whole) and of its fingers (~240 of ~280)
+/// gain, bunny–jelly's (6 081 of 10 188) would lose.
+pub const WITHIN_MAX_EXTRA_ROWS: f64 = 0.6;
+
 /// Coupled-row analyses a [`SymbolicFactor`] keeps for its factors (a region's frame couples two
 /// sets: 𝒫's for the heat and Poisson steps, 𝒟's for the guide).
 const RECENT_ROW_ANALYSES: usize = 3;
@@ -458,6 +465,33 @@ impl NumericFactor {
     /// storage of any previous factorization. A matrix that is not positive definite, or has a
     /// non-finite value, is an error and leaves the factor unusable until the next success.
     pub fn factorize(&mut self, matrix: &SymmetricMatrix) -> Result<(), SolveError> {
+        self.factorize_within(matrix, None)
+    }
+
+    /// The rows the last factorization coupled (`true` per region row), when it factorized a
+    /// submatrix on them; `None` after a whole factorization or a failure.
+    pub fn coupled_rows(&self) -> Option<&[bool]> {
+        match (self.layout, &self.reduced) {
+            (Layout::Reduced, Some(reduced)) => Some(&reduced.shared.coupled),
+            _ => None,
+        }
+    }
+
+    /// [`Self::factorize`], on the rows `other` (a factor of the same region, factorized in the
+    /// same frame) last factorized instead of this matrix's own coupled rows, when those are
+    /// among them and not many fewer ([`WITHIN_MAX_EXTRA_ROWS`]): the analysis of `other`'s rows
+    /// is already made (the region's own one when `other` factorized the whole region), and an
+    /// analysis costs more than factorizing a few extra rows. The extra rows have no off-diagonal
+    /// value here, so they add their 1 × 1 pivots and exact zeros; the other rows are eliminated in
+    /// `other`'s order, so the factor equals the one of [`Self::factorize`] up to round-off.
+    /// `other` must be a function of the current matrices only (not of the frames before), for the
+    /// result not to depend on the order frames are computed in. `None`, a factor of another
+    /// region or an unfactorized one: [`Self::factorize`].
+    pub fn factorize_within(
+        &mut self,
+        matrix: &SymmetricMatrix,
+        other: Option<&NumericFactor>,
+    ) -> Result<(), SolveError> {
         self.layout = Layout::None;
         if !Arc::ptr_eq(matrix.pattern(), &self.symbolic.pattern) {
             return Err(SolveError::PatternMismatch);
@@ -466,7 +500,23 @@ impl NumericFactor {
             return Err(SolveError::NonFiniteValue { what: "matrix", index: slot, value });
         }
         let values = matrix.values();
-        let coupled_rows = self.mark_coupled_rows(values);
+        let mut coupled_rows = self.mark_coupled_rows(values);
+        let other = other.filter(|o| Arc::ptr_eq(&o.symbolic, &self.symbolic));
+        if let (Some(count), Some(other)) = (coupled_rows, other) {
+            let limit = count as f64 * (1.0 + WITHIN_MAX_EXTRA_ROWS);
+            match (other.layout, other.coupled_rows()) {
+                (Layout::Whole, _) if self.coupled.len() as f64 <= limit => coupled_rows = None,
+                (Layout::Reduced, Some(within)) => {
+                    let wider = other.factorized_rows();
+                    let contains = self.coupled.iter().zip(within).all(|(&c, &w)| w || !c);
+                    if contains && wider as f64 <= limit {
+                        self.coupled.copy_from_slice(within);
+                        coupled_rows = Some(wider);
+                    }
+                }
+                _ => {}
+            }
+        }
         let result = match coupled_rows {
             Some(count) => self.factorize_reduced(values, count),
             None => self.factorize_whole(values),
@@ -780,6 +830,77 @@ mod tests {
         let (_, most) = disk_system(10.0);
         reduced.factorize(&SymmetricMatrix::from_values(symbolic.pattern(), most.values().to_vec()).unwrap()).unwrap();
         assert_eq!(reduced.factorized_rows(), n);
+    }
+
+    #[test]
+    fn a_factor_within_anothers_rows_reuses_their_analysis_with_the_same_solution() {
+        let (symbolic, heat) = disk_system(0.5);
+        let n = heat.dimension();
+        let mut rng = Lcg::new(23);
+        let b: Vec<f64> = (0..n).map(|_| rng.next_signed()).collect();
+        let heat_factor = NumericFactor::factorize_new(&symbolic, &heat).unwrap();
+        let within = heat_factor.coupled_rows().unwrap().to_vec();
+        let heat_rows = heat_factor.factorized_rows();
+        assert_eq!(within.iter().filter(|&&c| c).count(), heat_rows);
+
+        // A system on a slightly smaller disk (as 𝒟 inside the parametrized domain), with other
+        // values: it couples a subset of the heat system's rows.
+        let (_, smaller) = disk_system(0.45);
+        let mut guide = SymmetricMatrix::from_values(symbolic.pattern(), smaller.values().to_vec()).unwrap();
+        for value in guide.values_mut() {
+            *value *= 2.0;
+        }
+        let mut own = NumericFactor::factorize_new(&symbolic, &guide).unwrap();
+        let own_rows = own.factorized_rows();
+        assert!(own_rows < heat_rows && (heat_rows as f64) < 1.5 * own_rows as f64, "{own_rows} {heat_rows}");
+        assert_eq!(own.reduced_analyses(), 1);
+
+        let mut reusing = NumericFactor::new(&symbolic).unwrap();
+        reusing.factorize_within(&guide, Some(&heat_factor)).unwrap();
+        assert_eq!(reusing.factorized_rows(), heat_rows, "factorized on the heat system's rows");
+        assert_eq!(reusing.reduced_analyses(), 0, "with the heat system's analysis");
+        let (x_own, x_within) = (own.solve(&b).unwrap(), reusing.solve(&b).unwrap());
+        let difference = x_own.iter().zip(&x_within).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        assert!(difference < 1e-12, "{difference}");
+        assert!(residual(&guide, &x_within, &b) < 1e-12);
+        // The rows outside the guide's own coupling are b / diagonal (through √d twice).
+        let extra = (0..n).find(|&v| within[v] && !own.coupled_rows().unwrap()[v]).unwrap();
+        let expected = b[extra] / guide.diagonal(extra as u32);
+        assert!((x_within[extra] - expected).abs() <= 4.0 * f64::EPSILON * expected.abs());
+
+        // Rows outside `within`, or many fewer rows than it: the factor analyzes its own rows.
+        let (_, larger) = disk_system(0.55);
+        let larger = SymmetricMatrix::from_values(symbolic.pattern(), larger.values().to_vec()).unwrap();
+        reusing.factorize_within(&larger, Some(&heat_factor)).unwrap();
+        assert!(reusing.factorized_rows() > heat_rows);
+        let (_, tiny) = disk_system(0.2);
+        let tiny = SymmetricMatrix::from_values(symbolic.pattern(), tiny.values().to_vec()).unwrap();
+        reusing.factorize_within(&tiny, Some(&heat_factor)).unwrap();
+        assert!(reusing.factorized_rows() < heat_rows / 2);
+        assert!(residual(&tiny, &reusing.solve(&b).unwrap(), &b) < 1e-12);
+        // After a whole factorization of the heat system, a guide coupling most rows is factorized
+        // whole too (no analysis), one coupling few rows on its own rows.
+        let mut whole = NumericFactor::new(&symbolic).unwrap();
+        whole.reduce = false;
+        whole.factorize(&heat).unwrap();
+        assert!(whole.coupled_rows().is_none());
+        let (_, most) = disk_system(0.95);
+        let most = SymmetricMatrix::from_values(symbolic.pattern(), most.values().to_vec()).unwrap();
+        let mut own_most = NumericFactor::factorize_new(&symbolic, &most).unwrap();
+        let most_rows = own_most.factorized_rows();
+        assert!((most_rows as f64) < 0.75 * n as f64 && n as f64 <= 1.6 * most_rows as f64, "{most_rows} of {n}");
+        let mut reusing = NumericFactor::new(&symbolic).unwrap();
+        reusing.factorize_within(&most, Some(&whole)).unwrap();
+        assert_eq!((reusing.factorized_rows(), reusing.reduced_analyses()), (n, 0));
+        let (x_own, x_whole) = (own_most.solve(&b).unwrap(), reusing.solve(&b).unwrap());
+        assert!(x_own.iter().zip(&x_whole).all(|(p, q)| (p - q).abs() < 1e-12));
+        reusing.factorize_within(&tiny, Some(&whole)).unwrap();
+        assert!(reusing.factorized_rows() < heat_rows / 2);
+        // A factor of another region is ignored.
+        let (other_symbolic, other_heat) = disk_system(0.5);
+        let elsewhere = NumericFactor::factorize_new(&other_symbolic, &other_heat).unwrap();
+        reusing.factorize_within(&guide, Some(&elsewhere)).unwrap();
+        assert_eq!(reusing.factorized_rows(), own_rows);
     }
 
     #[test]

@@ -231,6 +231,52 @@ impl Operator {
         Ok(())
     }
 
+    /// Reassembles `a·M + b·K` reusing `stiffness`, an operator `K` alone with the same face
+    /// weights on the same pattern (the Poisson system of the same frame): its values are scaled
+    /// by `b` instead of summing the cotangents again. The result equals [`Self::reassemble`]'s
+    /// up to round-off (`b·Σ` instead of `Σ b·`).
+    pub fn reassemble_from_stiffness(
+        &mut self,
+        mesh: &TriMesh,
+        stiffness: &Operator,
+        mass_coefficient: f64,
+        stiffness_coefficient: f64,
+    ) -> Result<(), SolveError> {
+        let valid = |c: f64| c.is_finite() && c >= 0.0;
+        if !(valid(mass_coefficient) && valid(stiffness_coefficient) && stiffness_coefficient > 0.0) {
+            return Err(SolveError::InvalidCoefficients { mass: mass_coefficient, stiffness: stiffness_coefficient });
+        }
+        if stiffness.mass_coefficient != 0.0 || stiffness.stiffness_coefficient != 1.0 {
+            return Err(SolveError::InvalidCoefficients {
+                mass: stiffness.mass_coefficient,
+                stiffness: stiffness.stiffness_coefficient,
+            });
+        }
+        if !self.matrix.same_pattern(&stiffness.matrix) {
+            return Err(SolveError::PatternMismatch);
+        }
+        check_mesh_matches(mesh, self.matrix.pattern())?;
+        let face_weights = stiffness.face_weights.as_slice();
+        check_face_weights(Some(face_weights), mesh.num_triangles())?;
+        self.mass_coefficient = mass_coefficient;
+        self.stiffness_coefficient = stiffness_coefficient;
+        self.face_weights.clear();
+        self.face_weights.extend_from_slice(face_weights);
+        for (value, &k) in self.matrix.values_mut().iter_mut().zip(stiffness.matrix.values()) {
+            *value = stiffness_coefficient * k;
+        }
+        self.mass_diagonal.clear();
+        if mass_coefficient > 0.0 {
+            self.mass_diagonal.resize(mesh.num_vertices(), 0.0);
+            add_mass(&mut self.mass_diagonal, mesh, Some(face_weights));
+            for m in &mut self.mass_diagonal {
+                *m *= mass_coefficient;
+            }
+            self.matrix.add_diagonal(&self.mass_diagonal, 1.0)?;
+        }
+        Ok(())
+    }
+
     /// The assembled matrix `a·M + b·K`.
     pub fn matrix(&self) -> &SymmetricMatrix {
         &self.matrix
@@ -411,6 +457,33 @@ mod tests {
         let mean_mass = 2.0 * vertex_areas(&mesh).iter().sum::<f64>() / mesh.num_vertices() as f64;
         assert!((mass_only.constraint_scale() - mean_mass).abs() < 1e-14);
         assert!(matches!(Operator::new(&mesh, &pattern, None, 0.0, 0.0), Err(SolveError::InvalidCoefficients { .. })));
+    }
+
+    #[test]
+    fn heat_from_the_stiffness_operator_matches_a_full_assembly() {
+        let (mesh, mut weights) = cut_icosphere();
+        let pattern = SparsePattern::shared(&mesh, &Topology::new(&mesh)).unwrap();
+        let mut rnd = Lcg::new(5);
+        for w in &mut weights {
+            *w *= rnd.next_unit();
+        }
+        let time = 0.037;
+        let full = Operator::heat(&mesh, &pattern, Some(&weights), time).unwrap();
+        let stiffness = Operator::stiffness(&mesh, &pattern, Some(&weights)).unwrap();
+        let mut reused = Operator::stiffness(&mesh, &pattern, None).unwrap();
+        reused.reassemble_from_stiffness(&mesh, &stiffness, 1.0, time).unwrap();
+        for (a, b) in reused.matrix().values().iter().zip(full.matrix().values()) {
+            assert!((a - b).abs() <= 1e-14 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        assert_eq!(reused.mass_diagonal(), full.mass_diagonal());
+        assert_eq!(reused.face_weights(), full.face_weights());
+        assert_eq!(reused.constraint_scale(), full.constraint_scale());
+        // Only a stiffness-only operator with unit coefficient can be reused, on the same pattern.
+        assert!(reused.clone().reassemble_from_stiffness(&mesh, &full, 1.0, time).is_err());
+        assert!(reused.clone().reassemble_from_stiffness(&mesh, &stiffness, 1.0, 0.0).is_err());
+        let other = SparsePattern::shared(&mesh, &Topology::new(&mesh)).unwrap();
+        let mut elsewhere = Operator::stiffness(&mesh, &other, None).unwrap();
+        assert!(elsewhere.reassemble_from_stiffness(&mesh, &stiffness, 1.0, time).is_err());
     }
 
     #[test]
