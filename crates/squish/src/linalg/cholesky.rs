@@ -548,14 +548,16 @@ impl NumericFactor {
         self.coupled.clear();
         self.coupled.resize(n, false);
         let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+        let coupled = self.coupled.as_mut_slice();
         for j in 0..n {
-            for slot in col_ptr[j]..col_ptr[j + 1] {
-                let i = row_idx[slot];
-                if i != j && values[slot] != 0.0 {
-                    self.coupled[i] = true;
-                    self.coupled[j] = true;
-                }
+            // Branch-free: the entries of a column are mostly non-zero off the diagonal.
+            let mut any = false;
+            for (&i, &value) in row_idx[col_ptr[j]..col_ptr[j + 1]].iter().zip(&values[col_ptr[j]..col_ptr[j + 1]]) {
+                let link = (i != j) & (value != 0.0);
+                coupled[i] |= link;
+                any |= link;
             }
+            coupled[j] |= any;
         }
         let count = self.coupled.iter().filter(|&&c| c).count();
         (count as f64 <= REDUCE_MAX_COUPLED_FRACTION * n as f64).then_some(count)

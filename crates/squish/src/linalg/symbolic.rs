@@ -188,12 +188,14 @@ fn permuted_by_column(
     place: impl Fn(usize, usize) -> Option<(usize, usize)>,
     mut placed: impl FnMut(usize, usize),
 ) -> (Vec<usize>, Vec<usize>) {
-    let entries =
-        || (0..n).flat_map(move |j| (col_ptr[j]..col_ptr[j + 1]).map(move |k| (k, inverse[row_idx[k]], inverse[j])));
+    // Plain loops over the columns (a flat-mapped iterator of entries compiles to slower code).
     let mut ptr = vec![0usize; n + 1];
-    for (_, p, q) in entries() {
-        if let Some((column, _)) = place(p, q) {
-            ptr[column + 1] += 1;
+    for j in 0..n {
+        let q = inverse[j];
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            if let Some((column, _)) = place(inverse[i], q) {
+                ptr[column + 1] += 1;
+            }
         }
     }
     for k in 0..n {
@@ -201,11 +203,15 @@ fn permuted_by_column(
     }
     let mut next = ptr.clone();
     let mut rows = vec![0; ptr[n]];
-    for (k, p, q) in entries() {
-        if let Some((column, row)) = place(p, q) {
-            rows[next[column]] = row;
-            placed(next[column], k);
-            next[column] += 1;
+    for j in 0..n {
+        let q = inverse[j];
+        for k in col_ptr[j]..col_ptr[j + 1] {
+            if let Some((column, row)) = place(inverse[row_idx[k]], q) {
+                let at = next[column];
+                rows[at] = row;
+                placed(at, k);
+                next[column] = at + 1;
+            }
         }
     }
     (ptr, rows)
