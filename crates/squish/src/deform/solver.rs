@@ -500,7 +500,8 @@ mod tests {
             let current = current.unwrap();
             let heat_rows = solver.heat.as_ref().unwrap().factor().factorized_rows();
             let analyses = solver.reduced_analyses();
-            let generation = if generation == 0 { 0 } else { current };
+            // 0: none; 1: the current parametrization's; 2: another one's (stale).
+            let generation = [0, current, current + 1][generation as usize];
             let system = solver.factorize_guide(&mesh, &deformable, &weighted, 100.0, generation).unwrap();
             let x = system.solve(&weighted, &[&[2.0]]).unwrap().remove(0);
             let guide_rows = system.factor.factorized_rows();
@@ -508,6 +509,9 @@ mod tests {
         };
         let (own, heat_rows, own_rows, own_analyses) = solve_guide(0);
         let (within, _, within_rows, within_analyses) = solve_guide(1);
+        let (stale, _, stale_rows, stale_analyses) = solve_guide(2);
+        assert_eq!((stale_rows, stale_analyses), (own_rows, 1), "a stale heat factorization is not used");
+        assert_eq!(stale, own);
         assert!(own_rows < heat_rows && heat_rows < mesh.num_vertices() / 2, "{own_rows} {heat_rows}");
         assert_eq!((own_analyses, within_rows, within_analyses), (1, heat_rows, 0));
         let difference = own.iter().zip(&within).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
