@@ -7,8 +7,9 @@
 //! the submatrix each time) and with a cap that moves through four positions (one new submatrix
 //! analysis per factorization, as a moving contact pays it), (d) a partial
 //! refactorization: only the values around one point change (a contact moving on a static
-//! object: the supernodes there and their ancestors are recomputed), and (e) solves of one and of
-//! three right-hand sides.
+//! object: the supernodes there and their ancestors are recomputed), (e) solves of one and of
+//! three right-hand sides, and (f) a heat system and a guide system on a smaller cap inside it,
+//! the guide system on its own rows and on the heat system's (`factorize_within`: no analysis).
 //!
 //! Run: `cargo bench -p squish --bench factorization -- --quick`.
 
@@ -141,6 +142,32 @@ fn factorization(c: &mut Criterion) {
                 factor.factorize(black_box(&travelling_cap[position])).expect("refactorization");
             })
         });
+
+        // A guide system coupling a smaller cap inside each travelling cap (𝒟 inside 𝒫): on its
+        // own rows (a second analysis per position) and on the heat system's rows (none).
+        let inner_cap: Vec<SymmetricMatrix> =
+            [0.55, 0.53, 0.51, 0.49].iter().map(|&z| decouple_below(&variants[1], &mesh, z)).collect();
+        let mut heat = NumericFactor::factorize_new(&symbolic, &travelling_cap[0]).expect("factorization");
+        let mut guide = NumericFactor::factorize_new(&symbolic, &inner_cap[0]).expect("factorization");
+        for within in [false, true] {
+            let name = if within { "heat-and-guide-within-travelling-cap" } else { "heat-and-guide-travelling-cap" };
+            let mut position = 0;
+            group.bench_function(BenchmarkId::new(name, &label), |b| {
+                b.iter(|| {
+                    position = (position + 1) % travelling_cap.len();
+                    heat.factorize(black_box(&travelling_cap[position])).expect("refactorization");
+                    let other = within.then_some(&heat);
+                    guide.factorize_within(black_box(&inner_cap[position]), other).expect("refactorization");
+                })
+            });
+        }
+        let analyses = guide.reduced_analyses();
+        for position in [1, 2, 3, 0] {
+            heat.factorize(&travelling_cap[position]).expect("refactorization");
+            guide.factorize_within(&inner_cap[position], Some(&heat)).expect("refactorization");
+        }
+        assert_eq!(guide.reduced_analyses(), analyses, "the guide system reuses the heat system's analyses");
+        assert_eq!(guide.factorized_rows(), heat.factorized_rows());
     }
     group.finish();
 }
