@@ -333,6 +333,10 @@ struct ObjectCache {
     bvh: TriangleBvh,
     components: Components,
     regions: Vec<RegionCache>,
+    /// The last frame's component figures and the positions they were computed from: an object
+    /// that has not moved since, bit for bit (a static ground, a prop at rest), reuses them, which
+    /// gives the same bits as computing them again.
+    figures: Option<(Vec<DVec3>, ComponentFigures)>,
 }
 
 impl ObjectCache {
@@ -349,7 +353,25 @@ impl ObjectCache {
             bvh,
             components,
             regions: Vec::new(),
+            figures: None,
         })
+    }
+
+    /// The figures of the object's components at `mesh`'s positions.
+    fn figures(&mut self, mesh: &TriMesh) -> ComponentFigures {
+        let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
+        if let Some((positions, figures)) = &self.figures
+            && positions.len() == mesh.positions.len()
+            && positions.iter().zip(&mesh.positions).all(|(a, b)| bits(a) == bits(b))
+        {
+            return figures.clone();
+        }
+        let figures = ComponentFigures::new(mesh, &self.topology, &self.components);
+        let mut positions = self.figures.take().map(|(positions, _)| positions).unwrap_or_default();
+        positions.clear();
+        positions.extend_from_slice(&mesh.positions);
+        self.figures = Some((positions, figures.clone()));
+        figures
     }
 
     fn matches(&self, mesh: &TriMesh) -> bool {
@@ -609,7 +631,7 @@ impl Deformer {
                     }
                     _ => cache.insert(ObjectCache::new(object.name, object.mesh)?),
                 };
-                Ok(Prepared { figures: ComponentFigures::new(object.mesh, &cache.topology, &cache.components) })
+                Ok(Prepared { figures: cache.figures(object.mesh) })
             })
             .collect::<Result<_, _>>()?;
         let setup = setup_start.elapsed();

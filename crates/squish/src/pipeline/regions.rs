@@ -191,7 +191,7 @@ impl Components {
 }
 
 /// Per-frame figures of an object's components, for the automatic extent's sizes.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct ComponentFigures {
     area: Vec<f64>,
     centroid: Vec<DVec3>,

@@ -34,6 +34,11 @@ pub struct TriangleBvh {
     pub(super) num_vertices: usize,
     /// Box of all the leaves.
     pub(super) bounds: Aabb3,
+    /// The vertices the triangles use (increasing) and their positions at the last fit: a refit
+    /// to the same positions, bit for bit (a static object's every frame), stops after comparing
+    /// them instead of comparing every triangle's corners.
+    fitted_vertices: Vec<u32>,
+    fitted: Vec<DVec3>,
 }
 
 impl TriangleBvh {
@@ -68,7 +73,11 @@ impl TriangleBvh {
         let boxes: Vec<(DVec3, DVec3)> = corners.iter().map(triangle_aabb).collect();
         let bvh = FlatBvh::new(&boxes);
         let bounds = bounds_of(&corners);
-        Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds })
+        let mut fitted_vertices: Vec<u32> = indices.iter().flatten().copied().collect();
+        fitted_vertices.sort_unstable();
+        fitted_vertices.dedup();
+        let fitted = fitted_vertices.iter().map(|&v| mesh.positions[v as usize]).collect();
+        Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds, fitted_vertices, fitted })
     }
 
     /// Moves the triangles to new vertex positions (same mesh connectivity, `positions.len()` equal
@@ -81,6 +90,13 @@ impl TriangleBvh {
         // Only the leaves whose triangle moved (bit for bit) get a new box, and a tree none of
         // whose triangles moved since the last frame (a static ground, a prop at rest) is left
         // as is: the boxes are the same either way.
+        let bits = |p: DVec3| p.to_array().map(f64::to_bits);
+        if self.fitted_vertices.iter().zip(&self.fitted).all(|(&v, &p)| bits(positions[v as usize]) == bits(p)) {
+            return Ok(());
+        }
+        for (&v, p) in self.fitted_vertices.iter().zip(self.fitted.iter_mut()) {
+            *p = positions[v as usize];
+        }
         let mut moved = false;
         for (tri, corners) in self.indices.iter().zip(self.corners.iter_mut()) {
             let new = tri.map(|i| positions[i as usize]);
@@ -318,6 +334,37 @@ mod tests {
             let a = DVec3::new(2.0, 0.05 * k as f64 - 1.2, 0.3);
             assert_eq!(tree.segment_crossing_count(a, -a), probe.segment_crossing_count(a, -a));
         }
+        // Back to the first positions, then the same again: the tree of the first positions.
+        tree.refit(&mesh.positions).unwrap();
+        tree.refit(&mesh.positions).unwrap();
+        assert_eq!(tree.corners, before.corners);
+        assert_eq!(tree.bounds(), before.bounds());
+        // A sign-only change of a zero coordinate is a change (bit for bit).
+        let (v, k) = (0..mesh.num_vertices())
+            .flat_map(|v| (0..3).map(move |k| (v, k)))
+            .find(|&(v, k)| mesh.positions[v][k] == 0.0)
+            .unwrap();
+        let mut signed = mesh.positions.clone();
+        signed[v][k] = -signed[v][k];
+        tree.refit(&signed).unwrap();
+        let leaf = tree.indices.iter().position(|t| t.contains(&(v as u32))).unwrap();
+        let corner = tree.indices[leaf].iter().position(|&i| i as usize == v).unwrap();
+        assert_eq!(tree.corners[leaf][corner][k].to_bits(), signed[v][k].to_bits());
+        // A tree over some faces ignores the vertices it does not use.
+        let faces: Vec<u32> = (0..mesh.num_triangles() as u32).filter(|&f| f % 3 == 0).collect();
+        let mut subset = TriangleBvh::with_faces(&mesh, faces.iter().copied()).unwrap();
+        let unused = (0..mesh.num_vertices() as u32).find(|v| !subset.indices.iter().flatten().any(|i| i == v));
+        let used = subset.indices[0][0] as usize;
+        let mut elsewhere = mesh.positions.clone();
+        if let Some(unused) = unused {
+            elsewhere[unused as usize] += DVec3::splat(0.5);
+            let kept = subset.clone();
+            subset.refit(&elsewhere).unwrap();
+            assert_eq!(subset.corners, kept.corners);
+        }
+        elsewhere[used] += DVec3::splat(0.5);
+        subset.refit(&elsewhere).unwrap();
+        assert_eq!(subset.corners[0][0], elsewhere[used]);
     }
 
     #[test]
