@@ -219,16 +219,7 @@ impl Operator {
         if stiffness_coefficient > 0.0 {
             add_stiffness(self.matrix.values_mut(), mesh, &pattern, face_weights, stiffness_coefficient)?;
         }
-        self.mass_diagonal.clear();
-        if mass_coefficient > 0.0 {
-            self.mass_diagonal.resize(mesh.num_vertices(), 0.0);
-            add_mass(&mut self.mass_diagonal, mesh, face_weights);
-            for m in &mut self.mass_diagonal {
-                *m *= mass_coefficient;
-            }
-            self.matrix.add_diagonal(&self.mass_diagonal, 1.0)?;
-        }
-        Ok(())
+        self.add_mass_term(mesh, face_weights, mass_coefficient)
     }
 
     /// Reassembles `a·M + b·K` reusing `stiffness`, an operator `K` alone with the same face
@@ -265,10 +256,20 @@ impl Operator {
         for (value, &k) in self.matrix.values_mut().iter_mut().zip(stiffness.matrix.values()) {
             *value = stiffness_coefficient * k;
         }
+        self.add_mass_term(mesh, Some(face_weights), mass_coefficient)
+    }
+
+    /// Sets `mass_diagonal` to `a·M_ii` (empty when `a = 0`) and adds it to the matrix.
+    fn add_mass_term(
+        &mut self,
+        mesh: &TriMesh,
+        face_weights: Option<&[f64]>,
+        mass_coefficient: f64,
+    ) -> Result<(), SolveError> {
         self.mass_diagonal.clear();
         if mass_coefficient > 0.0 {
             self.mass_diagonal.resize(mesh.num_vertices(), 0.0);
-            add_mass(&mut self.mass_diagonal, mesh, Some(face_weights));
+            add_mass(&mut self.mass_diagonal, mesh, face_weights);
             for m in &mut self.mass_diagonal {
                 *m *= mass_coefficient;
             }
