@@ -19,6 +19,8 @@ pub struct BenchReport {
     pub data_directory: String,
     /// Timed frames per scene and run.
     pub frames: usize,
+    /// Rounds (`--rounds`): every scene and the shot ran this many times, round after round.
+    pub rounds: usize,
     pub memory_method: String,
     /// The machine when the run started and when it ended (load averages tell whether other
     /// work competed for the cores).
@@ -291,8 +293,38 @@ pub struct SceneReport {
     pub frame_over_factorization_all_threads: Option<f64>,
     /// Single-thread median frame / the thesis' time.
     pub thesis_ratio: Option<f64>,
-    /// Peak resident memory while the scene ran (see `memory_method`), MB.
+    /// Peak resident memory while the scene ran (see `memory_method`), MB, in the first round.
     pub peak_memory_mb: Option<f64>,
+    /// Every round's figures; `single`, `multi` and `factorization` are each the round with the
+    /// median of theirs.
+    pub rounds: Option<RoundsReport>,
+}
+
+/// A scene's figures in every round (`--rounds`), in round order.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoundsReport {
+    /// The single-thread median frame of each round.
+    pub single_ms: Vec<f64>,
+    /// The multi-threaded median frame of each round.
+    pub multi_ms: Vec<f64>,
+    /// The reference factorization of each round (the fastest of its five).
+    pub factorization_ms: Vec<f64>,
+    /// The fastest round's single-thread median frame.
+    pub single_fastest_ms: f64,
+    /// The same over the thesis' time.
+    pub fastest_thesis_ratio: Option<f64>,
+}
+
+/// Index of the median of `values` (the lower one for an even count; `None` when empty).
+fn median_position(values: &[f64]) -> Option<usize> {
+    let mut order: Vec<usize> = (0..values.len()).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    order.get(values.len().checked_sub(1)? / 2).copied()
+}
+
+/// The median of `values` (the lower one for an even count; 0 when empty).
+fn median_value(values: &[f64]) -> f64 {
+    median_position(values).map_or(0.0, |i| values[i])
 }
 
 impl SceneReport {
@@ -314,6 +346,7 @@ impl SceneReport {
             frame_over_factorization_all_threads: None,
             thesis_ratio: None,
             peak_memory_mb: None,
+            rounds: None,
         }
     }
 
@@ -328,6 +361,11 @@ impl SceneReport {
             self.working[s] = objects.clone().map(|o| o.vertices).sum();
             self.deformable[s] = objects.map(|o| o.deformable_vertices).sum();
         }
+        self.derive_ratios();
+    }
+
+    /// The ratios between the runs, the factorization and the thesis.
+    fn derive_ratios(&mut self) {
         if let (Some(single), Some(multi)) = (&self.single, &self.multi) {
             self.speedup = Some(single.median_ms / multi.median_ms);
         }
@@ -339,6 +377,44 @@ impl SceneReport {
         if let Some(multi) = &self.multi {
             self.frame_over_factorization_all_threads = factorization_ms.map(|f| multi.median_ms / f);
         }
+    }
+
+    /// One report from the same scene's rounds (in round order): the round with the median
+    /// single-thread frame, with the multi-threaded run and the reference factorization of their
+    /// own median rounds, the first round's peak memory and every round's figures. A round that was
+    /// skipped or failed is reported instead. `None` without rounds.
+    pub fn from_rounds(mut runs: Vec<SceneReport>) -> Option<Self> {
+        if let Some(failed) = runs.iter().position(|r| r.skipped.is_some() || r.error.is_some()) {
+            return Some(runs.swap_remove(failed));
+        }
+        let median_of = |run: &Option<RunReport>| run.as_ref().map_or(f64::NAN, |r| r.median_ms);
+        let single_ms: Vec<f64> = runs.iter().map(|r| median_of(&r.single)).collect();
+        let multi_ms: Vec<f64> = runs.iter().map(|r| median_of(&r.multi)).collect();
+        let factorization_ms: Vec<f64> =
+            runs.iter().filter_map(|r| r.factorization.as_ref().map(|f| f.numeric_ms)).collect();
+        // The first round's: in later rounds the process also holds what the allocator kept
+        // from every scene of the round before.
+        let peak_memory_mb = runs.first().and_then(|r| r.peak_memory_mb);
+        let multi = median_position(&multi_ms).and_then(|i| runs[i].multi.take());
+        let factorization = if factorization_ms.len() == runs.len() {
+            median_position(&factorization_ms).and_then(|i| runs[i].factorization.take())
+        } else {
+            None
+        };
+        let mut report = runs.swap_remove(median_position(&single_ms)?);
+        report.multi = multi;
+        report.factorization = factorization;
+        report.peak_memory_mb = peak_memory_mb;
+        let single_fastest_ms = single_ms.iter().copied().fold(f64::INFINITY, f64::min);
+        report.rounds = Some(RoundsReport {
+            fastest_thesis_ratio: report.thesis.as_ref().map(|t| single_fastest_ms / t.ms),
+            single_ms,
+            multi_ms,
+            factorization_ms,
+            single_fastest_ms,
+        });
+        report.derive_ratios();
+        Some(report)
     }
 
     /// A progress line.
@@ -363,6 +439,9 @@ pub struct ShotReport {
     pub multi_fps: f64,
     /// multi_fps / single_fps.
     pub speedup: f64,
+    /// Every round's times (`--rounds`); the fields above are their medians.
+    pub single_seconds_per_round: Vec<f64>,
+    pub multi_seconds_per_round: Vec<f64>,
 }
 
 impl ShotReport {
@@ -378,7 +457,22 @@ impl ShotReport {
             single_fps: fps(s),
             multi_fps: fps(m),
             speedup: if m > 0.0 { s / m } else { 0.0 },
+            single_seconds_per_round: vec![s],
+            multi_seconds_per_round: vec![m],
         }
+    }
+
+    /// The median of each time over the rounds (`None` without rounds).
+    pub fn from_rounds(shots: Vec<ShotReport>) -> Option<Self> {
+        let first = shots.first()?;
+        let single: Vec<f64> = shots.iter().map(|s| s.single_seconds).collect();
+        let multi: Vec<f64> = shots.iter().map(|s| s.multi_seconds).collect();
+        let seconds = |v: &[f64]| Duration::from_secs_f64(median_value(v));
+        Some(Self {
+            single_seconds_per_round: single.clone(),
+            multi_seconds_per_round: multi.clone(),
+            ..Self::new(&first.scene, first.frames, first.threads, seconds(&single), seconds(&multi))
+        })
     }
 }
 
@@ -395,9 +489,10 @@ pub fn print_table(report: &BenchReport) {
     let machine = &report.machine_before;
     let load = |m: &MachineReport| m.load_average.map_or_else(|| "unknown".to_string(), |l| format!("{:.2}", l[0]));
     println!(
-        "squish bench{}: {} timed frames per scene, 1 thread and {} threads ({} cores); load {} → {}{}",
+        "squish bench{}: {} timed frames per scene, {}1 thread and {} threads ({} cores); load {} → {}{}",
         if machine.quick { " --quick" } else { "" },
         report.frames,
+        if report.rounds > 1 { format!("{} rounds (medians of the rounds' medians), ", report.rounds) } else { String::new() },
         machine.threads,
         machine.cores,
         load(&report.machine_before),
@@ -406,13 +501,14 @@ pub fn print_table(report: &BenchReport) {
     );
     println!();
     println!(
-        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
         "scene",
         "W ours",
         "D ours",
         "W thesis",
         "D thesis",
         "1 thread",
+        "fastest",
         "N threads",
         "thesis",
         "÷ thesis",
@@ -420,8 +516,8 @@ pub fn print_table(report: &BenchReport) {
         "÷ factor."
     );
     println!(
-        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
-        "", "", "", "", "", "ms", "ms", "ms", "", "ms", ""
+        "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+        "", "", "", "", "", "ms", "ms", "ms", "ms", "", "ms", ""
     );
     for scene in &report.scenes {
         let thesis = scene.thesis.as_ref();
@@ -430,13 +526,14 @@ pub fn print_table(report: &BenchReport) {
             continue;
         }
         println!(
-            "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
+            "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",
             scene.name,
             sides(scene.working),
             sides(scene.deformable),
             thesis.map_or_else(|| "–".into(), |t| sides(t.working)),
             thesis.map_or_else(|| "–".into(), |t| sides(t.deformable)),
             opt(scene.single.as_ref().map(|r| r.median_ms), 2),
+            opt(scene.rounds.as_ref().map(|r| r.single_fastest_ms), 2),
             opt(scene.multi.as_ref().map(|r| r.median_ms), 2),
             opt(thesis.map(|t| t.ms), 1),
             opt(scene.thesis_ratio, 3),
@@ -513,5 +610,37 @@ pub fn print_table(report: &BenchReport) {
             "shot: {} frames of {}, frames in parallel: 1 thread {:.2} fps, {} threads {:.2} fps (×{:.2})",
             shot.frames, shot.scene, shot.single_fps, shot.threads, shot.multi_fps, shot.speedup
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_position_takes_the_lower_median_and_handles_empty() {
+        assert_eq!(median_position(&[]), None);
+        assert_eq!(median_position(&[5.0]), Some(0));
+        assert_eq!(median_position(&[3.0, 1.0, 2.0]), Some(2));
+        // Even count: the lower of the two middle values.
+        assert_eq!(median_position(&[4.0, 1.0, 3.0, 2.0]), Some(3));
+        assert_eq!(median_value(&[4.0, 1.0, 3.0, 2.0]), 2.0);
+    }
+
+    #[test]
+    fn a_failed_or_skipped_round_is_reported_instead_of_a_median() {
+        let ok = |ms: f64| {
+            let mut r = SceneReport::new("s", None, Vec::new(), 1);
+            r.peak_memory_mb = Some(ms);
+            r
+        };
+        let mut failed = SceneReport::new("s", None, Vec::new(), 1);
+        failed.error = Some("frame 3: boom".into());
+        let report = SceneReport::from_rounds(vec![ok(1.0), failed, ok(2.0)]).expect("a report");
+        assert_eq!(report.error.as_deref(), Some("frame 3: boom"));
+        let skipped = SceneReport::skipped("s", None, "mesh not found".into());
+        let report = SceneReport::from_rounds(vec![skipped]).expect("a report");
+        assert_eq!(report.skipped.as_deref(), Some("mesh not found"));
+        assert!(SceneReport::from_rounds(Vec::new()).is_none());
     }
 }

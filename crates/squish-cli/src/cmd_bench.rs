@@ -19,6 +19,12 @@
 //! Then a shot of `--shot-frames` frames of one scene is processed with frames in parallel (one
 //! deformer per worker, contiguous chunks) with all threads and with one thread: frames per second.
 //!
+//! `--rounds R` repeats all of it R times, round after round (each round runs every scene and the
+//! shot once), so that a slow spell of a shared machine spreads over the scenes instead of hitting
+//! all of one scene's runs. Each scene then reports the round with the median single-thread time
+//! (its breakdown and counts), the multi-threaded run and the reference factorization of their own
+//! median rounds, every round's medians and the fastest round; the shot reports its median round.
+//!
 //! Performance targets are read in the output; nothing here asserts them.
 
 use std::path::{Path, PathBuf};
@@ -66,6 +72,10 @@ pub struct BenchArgs {
     /// Only the scenes whose name contains one of these words (comma-separated).
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Runs every scene and the shot this many times, round after round, and reports each
+    /// scene's median round and fastest round (for a noisy or shared machine).
+    #[arg(long, value_name = "R", default_value_t = 1)]
+    pub rounds: usize,
 }
 
 /// Everything a run needs besides the scenes.
@@ -78,8 +88,8 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let size = if args.quick { BenchSize::Quick } else { BenchSize::Full };
     let frames = args.frames.unwrap_or(if args.quick { 3 } else { 9 });
     let shot_frames = args.shot_frames.unwrap_or(if args.quick { 8 } else { 48 });
-    if frames == 0 || shot_frames == 0 {
-        return Err(CliError::input("--frames and --shot-frames must be at least 1"));
+    if frames == 0 || shot_frames == 0 || args.rounds == 0 {
+        return Err(CliError::input("--frames, --shot-frames and --rounds must be at least 1"));
     }
     let available = std::thread::available_parallelism().map_or(1, usize::from);
     let threads = args.threads.unwrap_or(available);
@@ -95,28 +105,40 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         let names: Vec<&str> = entries.iter().map(|e| e.name).collect();
         return Err(CliError::input(format!("--shot {}: no such scene (one of {})", args.shot, names.join(", "))));
     };
-    let mut scenes = Vec::new();
-    for entry in &entries {
-        let name = entry.name;
-        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| name.contains(s.as_str())) {
-            continue;
+    let selected: Vec<&SceneEntry> = entries
+        .iter()
+        .filter(|e| args.scenes.is_empty() || args.scenes.iter().any(|s| e.name.contains(s.as_str())))
+        .collect();
+    let mut rounds: Vec<Vec<SceneReport>> = selected.iter().map(|_| Vec::with_capacity(args.rounds)).collect();
+    let mut shots = Vec::with_capacity(args.rounds);
+    for round in 0..args.rounds {
+        let label = if args.rounds > 1 { format!("round {}/{}: ", round + 1, args.rounds) } else { String::new() };
+        for (entry, runs) in selected.iter().zip(&mut rounds) {
+            // A scene that cannot be built (a missing file) would not be built in later rounds either.
+            if runs.first().is_some_and(|r: &SceneReport| r.skipped.is_some()) {
+                continue;
+            }
+            progress(args, &format!("{label}{} …", entry.name));
+            memory::reset_peak();
+            let report = match (entry.build)() {
+                Ok(scene) => measure_scene(&scene, &settings),
+                Err(reason) => SceneReport::skipped(entry.name, entry.thesis.map(ThesisReport::from), reason),
+            };
+            progress(args, &report.one_line());
+            runs.push(report);
         }
-        progress(args, &format!("{name} …"));
-        memory::reset_peak();
-        let report = match (entry.build)() {
-            Ok(scene) => measure_scene(&scene, &settings),
-            Err(reason) => SceneReport::skipped(name, entry.thesis.map(ThesisReport::from), reason),
-        };
-        progress(args, &report.one_line());
-        scenes.push(report);
+        // Built after the scenes of the round, so that their peak memory does not hold it.
+        let shot_scene = (shot_entry.build)().map_err(CliError::input)?;
+        progress(args, &format!("{label}shot: {} frames of {} …", shot_frames, shot_scene.name));
+        shots.push(measure_shot(&shot_scene, shot_frames, threads)?);
     }
-    let shot_scene = (shot_entry.build)().map_err(CliError::input)?;
-    progress(args, &format!("shot: {} frames of {} …", shot_frames, shot_scene.name));
-    let shot = Some(measure_shot(&shot_scene, shot_frames, threads)?);
+    let scenes: Vec<SceneReport> = rounds.into_iter().filter_map(SceneReport::from_rounds).collect();
+    let shot = ShotReport::from_rounds(shots);
     let report = BenchReport {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         data_directory: data.display().to_string(),
         frames,
+        rounds: args.rounds,
         memory_method: memory::METHOD.to_string(),
         machine_before,
         machine_after: MachineReport::now(available, threads, size),

@@ -114,10 +114,45 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
             assert!(peak > 0.0, "{name}");
         }
     }
+    assert_eq!(report["rounds"], 1);
     let shot = &report["shot"];
     assert_eq!(shot["frames"], 4);
     assert!(number(&shot["single_fps"], "single fps") > 0.0 && number(&shot["multi_fps"], "multi fps") > 0.0);
     assert_eq!(report["machine_before"]["threads"], 2);
+}
+
+#[test]
+fn rounds_report_the_median_round_and_every_round() {
+    let report = bench_json(&["--rounds", "3", "--scenes", "sphere-plane"]);
+    assert_eq!(report["rounds"], 3);
+    let scenes = report["scenes"].as_array().expect("scenes");
+    assert_eq!(scenes.len(), 1);
+    let scene = &scenes[0];
+    let rounds = &scene["rounds"];
+    let values = |key: &str| -> Vec<f64> {
+        rounds[key].as_array().expect(key).iter().map(|v| number(v, key)).collect()
+    };
+    let (single, multi, factorization) = (values("single_ms"), values("multi_ms"), values("factorization_ms"));
+    assert!(single.len() == 3 && multi.len() == 3 && factorization.len() == 3, "{rounds}");
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        v[1]
+    };
+    // The reported runs are the median rounds, each of its own figure.
+    assert_eq!(number(&scene["single"]["median_ms"], "single"), median(&single));
+    assert_eq!(number(&scene["multi"]["median_ms"], "multi"), median(&multi));
+    assert_eq!(number(&scene["factorization"]["numeric_ms"], "factorization"), median(&factorization));
+    let fastest = number(&rounds["single_fastest_ms"], "fastest");
+    assert_eq!(fastest, single.iter().copied().fold(f64::INFINITY, f64::min));
+    let thesis_ms = number(&scene["thesis"]["ms"], "thesis ms");
+    assert!((number(&scene["thesis_ratio"], "ratio") - median(&single) / thesis_ms).abs() < 1e-12);
+    assert!((number(&rounds["fastest_thesis_ratio"], "fastest ratio") - fastest / thesis_ms).abs() < 1e-12);
+    let shot = &report["shot"];
+    let shot_single: Vec<f64> =
+        shot["single_seconds_per_round"].as_array().expect("shot rounds").iter().map(|v| number(v, "s")).collect();
+    assert_eq!(shot_single.len(), 3);
+    assert!((number(&shot["single_seconds"], "shot") - median(&shot_single)).abs() < 1e-9);
 }
 
 #[test]
@@ -138,8 +173,12 @@ fn missing_data_skips_the_file_scenes_with_a_note_and_the_table_prints() {
 
 #[test]
 fn bad_arguments_are_usage_errors() {
-    for args in [&["bench", "--frames", "0"][..], &["bench", "--threads", "0"], &["bench", "--quick", "--shot", "nope"]]
-    {
+    for args in [
+        &["bench", "--frames", "0"][..],
+        &["bench", "--threads", "0"],
+        &["bench", "--rounds", "0"],
+        &["bench", "--quick", "--shot", "nope"],
+    ] {
         let output = Command::new(env!("CARGO_BIN_EXE_squish")).args(args).output().expect("run squish bench");
         assert_eq!(output.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
     }
