@@ -492,7 +492,11 @@ pub fn print_table(report: &BenchReport) {
         "squish bench{}: {} timed frames per scene, {}1 thread and {} threads ({} cores); load {} → {}{}",
         if machine.quick { " --quick" } else { "" },
         report.frames,
-        if report.rounds > 1 { format!("{} rounds (medians of the rounds' medians), ", report.rounds) } else { String::new() },
+        if report.rounds > 1 {
+            format!("{} rounds (medians of the rounds' medians), ", report.rounds)
+        } else {
+            String::new()
+        },
         machine.threads,
         machine.cores,
         load(&report.machine_before),

@@ -129,9 +129,8 @@ fn rounds_report_the_median_round_and_every_round() {
     assert_eq!(scenes.len(), 1);
     let scene = &scenes[0];
     let rounds = &scene["rounds"];
-    let values = |key: &str| -> Vec<f64> {
-        rounds[key].as_array().expect(key).iter().map(|v| number(v, key)).collect()
-    };
+    let values =
+        |key: &str| -> Vec<f64> { rounds[key].as_array().expect(key).iter().map(|v| number(v, key)).collect() };
     let (single, multi, factorization) = (values("single_ms"), values("multi_ms"), values("factorization_ms"));
     assert!(single.len() == 3 && multi.len() == 3 && factorization.len() == 3, "{rounds}");
     let median = |v: &[f64]| {

@@ -36,7 +36,7 @@ use glam::{DVec2, DVec3};
 use super::{ContactError, ContactSide, EdgeRegion, Sample};
 use crate::linalg::EdgePoint;
 use crate::mesh::{Topology, TriMesh};
-use crate::spatial::{ProjectionPlane, Ray, SegmentSlabs};
+use crate::spatial::{CrossingHint, ProjectionPlane, Ray, SegmentSlabs};
 
 /// Marks a vertex outside a mapping region in [`SideMapping::vertex_slot`].
 pub const NO_SLOT: u32 = u32::MAX;
@@ -135,10 +135,19 @@ pub struct MappingStats {
     pub occluded_vertices: usize,
 }
 
-/// True if a part of `side`'s own mesh lies beyond `x` along `away` (x is then hidden from the
-/// other object). The segment starts a hair beyond x so that x's own faces do not count.
-fn is_occluded(side: &ContactSide, x: DVec3, away: DVec3, offset: f64, length: f64) -> bool {
-    side.bvh.segment_crosses(x + away * offset, x + away * length)
+/// Whether a part of `side`'s own mesh lies beyond `x` along `away` (x is then hidden from the
+/// other object): `Some` (the triangle found, tried first by the next query: nearby hidden points
+/// are usually hidden by the same one) or `None`. The segment starts a hair beyond x so that x's
+/// own faces do not count.
+fn occluder(
+    side: &ContactSide,
+    x: DVec3,
+    away: DVec3,
+    offset: f64,
+    length: f64,
+    hint: Option<CrossingHint>,
+) -> Option<CrossingHint> {
+    side.bvh.segment_crossing_hint(x + away * offset, x + away * length, hint)
 }
 
 /// The part of a mapping region that the other object can reach (thesis §4.5, Fig. 4.12 and its
@@ -165,10 +174,15 @@ pub fn visible_part(region: &EdgeRegion, side: &ContactSide, toward: DVec3) -> (
     let candidates: Vec<u32> = (0..positions.len() as u32).filter(|&v| region.contains(v)).collect();
     let hidden: Vec<bool> = candidates
         .par_iter()
-        .map(|&v| {
-            let x = positions[v as usize];
-            is_occluded(side, x, away, offset, length(x))
-        })
+        .map_init(
+            || None,
+            |hint, &v| {
+                let x = positions[v as usize];
+                // A visible point drops the hint: the next ones are likely visible too.
+                *hint = occluder(side, x, away, offset, length(x), *hint);
+                hint.is_some()
+            },
+        )
         .collect();
     let occluded = hidden.iter().filter(|&&h| h).count();
     if occluded == 0 {
@@ -185,10 +199,13 @@ pub fn visible_part(region: &EdgeRegion, side: &ContactSide, toward: DVec3) -> (
             // Both ends in ℳ, j hidden: bisect the visibility along the edge.
             let (pi, pj) = (positions[i as usize], positions[j as usize]);
             let (mut lo, mut hi) = (0.0f64, 1.0f64);
+            let mut hint = None;
             for _ in 0..40 {
                 let mid = 0.5 * (lo + hi);
                 let x = pi.lerp(pj, mid);
-                if is_occluded(side, x, away, offset, length(x)) {
+                let found = occluder(side, x, away, offset, length(x), hint);
+                hint = found.or(hint);
+                if found.is_some() {
                     hi = mid;
                 } else {
                     lo = mid;

@@ -44,7 +44,7 @@ pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
 pub(crate) use flat_bvh::Visit;
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
-pub use queries::{ClosestPoint, Hit, Ray};
+pub use queries::{ClosestPoint, CrossingHint, Hit, Ray};
 pub use segment_slabs::SegmentSlabs;
 pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};

@@ -73,6 +73,11 @@ impl Ray {
     }
 }
 
+/// A triangle a segment crossed ([`TriangleBvh::segment_crossing_hint`]): the next, nearby
+/// segment tries it first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CrossingHint(u32);
+
 /// The closest point of a mesh to a query point.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ClosestPoint {
@@ -247,8 +252,24 @@ impl TriangleBvh {
     /// True if the segment `[a, b]` crosses the mesh at least once (same rule as
     /// [`Self::segment_hits`]); stops at the first crossing found.
     pub fn segment_crosses(&self, a: DVec3, b: DVec3) -> bool {
+        self.segment_crossing_hint(a, b, None).is_some()
+    }
+
+    /// [`Self::segment_crosses`] for a run of nearby segments: `hint` is what the previous query
+    /// returned (`None` at the start). A segment that crosses the triangle another one crossed
+    /// is answered by that one exact test, without a traversal; the answer (`is_some`) is the
+    /// same as [`Self::segment_crosses`] whatever the hint, since a triangle the segment crosses
+    /// always lies in boxes the traversal would visit. Returns an opaque hint for the next query:
+    /// `Some` exactly when the segment crosses the mesh.
+    pub fn segment_crossing_hint(&self, a: DVec3, b: DVec3, hint: Option<CrossingHint>) -> Option<CrossingHint> {
+        if let Some(CrossingHint(leaf)) = hint
+            && let Some(corners) = self.corners.get(leaf as usize)
+            && segment_triangle(a, b, corners).is_some()
+        {
+            return hint;
+        }
         let probe = SegmentProbe::new(a, b);
-        let mut found = false;
+        let mut found = None;
         self.bvh.traverse(|_, node| {
             if probe.clip(node.min, node.max).is_none() {
                 return Visit::Prune;
@@ -256,7 +277,7 @@ impl TriangleBvh {
             if let Some(leaf) = node.item()
                 && segment_triangle(a, b, &self.corners[leaf as usize]).is_some()
             {
-                found = true;
+                found = Some(CrossingHint(leaf));
                 return Visit::Stop;
             }
             Visit::Continue
@@ -478,6 +499,52 @@ mod tests {
             assert_eq!(tree.segment_farthest(a, b), hits.last().copied());
             assert_eq!(tree.segment_crosses(a, b), !hits.is_empty());
         }
+    }
+
+    #[test]
+    fn a_crossing_hint_never_changes_the_answer() {
+        // Runs of nearby segments (the visibility test's pattern) with the previous answer as the
+        // hint, and every segment again with hints from unrelated triangles: always the answer
+        // of `segment_crosses`, `Some` exactly when it is true, naming a triangle crossed.
+        let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
+        mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
+        let tree = TriangleBvh::new(&mesh).unwrap();
+        let mut lcg = Lcg::from_state(777);
+        let mut next = || lcg.next_unit() * 3.0 - 1.5;
+        let segments: Vec<(DVec3, DVec3)> = (0..300)
+            .map(|k| {
+                let a = DVec3::new(0.01 * k as f64 - 1.5, 0.2, 0.4 * (0.1 * k as f64).sin());
+                (a, a + DVec3::new(0.2, -3.0, 0.1))
+            })
+            .chain((0..300).map(|_| (DVec3::new(next(), next(), next()), DVec3::new(next(), next(), next()))))
+            .collect();
+        let mut hint = None;
+        let mut reused = 0;
+        let mut hits = Vec::new();
+        for &(a, b) in &segments {
+            let found = tree.segment_crossing_hint(a, b, hint);
+            assert_eq!(found.is_some(), tree.segment_crosses(a, b), "{a} {b}");
+            if let Some(CrossingHint(leaf)) = found {
+                assert!(segment_triangle(a, b, &tree.corners[leaf as usize]).is_some());
+                reused += usize::from(found == hint);
+            }
+            tree.segment_hits(a, b, &mut hits);
+            assert_eq!(found.is_some(), !hits.is_empty());
+            hint = found.or(hint);
+        }
+        assert!(reused > 10, "the runs of nearby segments reuse their hint: {reused}");
+        for leaf in (0..tree.len() as u32).step_by(37) {
+            for &(a, b) in &segments {
+                let found = tree.segment_crossing_hint(a, b, Some(CrossingHint(leaf)));
+                assert_eq!(found.is_some(), tree.segment_crosses(a, b));
+            }
+        }
+        // A hint of another tree (out of range here) is ignored.
+        let (a, b) = segments[0];
+        assert_eq!(
+            tree.segment_crossing_hint(a, b, Some(CrossingHint(u32::MAX))).is_some(),
+            tree.segment_crosses(a, b)
+        );
     }
 
     #[test]
