@@ -57,7 +57,7 @@ use super::{DeformError, RegionSolver};
 use crate::linalg::{
     ConstraintParams, EdgeConstraint, RightHandSide, cut_face_weights, face_gradients, integrated_divergence,
 };
-use crate::mesh::{Topology, TriMesh, edge_path_distance_field, mean_edge_length};
+use crate::mesh::{Topology, TriMesh, edge_path_distance_bound, edge_path_distance_field, mean_edge_length};
 
 /// Parameters of the parametrization.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -183,7 +183,14 @@ pub(crate) fn parametrize_and_diffuse(
     }
     let constraint_params = ConstraintParams::default().with_weight_factor(params.constraint_weight_factor);
 
-    let in_domain = restrict_to_domain(mesh, topology, contact, params.domain_radius, &mut outside_weights);
+    let in_domain = restrict_to_domain(
+        mesh,
+        topology,
+        contact,
+        params.domain_radius,
+        &mut outside_weights,
+        &mut solver.domain_bound_cooldown,
+    );
 
     // 1. Heat step: v = 1 on ∂𝒞, v = 0 on the outer boundary outside 𝒞; Poisson: φ = 0 on ∂𝒞.
     let mut constraints: Vec<EdgeConstraint> = contact
@@ -272,16 +279,28 @@ pub(crate) fn parametrize_and_diffuse(
 /// Fraction of the domain radius where the faces' weights start fading out.
 const DOMAIN_TAPER_START: f64 = 0.8;
 
+/// Frames a region skips the breadth-first bound of [`restrict_to_domain`] after it failed.
+const DOMAIN_BOUND_COOLDOWN: u32 = 8;
+
 /// Restricts the cut-face weights to the domain 𝒫 (see the module doc): a face whose farthest
 /// vertex lies at edge-path distance d from ∂𝒞 (seeded at the ends of ∂𝒞's edges with their
 /// distance to the boundary point) keeps its weight up to `0.8·radius`, fades out smoothly to 0
 /// at `radius` and has weight 0 beyond. Returns, per vertex, whether it is within `radius`.
+///
+/// When every vertex ∂𝒞 reaches lies within `0.8·radius` (a domain larger than the region: a
+/// small contact on a sphere or a ground plane), no face fades and the distances only tell which
+/// vertices are reached: the bounds of a breadth-first search
+/// ([`crate::mesh::edge_path_distance_bound`]) then give the same weights and flags, bit for
+/// bit, at about a third of Dijkstra's cost. A search that fails (some vertex farther) is wasted,
+/// so after a failure the region skips it for [`DOMAIN_BOUND_COOLDOWN`] frames (`cooldown`, kept
+/// in its solver): that choice follows earlier frames, but the result is the same either way.
 fn restrict_to_domain(
     mesh: &TriMesh,
     topology: &Topology,
     contact: &ContactSet,
     radius: f64,
     weights: &mut [f64],
+    cooldown: &mut u32,
 ) -> Vec<bool> {
     let n = mesh.num_vertices();
     if radius.is_infinite() {
@@ -298,8 +317,18 @@ fn restrict_to_domain(
             ]
         })
         .collect();
-    let distance = edge_path_distance_field(mesh, topology, &seeds, radius);
     let start = DOMAIN_TAPER_START * radius;
+    let bound = if *cooldown == 0 {
+        let bound = edge_path_distance_bound(mesh, topology, &seeds, start);
+        if bound.is_none() {
+            *cooldown = DOMAIN_BOUND_COOLDOWN;
+        }
+        bound
+    } else {
+        *cooldown -= 1;
+        None
+    };
+    let distance = bound.unwrap_or_else(|| edge_path_distance_field(mesh, topology, &seeds, radius));
     for (tri, w) in mesh.triangles.iter().zip(weights.iter_mut()) {
         let farthest = tri.iter().map(|&v| distance[v as usize]).fold(0.0, f64::max);
         if farthest > start {
@@ -362,6 +391,41 @@ mod tests {
         let near = mesh.positions.iter().position(|q| ((*q - centre).length() - r - 0.1).abs() < 0.02).unwrap();
         let far = mesh.positions.iter().position(|q| ((*q - centre).length() - r - 0.6).abs() < 0.02).unwrap();
         assert!(p.u[far] > p.u[near] + 0.4);
+    }
+
+    #[test]
+    fn the_breadth_first_bound_of_a_large_domain_gives_dijkstras_weights_bit_for_bit() {
+        // A disc contact on a grid, with domains larger than the grid (the bound succeeds) and
+        // smaller (it fails and Dijkstra runs): weights and flags equal those of Dijkstra alone.
+        let mesh = shapes::grid(4.0, 4.0, 40, 40);
+        let topology = Topology::new(&mesh);
+        let zone = region_zone(&mesh, &topology, |p| (p - DVec3::new(0.6, -0.3, 0.0)).length() - 0.45, DVec3::Z);
+        let contact = ContactSet::new(&mesh, &topology, &[zone]).unwrap();
+        let base: Vec<f64> = (0..mesh.num_triangles()).map(|f| 0.5 + 0.01 * (f % 7) as f64).collect();
+        for (radius, bounded) in [(20.0, true), (6.0, true), (3.0, false), (1.2, false)] {
+            let (mut by_bound, mut by_dijkstra) = (base.clone(), base.clone());
+            let mut cooldown = 0;
+            let flags_bound = restrict_to_domain(&mesh, &topology, &contact, radius, &mut by_bound, &mut cooldown);
+            assert_eq!(cooldown == 0, bounded, "radius {radius}");
+            let mut skip = 1;
+            let flags_dijkstra = restrict_to_domain(&mesh, &topology, &contact, radius, &mut by_dijkstra, &mut skip);
+            assert_eq!(skip, 0);
+            assert_eq!(flags_bound, flags_dijkstra, "radius {radius}");
+            let bits = |w: &[f64]| w.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&by_bound), bits(&by_dijkstra), "radius {radius}");
+            assert_eq!(by_bound == base, bounded, "radius {radius}: faded faces");
+        }
+        // After a failure the bound waits DOMAIN_BOUND_COOLDOWN frames, then tries again.
+        let mut cooldown = 0;
+        let mut weights = base.clone();
+        restrict_to_domain(&mesh, &topology, &contact, 1.2, &mut weights, &mut cooldown);
+        assert_eq!(cooldown, DOMAIN_BOUND_COOLDOWN);
+        for left in (0..DOMAIN_BOUND_COOLDOWN).rev() {
+            restrict_to_domain(&mesh, &topology, &contact, 20.0, &mut base.clone(), &mut cooldown);
+            assert_eq!(cooldown, left);
+        }
+        restrict_to_domain(&mesh, &topology, &contact, 20.0, &mut base.clone(), &mut cooldown);
+        assert_eq!(cooldown, 0);
     }
 
     #[test]

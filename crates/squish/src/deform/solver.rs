@@ -51,6 +51,10 @@ pub struct RegionSolver {
     factorized_rows: usize,
     recomputed_rows: usize,
     factorization_time: Duration,
+    /// Frames to go before the parametrization tries the breadth-first bound of its domain again
+    /// (see `parametrize::restrict_to_domain`): set after it failed. Only the time depends on
+    /// it; the result is the same bits either way.
+    pub(crate) domain_bound_cooldown: u32,
     /// The parallel-transport direction field's systems (method A, §5.2.1), built on first use.
     pub(crate) transport: Option<Box<super::transport::TransportCache>>,
 }
@@ -73,6 +77,7 @@ impl RegionSolver {
             guide: None,
             generation: 0,
             poisson_generation: 0,
+            domain_bound_cooldown: 0,
             symbolic_analyses: 1,
             numeric_factorizations: 0,
             factorized_rows: 0,

@@ -21,7 +21,8 @@ pub use geometry::{
     triangle_area, vertex_areas, vertex_centroid, vertex_normals,
 };
 pub use region::{
-    close_pinches, cut_border, edge_path_distance_field, edge_path_distances, face_set_pieces, region_vertex_normals,
+    close_pinches, cut_border, edge_path_distance_bound, edge_path_distance_field, edge_path_distances,
+    face_set_pieces, region_vertex_normals,
 };
 pub use submesh::{NOT_IN_SUBMESH, SubMesh};
 pub use topology::{NO_FACE, Topology};

@@ -6,7 +6,8 @@
 //! - [`close_pinches`]: adds the faces around every vertex where the selection pinches (its
 //!   selected faces form several fans), so that every piece is a manifold mesh;
 //! - [`edge_path_distances`]: multi-source Dijkstra along edges, up to a limit — an upper bound
-//!   of the geodesic distance, used to grow automatic regions;
+//!   of the geodesic distance, used to grow automatic regions; [`edge_path_distance_bound`]:
+//!   upper bounds of those distances by a breadth-first search, when they all stay within a limit;
 //! - [`cut_border`]: the region vertices shared with faces outside it (where it was cut out);
 //! - [`region_vertex_normals`]: vertex normals of region vertices computed from *all* their
 //!   parent faces, so that a cut does not bend the normals along it.
@@ -132,6 +133,76 @@ pub fn edge_path_distance_field(mesh: &TriMesh, topology: &Topology, seeds: &[(u
         None => settle(RadixQueue::default(), mesh, topology, &mut distance, limit, &start),
     }
     distance
+}
+
+/// Upper bounds of [`edge_path_distance_field`]`(mesh, topology, seeds, ·)` when every vertex the
+/// seeds reach is within `limit` of them, found without Dijkstra: the length of the path a
+/// breadth-first search from the seeds follows (one square root per vertex instead of one per
+/// edge, no priority queue), `f64::INFINITY` for the vertices it does not reach (not connected to
+/// a seed, as in the field). `None` as soon as a bound exceeds `limit`, or at once when a vertex
+/// lies farther than `limit` from the seeds' bounding box (no edge path is shorter).
+///
+/// Each bound is at least the field's value: along the search's path s → … → v, the field's
+/// Dijkstra offers every vertex its settled neighbour's distance plus the same edge length, the
+/// same rounded sums or smaller ones (rounding is monotone). So with `Some`, the field is finite
+/// on exactly the same vertices, all within `limit` (for any field limit ≥ `limit`).
+pub fn edge_path_distance_bound(
+    mesh: &TriMesh,
+    topology: &Topology,
+    seeds: &[(u32, f64)],
+    limit: f64,
+) -> Option<Vec<f64>> {
+    let n = mesh.num_vertices();
+    if limit.is_nan() {
+        return None;
+    }
+    // NaN (from a NaN position) counts as beyond.
+    let beyond = |x: f64, limit: f64| x.is_nan() || x > limit;
+    let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for &(s, _) in seeds {
+        if let Some(&p) = mesh.positions.get(s as usize) {
+            (low, high) = (low.min(p), high.max(p));
+        }
+    }
+    let limit_squared = limit * limit;
+    for &p in &mesh.positions {
+        // Distance to the box: 0 inside it.
+        let outside = (low - p).max(p - high).max(DVec3::ZERO);
+        if beyond(outside.length_squared(), limit_squared) {
+            return None;
+        }
+    }
+    let mut bound = vec![f64::INFINITY; n];
+    let mut queue: Vec<u32> = Vec::with_capacity(n);
+    for &(s, d) in seeds {
+        // The field's rules for seeds (negative counts as 0, the smaller of two wins).
+        let d = if d < 0.0 { 0.0 } else { d };
+        if (s as usize) < n && d < bound[s as usize] {
+            if bound[s as usize] == f64::INFINITY {
+                queue.push(s);
+            }
+            bound[s as usize] = d;
+        }
+    }
+    if queue.iter().any(|&s| beyond(bound[s as usize], limit)) {
+        return None;
+    }
+    let mut head = 0;
+    while let Some(&v) = queue.get(head) {
+        head += 1;
+        let (p, d) = (mesh.positions[v as usize], bound[v as usize]);
+        for w in topology.vertex_neighbors(v) {
+            if bound[w as usize] == f64::INFINITY {
+                let reached = d + (mesh.positions[w as usize] - p).length();
+                if beyond(reached, limit) {
+                    return None;
+                }
+                bound[w as usize] = reached;
+                queue.push(w);
+            }
+        }
+    }
+    Some(bound)
 }
 
 /// A priority queue of `(distance, vertex)` whose pops never decrease, as Dijkstra needs.
@@ -485,6 +556,38 @@ mod tests {
             fast.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
             reference.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
         );
+    }
+
+    #[test]
+    fn breadth_first_bounds_are_at_least_the_distances_and_reach_the_same_vertices() {
+        let mut sphere = shapes::icosphere(1.0, 3);
+        sphere.map_positions(|p| DVec3::new(p.x * 2.0, p.y, p.z * 0.5 + 0.1 * (5.0 * p.x).sin()));
+        // Two components: the second one holds no seed and stays unreached.
+        let mut two = sphere.clone();
+        let offset = two.num_vertices() as u32;
+        two.positions.extend(sphere.positions.iter().map(|&p| p + DVec3::new(0.0, 0.0, 1.5)));
+        two.triangles.extend(sphere.triangles.iter().map(|t| t.map(|v| v + offset)));
+        let seeds: Vec<(u32, f64)> = vec![(0, 0.0), (5, 0.02), (5, 0.01), (40, -0.3), (100, 0.05)];
+        for mesh in [&sphere, &two] {
+            let topology = Topology::new(mesh);
+            let field = edge_path_distance_field(mesh, &topology, &seeds, f64::INFINITY);
+            let farthest = field.iter().copied().filter(|d| d.is_finite()).fold(0.0, f64::max);
+            // Limits the search passes (any field limit at least as large gives the same finite set).
+            for limit in [farthest * 2.0, farthest * 10.0] {
+                let bound = edge_path_distance_bound(mesh, &topology, &seeds, limit).expect("within the limit");
+                let limited = edge_path_distance_field(mesh, &topology, &seeds, limit);
+                for v in 0..mesh.num_vertices() {
+                    assert_eq!(bound[v].is_finite(), limited[v].is_finite(), "vertex {v}");
+                    assert!(bound[v] >= limited[v] || (bound[v].is_infinite() && limited[v].is_infinite()));
+                    assert!(bound[v] <= limit || bound[v].is_infinite());
+                }
+                assert!(bound.iter().any(|d| d.is_infinite()) == std::ptr::eq(mesh, &two));
+            }
+            // Below the farthest distance the search must fail (some bound exceeds the limit).
+            assert!(edge_path_distance_bound(mesh, &topology, &seeds, farthest * 0.99).is_none());
+            // Far below: the box check refuses at once.
+            assert!(edge_path_distance_bound(mesh, &topology, &seeds, 1e-3).is_none());
+        }
     }
 
     #[test]
