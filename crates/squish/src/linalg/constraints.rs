@@ -245,8 +245,20 @@ impl ConstrainedSystem {
     fn find_unreachable(&mut self, operator: &Operator) {
         let pattern = operator.pattern();
         let n = pattern.num_vertices();
-        // Components through faces of non-negligible weight.
-        union_through_faces(&mut self.union_find, operator);
+        let with_mass = operator.mass_coefficient() > 0.0;
+        if with_mass {
+            // Every vertex of a non-negligible face has mass, so its component is anchored
+            // whichever it is: each vertex can stay its own component (the faces' vertices are
+            // anchored one by one below). Constraints between two of them then count as links
+            // between anchored groups instead of anchors inside one component: anchored either
+            // way, and the groups that stay unanchored (vertices without such a face) are the
+            // same. The same vertices are pinned, without the union-find over the faces.
+            self.union_find.clear();
+            self.union_find.extend(0..n as u32);
+        } else {
+            // Components through faces of non-negligible weight.
+            union_through_faces(&mut self.union_find, operator);
+        }
         let parent = &mut self.union_find;
         // Freeze the component of every vertex; component roots are their own parents, so the same
         // union-find then groups components through constraint links.
@@ -264,10 +276,12 @@ impl ConstrainedSystem {
             }
         }
         // A mass term anchors every vertex of a non-negligible face (they all have mass).
-        if operator.mass_coefficient() > 0.0 {
+        if with_mass {
             for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
                 if w >= NEGLIGIBLE_FACE_WEIGHT {
-                    group[component[tri[0] as usize] as usize].anchored = true;
+                    for &v in tri {
+                        group[component[v as usize] as usize].anchored = true;
+                    }
                 }
             }
         }
@@ -513,6 +527,98 @@ mod tests {
         let op = Operator::heat(&mesh, &pattern, Some(&weights), 0.1).unwrap();
         let system = ConstrainedSystem::new(&op, &[], &ConstraintParams::default()).unwrap();
         assert_eq!(system.pinned_vertices(), &[5]);
+    }
+
+    /// The pinned vertices by the general rule, with the components through the faces found by
+    /// the union-find whatever the operator (the reference for the mass term's shortcut).
+    fn pinned_by_components(op: &Operator, rows: &[ConstraintRow]) -> Vec<u32> {
+        let n = op.pattern().num_vertices();
+        let mut parent = Vec::new();
+        union_through_faces(&mut parent, op);
+        let component: Vec<u32> = (0..n as u32).map(|v| find(&mut parent, v)).collect();
+        let mut group = vec![Group::default(); n];
+        for v in 0..n {
+            group[v].components = u32::from(component[v] == v as u32);
+        }
+        if op.mass_coefficient() > 0.0 {
+            for (tri, &w) in op.pattern().triangles().iter().zip(op.face_weights()) {
+                if w >= NEGLIGIBLE_FACE_WEIGHT {
+                    group[component[tri[0] as usize] as usize].anchored = true;
+                }
+            }
+        }
+        for row in rows {
+            let holds_i = row.ci.abs() >= NEGLIGIBLE_CONSTRAINT_COEFFICIENT;
+            let holds_j = row.j != NO_VERTEX && row.cj.abs() >= NEGLIGIBLE_CONSTRAINT_COEFFICIENT;
+            let (ci, cj) = (component[row.i as usize], if row.j == NO_VERTEX { 0 } else { component[row.j as usize] });
+            let (gi, gj) = (find(&mut parent, ci), if holds_j { find(&mut parent, cj) } else { 0 });
+            match (holds_i, holds_j) {
+                (true, true) if ci == cj => group[gi as usize].anchored = true,
+                (true, true) if gi == gj => group[gi as usize].links += 1,
+                (true, true) => {
+                    parent[gj as usize] = gi;
+                    let merged = group[gj as usize];
+                    let g = &mut group[gi as usize];
+                    g.anchored |= merged.anchored;
+                    g.components += merged.components;
+                    g.links += merged.links + 1;
+                }
+                (true, false) => group[gi as usize].anchored = true,
+                (false, true) => group[gj as usize].anchored = true,
+                (false, false) => {}
+            }
+        }
+        (0..n as u32)
+            .filter(|&v| {
+                let g = group[find(&mut parent, v) as usize];
+                !(g.anchored || g.links >= g.components)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn with_a_mass_term_the_pinned_vertices_are_those_of_the_components_rule() {
+        // Random face weights (0, round-off sized or 1) on two spheres and random constraints
+        // (single vertices, links inside and across components, negligible coefficients): the
+        // heat operator's shortcut (no union-find over the faces) pins exactly the vertices the
+        // general rule pins, and the stiffness operator (the general rule itself) is checked too.
+        let mesh = two_spheres();
+        let topology = Topology::new(&mesh);
+        let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
+        let mut lcg = crate::linalg::test_support::Lcg::from_state(99);
+        let edges = topology.edges().to_vec();
+        let mut pinned_cases = 0;
+        for case in 0..60 {
+            let zero_fraction = 0.2 + 0.7 * (case % 4) as f64 / 3.0;
+            let weights: Vec<f64> = (0..mesh.num_triangles())
+                .map(|_| {
+                    let x = lcg.next_unit();
+                    if x < zero_fraction {
+                        0.0
+                    } else if x < zero_fraction + 0.05 {
+                        1e-20
+                    } else {
+                        1.0
+                    }
+                })
+                .collect();
+            let constraints: Vec<EdgeConstraint> = (0..(case % 7))
+                .map(|k| {
+                    let [i, j] = edges[(lcg.next_unit() * edges.len() as f64) as usize % edges.len()];
+                    let alpha = [0.0, 0.5, 1e-12, 1.0 - 1e-12, 0.3][k % 5];
+                    EdgeConstraint::on_edge(i, j, alpha, 1.0)
+                })
+                .collect();
+            for op in [
+                Operator::heat(&mesh, &pattern, Some(&weights), 0.05).unwrap(),
+                Operator::stiffness(&mesh, &pattern, Some(&weights)).unwrap(),
+            ] {
+                let system = ConstrainedSystem::new(&op, &constraints, &ConstraintParams::default()).unwrap();
+                assert_eq!(system.pinned_vertices(), pinned_by_components(&op, &system.rows).as_slice(), "case {case}");
+                pinned_cases += usize::from(!system.pinned_vertices().is_empty());
+            }
+        }
+        assert!(pinned_cases > 20, "the cases pin vertices: {pinned_cases}");
     }
 
     #[test]
