@@ -2,7 +2,8 @@
 //! a regression shows in the stage that caused it:
 //! - on a ~10k-vertex pair (the "small sphere – big sphere" bench scene, mid-animation):
 //!   intersection (§4.1), mapping (§4.2.2), the whole contact definition (ch. 4, up to the
-//!   contact zones), the edge-path distances that bound the parametrization's domain (§5.1),
+//!   contact zones), the edge-path distances that bound the parametrization's domain (§5.1; by
+//!   Dijkstra, and by the breadth-first bounds used when the domain holds the whole sphere),
 //!   parametrization (§5.1, two factorizations and two solves), guide diffusion
 //!   (§5.3, one factorization, one two-column solve), the deformation of one region (ch. 5) and
 //!   the full frame on a reused [`Deformer`];
@@ -22,7 +23,7 @@ use squish::deform::direction_field::{DirectionParams, direction_field};
 use squish::deform::guide::{GuideParams, guide_fields};
 use squish::deform::parametrize::{ParametrizeParams, parametrize};
 use squish::deform::{ContactSet, RegionSolver, deform_region};
-use squish::mesh::{Topology, TriMesh, edge_path_distance_field, vertex_normals};
+use squish::mesh::{Topology, TriMesh, edge_path_distance_bound, edge_path_distance_field, vertex_normals};
 use squish::pipeline::Deformer;
 use squish::pipeline::bench_scenes::{self, BenchScene, BenchSize};
 use squish::spatial::TriangleBvh;
@@ -118,6 +119,13 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
         .collect();
     group.bench_function("domain distances", |bench| {
         bench.iter(|| black_box(edge_path_distance_field(mesh, topology, &seeds, parametrize_params.domain_radius)))
+    });
+    // The same question answered by breadth-first bounds, which the parametrization uses when the
+    // whole sphere lies within 0.8·radius of ∂𝒞 (as here: the row checks it).
+    let start = 0.8 * parametrize_params.domain_radius;
+    assert!(edge_path_distance_bound(mesh, topology, &seeds, start).is_some(), "the bound applies to this scene");
+    group.bench_function("domain distances (breadth-first bound)", |bench| {
+        bench.iter(|| black_box(edge_path_distance_bound(mesh, topology, &seeds, start)))
     });
     group.bench_function("parametrization", |bench| {
         bench.iter(|| {
