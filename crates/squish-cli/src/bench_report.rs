@@ -446,7 +446,20 @@ pub struct ShotReport {
 
 impl ShotReport {
     pub fn new(scene: &str, frames: usize, threads: usize, single: Duration, multi: Duration) -> Self {
-        let (s, m) = (single.as_secs_f64(), multi.as_secs_f64());
+        Self::from_seconds(scene, frames, threads, vec![single.as_secs_f64()], vec![multi.as_secs_f64()])
+    }
+
+    /// The median of each time over the rounds (`None` without rounds).
+    pub fn from_rounds(shots: Vec<ShotReport>) -> Option<Self> {
+        let first = shots.first()?;
+        let single = shots.iter().map(|s| s.single_seconds).collect();
+        let multi = shots.iter().map(|s| s.multi_seconds).collect();
+        Some(Self::from_seconds(&first.scene, first.frames, first.threads, single, multi))
+    }
+
+    /// The figures of the median round of each time (seconds per round, in round order).
+    fn from_seconds(scene: &str, frames: usize, threads: usize, single: Vec<f64>, multi: Vec<f64>) -> Self {
+        let (s, m) = (median_value(&single), median_value(&multi));
         let fps = |seconds: f64| if seconds > 0.0 { frames as f64 / seconds } else { 0.0 };
         Self {
             scene: scene.to_string(),
@@ -457,22 +470,9 @@ impl ShotReport {
             single_fps: fps(s),
             multi_fps: fps(m),
             speedup: if m > 0.0 { s / m } else { 0.0 },
-            single_seconds_per_round: vec![s],
-            multi_seconds_per_round: vec![m],
+            single_seconds_per_round: single,
+            multi_seconds_per_round: multi,
         }
-    }
-
-    /// The median of each time over the rounds (`None` without rounds).
-    pub fn from_rounds(shots: Vec<ShotReport>) -> Option<Self> {
-        let first = shots.first()?;
-        let single: Vec<f64> = shots.iter().map(|s| s.single_seconds).collect();
-        let multi: Vec<f64> = shots.iter().map(|s| s.multi_seconds).collect();
-        let seconds = |v: &[f64]| Duration::from_secs_f64(median_value(v));
-        Some(Self {
-            single_seconds_per_round: single.clone(),
-            multi_seconds_per_round: multi.clone(),
-            ..Self::new(&first.scene, first.frames, first.threads, seconds(&single), seconds(&multi))
-        })
     }
 }
 

@@ -242,17 +242,23 @@ impl ConstrainedSystem {
     }
 
     /// Fills `self.pinned` with the vertices nothing determines (see the module doc).
+    ///
+    /// With a mass term every vertex of a non-negligible face has mass, so its component is
+    /// anchored whichever it is: each vertex can stay its own component (the faces' vertices are
+    /// anchored one by one). Constraints between two of them then count as links between
+    /// anchored groups instead of anchors inside one component: anchored either way, and the
+    /// groups that stay unanchored (vertices without such a face) are the same. The same
+    /// vertices are pinned, without the union-find over the faces (tested against it).
     fn find_unreachable(&mut self, operator: &Operator) {
+        self.find_unreachable_with(operator, operator.mass_coefficient() > 0.0);
+    }
+
+    /// [`Self::find_unreachable`], with every vertex its own component (`vertex_components`,
+    /// valid with a mass term) or the components through the faces.
+    fn find_unreachable_with(&mut self, operator: &Operator, vertex_components: bool) {
         let pattern = operator.pattern();
         let n = pattern.num_vertices();
-        let with_mass = operator.mass_coefficient() > 0.0;
-        if with_mass {
-            // Every vertex of a non-negligible face has mass, so its component is anchored
-            // whichever it is: each vertex can stay its own component (the faces' vertices are
-            // anchored one by one below). Constraints between two of them then count as links
-            // between anchored groups instead of anchors inside one component: anchored either
-            // way, and the groups that stay unanchored (vertices without such a face) are the
-            // same. The same vertices are pinned, without the union-find over the faces.
+        if vertex_components {
             self.union_find.clear();
             self.union_find.extend(0..n as u32);
         } else {
@@ -276,7 +282,7 @@ impl ConstrainedSystem {
             }
         }
         // A mass term anchors every vertex of a non-negligible face (they all have mass).
-        if with_mass {
+        if operator.mass_coefficient() > 0.0 {
             for (tri, &w) in pattern.triangles().iter().zip(operator.face_weights()) {
                 if w >= NEGLIGIBLE_FACE_WEIGHT {
                     for &v in tri {
@@ -529,59 +535,12 @@ mod tests {
         assert_eq!(system.pinned_vertices(), &[5]);
     }
 
-    /// The pinned vertices by the general rule, with the components through the faces found by
-    /// the union-find whatever the operator (the reference for the mass term's shortcut).
-    fn pinned_by_components(op: &Operator, rows: &[ConstraintRow]) -> Vec<u32> {
-        let n = op.pattern().num_vertices();
-        let mut parent = Vec::new();
-        union_through_faces(&mut parent, op);
-        let component: Vec<u32> = (0..n as u32).map(|v| find(&mut parent, v)).collect();
-        let mut group = vec![Group::default(); n];
-        for v in 0..n {
-            group[v].components = u32::from(component[v] == v as u32);
-        }
-        if op.mass_coefficient() > 0.0 {
-            for (tri, &w) in op.pattern().triangles().iter().zip(op.face_weights()) {
-                if w >= NEGLIGIBLE_FACE_WEIGHT {
-                    group[component[tri[0] as usize] as usize].anchored = true;
-                }
-            }
-        }
-        for row in rows {
-            let holds_i = row.ci.abs() >= NEGLIGIBLE_CONSTRAINT_COEFFICIENT;
-            let holds_j = row.j != NO_VERTEX && row.cj.abs() >= NEGLIGIBLE_CONSTRAINT_COEFFICIENT;
-            let (ci, cj) = (component[row.i as usize], if row.j == NO_VERTEX { 0 } else { component[row.j as usize] });
-            let (gi, gj) = (find(&mut parent, ci), if holds_j { find(&mut parent, cj) } else { 0 });
-            match (holds_i, holds_j) {
-                (true, true) if ci == cj => group[gi as usize].anchored = true,
-                (true, true) if gi == gj => group[gi as usize].links += 1,
-                (true, true) => {
-                    parent[gj as usize] = gi;
-                    let merged = group[gj as usize];
-                    let g = &mut group[gi as usize];
-                    g.anchored |= merged.anchored;
-                    g.components += merged.components;
-                    g.links += merged.links + 1;
-                }
-                (true, false) => group[gi as usize].anchored = true,
-                (false, true) => group[gj as usize].anchored = true,
-                (false, false) => {}
-            }
-        }
-        (0..n as u32)
-            .filter(|&v| {
-                let g = group[find(&mut parent, v) as usize];
-                !(g.anchored || g.links >= g.components)
-            })
-            .collect()
-    }
-
     #[test]
     fn with_a_mass_term_the_pinned_vertices_are_those_of_the_components_rule() {
         // Random face weights (0, round-off sized or 1) on two spheres and random constraints
         // (single vertices, links inside and across components, negligible coefficients): the
         // heat operator's shortcut (no union-find over the faces) pins exactly the vertices the
-        // general rule pins, and the stiffness operator (the general rule itself) is checked too.
+        // general rule pins (the stiffness operator takes the general rule itself).
         let mesh = two_spheres();
         let topology = Topology::new(&mesh);
         let pattern = SparsePattern::shared(&mesh, &topology).unwrap();
@@ -614,7 +573,10 @@ mod tests {
                 Operator::stiffness(&mesh, &pattern, Some(&weights)).unwrap(),
             ] {
                 let system = ConstrainedSystem::new(&op, &constraints, &ConstraintParams::default()).unwrap();
-                assert_eq!(system.pinned_vertices(), pinned_by_components(&op, &system.rows).as_slice(), "case {case}");
+                // The general rule: components through the faces, whatever the operator.
+                let mut general = ConstrainedSystem::new(&op, &constraints, &ConstraintParams::default()).unwrap();
+                general.find_unreachable_with(&op, false);
+                assert_eq!(system.pinned_vertices(), general.pinned_vertices(), "case {case}");
                 pinned_cases += usize::from(!system.pinned_vertices().is_empty());
             }
         }

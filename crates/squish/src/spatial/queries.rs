@@ -478,13 +478,19 @@ mod tests {
         }
     }
 
+    /// A closed capsule with bumps: many crossings, some through shared vertices and edges.
+    fn bumpy_capsule() -> TriMesh {
+        let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
+        mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
+        mesh
+    }
+
     #[test]
     fn nearest_farthest_and_any_crossing_agree_with_the_sorted_hit_list() {
         // Segments through a bumpy closed surface (many crossings, some through shared vertices
         // and edges of the grid-like capsule): the one-pass nearest/farthest searches must return
         // exactly the first/last of the sorted list, and `segment_crosses` its non-emptiness.
-        let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
-        mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
+        let mesh = bumpy_capsule();
         let tree = TriangleBvh::new(&mesh).unwrap();
         let mut lcg = Lcg::from_state(12345);
         let mut next = || lcg.next_unit() * 3.0 - 1.5;
@@ -506,8 +512,7 @@ mod tests {
         // Runs of nearby segments (the visibility test's pattern) with the previous answer as the
         // hint, and every segment again with hints from unrelated triangles: always the answer
         // of `segment_crosses`, `Some` exactly when it is true, naming a triangle crossed.
-        let mut mesh = shapes::capsule(0.5, 1.5, 24, 8, 12);
-        mesh.map_positions(|p| p + 0.1 * DVec3::new((7.0 * p.z).sin(), (5.0 * p.x).cos(), 0.0));
+        let mesh = bumpy_capsule();
         let tree = TriangleBvh::new(&mesh).unwrap();
         let mut lcg = Lcg::from_state(777);
         let mut next = || lcg.next_unit() * 3.0 - 1.5;
