@@ -76,7 +76,7 @@ pub use zone::CriterionStats;
 use glam::DVec3;
 
 /// A contact zone 𝒞 on one working region, with everything the deformation stage needs.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct ContactZone {
     /// The zone on this region's mesh: inside vertices and exact boundary points (α from the
     /// inside vertex, §4.4.2 Eq. 4.4 / §4.4.1 ball sliding).

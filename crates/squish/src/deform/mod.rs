@@ -210,8 +210,20 @@ pub fn deform_region(
     zones: &[ContactZone],
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
+    deform_region_with(mesh, topology, solver, zones, params, &RegionOverrides::default())
+}
+
+/// [`deform_region`] with what the caller imposes or already has ([`RegionOverrides`]).
+pub fn deform_region_with(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    zones: &[ContactZone],
+    params: &DeformParams,
+    overrides: &RegionOverrides,
+) -> Result<RegionDeformation, DeformError> {
     let start = Instant::now();
-    let plan = plan_region(mesh, topology, solver, zones, params, &RegionOverrides::default())?;
+    let plan = plan_region(mesh, topology, solver, zones, params, overrides)?;
     let stage = Instant::now();
     let cubic = plan.volume_cubic(mesh)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
@@ -238,6 +250,10 @@ pub struct RegionOverrides<'a> {
     /// The mapping field d̄ per region vertex, used as given instead of the zones' directions
     /// (not normalized; §6.2.2 gives `(2β − 1)·d̂`). Blended direction field only.
     pub mapping_field: Option<&'a [DVec3]>,
+    /// The region's vertex normals when the caller already has them: they must be
+    /// [`vertex_normals`]`(mesh)` (the pipeline computes them once for the contact stage of a
+    /// region processed whole). `None`: computed here.
+    pub normals: Option<&'a [DVec3]>,
 }
 
 /// A region's deformation before its bulge height is chosen: every position is affine in the
@@ -381,13 +397,20 @@ pub fn plan_region(
 
     // §5.2: directions.
     let stage = Instant::now();
-    let normals = vertex_normals(mesh);
+    let computed_normals;
+    let normals = match overrides.normals {
+        Some(normals) => normals,
+        None => {
+            computed_normals = vertex_normals(mesh);
+            &computed_normals
+        }
+    };
     let direction_params = DirectionParams {
         method: params.direction_method,
         normalize_diffused: params.normalize_diffused,
         mapping_field: overrides.mapping_field,
     };
-    let field = direction_field(mesh, solver, &contact, &parametrization, &normals, &direction_params)?;
+    let field = direction_field(mesh, solver, &contact, &parametrization, normals, &direction_params)?;
     fallbacks.direction_blend = field.fallbacks;
     timings.directions = stage.elapsed();
 

@@ -43,7 +43,7 @@ pub use regions::WorkingRegion;
 pub use self_contact::SelfContactResult;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
-use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionSolver, deform_region};
+use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, deform_region_with};
 use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, vertex_areas, vertex_normals};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
@@ -740,7 +740,7 @@ impl Deformer {
         }
 
         // Chapter 4, every region pair in parallel.
-        let contacts: Vec<Option<PairContact>> = region_pairs
+        let mut contacts: Vec<Option<PairContact>> = region_pairs
             .par_iter()
             .map(|rp| -> Result<Option<PairContact>, PipelineError> {
                 let Some([ra, rb]) = rp.regions else { return Ok(None) };
@@ -781,7 +781,12 @@ impl Deformer {
             caches.iter().map(|c| vec![Vec::new(); c.regions.len()]).collect();
         let mut partner_size = per_region(f64::INFINITY);
         let mut contact_area = per_region(0.0);
-        for (rp, contact) in region_pairs.iter().zip(&contacts) {
+        // The zones move into their regions' lists for chapter 5 and back into `contacts` after
+        // it, instead of being copied (each holds two vectors of the region's size). `lent`
+        // remembers where each came from (pair contact, side), in the same lists.
+        let mut lent: Vec<Vec<Vec<(usize, usize)>>> =
+            caches.iter().map(|c| vec![Vec::new(); c.regions.len()]).collect();
+        for (k, (rp, contact)) in region_pairs.iter().zip(&mut contacts).enumerate() {
             let Some(regions) = rp.regions else { continue };
             let objects = frame.pairs[rp.pair].objects;
             for side in 0..2 {
@@ -797,44 +802,52 @@ impl Deformer {
                 let (o, r) = (objects[side], regions[side]);
                 touching[o][r].push([objects[1 - side], regions[1 - side]]);
                 contact_area[o][r] = contact_area[o][r].max(contact.contact_area);
-                let zone = &contact.sides[side].zone;
+                let zone = &mut contact.sides[side].zone;
                 if !zone.is_empty() && !frame.objects[o].params.rigid {
-                    zones[o][r].push(zone.clone());
+                    zones[o][r].push(std::mem::take(zone));
+                    lent[o][r].push((k, side));
                 }
             }
         }
         drop(caches);
 
         // Chapter 5, every region with zones in parallel.
-        let outcomes: Vec<Vec<Option<RegionOutcome>>> =
-            self.caches
-                .par_iter_mut()
-                .zip(&frame.objects)
-                .zip(&zones)
-                .enumerate()
-                .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
-                    let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
-                    let ObjectCache { regions, topology, closed, .. } = cache;
-                    let (topology, closed) = (&*topology, *closed);
-                    regions
-                        .par_iter_mut()
-                        .zip(zones)
-                        .enumerate()
-                        .map(|(r, (region, zones))| {
-                            if zones.is_empty() {
-                                return Ok(None);
-                            }
-                            let extent = object.params.extent.unwrap_or_else(|| {
-                                automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r])
-                            });
-                            let scale =
-                                Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
-                            deform_one(object, topology, closed, region, r, zones, scale).map(Some)
-                        })
-                        .collect()
-                })
-                .collect::<Result<_, _>>()?;
+        let outcomes: Vec<Vec<Option<RegionOutcome>>> = self
+            .caches
+            .par_iter_mut()
+            .zip(&frame.objects)
+            .zip(&zones)
+            .enumerate()
+            .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
+                let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
+                let ObjectCache { regions, topology, closed, .. } = cache;
+                let (topology, closed) = (&*topology, *closed);
+                regions
+                    .par_iter_mut()
+                    .zip(zones)
+                    .enumerate()
+                    .map(|(r, (region, zones))| {
+                        if zones.is_empty() {
+                            return Ok(None);
+                        }
+                        let extent = object
+                            .params
+                            .extent
+                            .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
+                        let scale =
+                            Scale { extent, edge_length: prepared[i].figures.mean_edge_length(&region.components) };
+                        deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale).map(Some)
+                    })
+                    .collect()
+            })
+            .collect::<Result<_, _>>()?;
         self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
+        // The zones back where they came from.
+        for (zone, &(k, side)) in zones.iter_mut().flatten().flatten().zip(lent.iter().flatten().flatten()) {
+            if let Some(Some(contact)) = contacts.get_mut(k) {
+                contact.sides[side].zone = std::mem::take(zone);
+            }
+        }
 
         // Results and statistics.
         let mut stages = StageTimes { setup, regions: regions_time, ..StageTimes::default() };
@@ -999,7 +1012,9 @@ struct Scale {
 }
 
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see
-/// [`regions`]).
+/// [`regions`]). `object_normals`: the object's vertex normals when the contact stage computed
+/// them (it does for objects with a region processed whole).
+#[allow(clippy::too_many_arguments)]
 fn deform_one(
     object: &FrameObject,
     topology: &Topology,
@@ -1007,6 +1022,7 @@ fn deform_one(
     region: &mut RegionCache,
     index: usize,
     zones: &[ContactZone],
+    object_normals: Option<&[DVec3]>,
     scale: Scale,
 ) -> Result<RegionOutcome, PipelineError> {
     let Scale { extent, edge_length: object_edge_length } = scale;
@@ -1018,6 +1034,10 @@ fn deform_one(
         None => (object.mesh, topology, None),
         Some(sub) => (&sub.sub.mesh, &sub.topology, (sub.border_count > 0).then_some(sub.border.as_slice())),
     };
+    // A region processed whole reuses the object's normals of the contact stage (the same
+    // `vertex_normals` of the same mesh); a cut region's own are its sub-mesh's.
+    let overrides =
+        RegionOverrides { normals: object_normals.filter(|_| region.sub.is_none()), ..RegionOverrides::default() };
     let new_solver = region.solver.is_none();
     if new_solver {
         region.solver = Some(RegionSolver::new(mesh, topology).map_err(err)?);
@@ -1041,7 +1061,7 @@ fn deform_one(
         // depend on where a cut falls, which automatic regions move from frame to frame.
         params.edge_length = Some(object_edge_length);
     }
-    let mut deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
+    let mut deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
     let mut clamped = false;
     if let Some(border) = border {
         if let Some(v) = (0..border.len()).find(|&v| border[v] && deformation.contact[v]) {
@@ -1060,7 +1080,7 @@ fn deform_one(
             // The same domain as the first solve, so the same φ.
             params.domain_radius = Some(params.domain_radius());
             params.extent = fitted;
-            deformation = deform_region(mesh, topology, solver, zones, &params).map_err(err)?;
+            deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
             clamped = true;
             if let Some(v) =
                 (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v]))

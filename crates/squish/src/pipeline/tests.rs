@@ -388,3 +388,40 @@ fn method_a_runs_through_the_deformer() {
     let err = Deformer::new().deform(&bad.frame()).unwrap_err().to_string();
     assert!(err.contains("\"ground\"") && err.contains("UVs"), "{err}");
 }
+
+/// The zones lent to chapter 5 come back to the pair and side they were found on: four fingers
+/// pressed to unequal depths into one ball give four zones on the ball's one region, and each
+/// pair's zones are the ones its statistics counted, carry its mapping direction and lie under
+/// its own finger.
+#[test]
+fn each_pair_gets_its_own_zones_back_after_the_deformation() {
+    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let pose = scene.pose(1.0);
+    let frame = pose.frame();
+    let result = Deformer::new().deform(&frame).unwrap();
+    assert_eq!(result.stats.regions[0].zones, 4, "the ball's one region has the four zones");
+    assert_eq!(result.contacts.len(), result.stats.pairs.len());
+    let center = |mesh: &TriMesh| mesh.positions.iter().sum::<DVec3>() / mesh.num_vertices() as f64;
+    let fingers: Vec<DVec3> = frame.pairs.iter().map(|p| center(frame.objects[p.objects[0]].mesh)).collect();
+    for (contact, stats) in result.contacts.iter().zip(&result.stats.pairs) {
+        let contact = contact.as_ref().expect("every finger touches the ball");
+        assert!(stats.in_contact);
+        for side in 0..2 {
+            let zone = &contact.sides[side].zone;
+            let what = format!("pair {} side {side}", stats.pair);
+            assert_eq!(zone.region.num_inside(), stats.zone_vertices[side], "{what}");
+            let mesh = frame.objects[frame.pairs[stats.pair].objects[side]].mesh;
+            assert_eq!(zone.targets.len(), mesh.num_vertices(), "{what}");
+            assert_eq!(zone.mapping_direction.to_array(), contact.direction.to_array(), "{what}");
+            // The zone's nearest finger is the pair's own.
+            let inside: Vec<DVec3> = (0..mesh.num_vertices())
+                .filter(|&v| zone.region.contains(v as u32))
+                .map(|v| mesh.positions[v])
+                .collect();
+            let mean = inside.iter().sum::<DVec3>() / inside.len() as f64;
+            let nearest =
+                (0..fingers.len()).min_by(|&a, &b| mean.distance(fingers[a]).total_cmp(&mean.distance(fingers[b])));
+            assert_eq!(nearest, Some(stats.pair), "{what}");
+        }
+    }
+}

@@ -588,7 +588,7 @@ pub fn plan_articulation(
                 }
                 region_params.bulge_map = Some(side.sub.gather(map));
             }
-            let overrides = RegionOverrides { mapping_field: Some(&fields[l]) };
+            let overrides = RegionOverrides { mapping_field: Some(&fields[l]), normals: None };
             let region_plan =
                 plan_region(&side.sub.mesh, &side.topology, &mut side.solver, &zones[l], &region_params, &overrides)?;
             for (v, &far) in side.far_border.iter().enumerate() {
