@@ -68,17 +68,75 @@ pub struct ThesisReport {
     pub deformable: [usize; 2],
     /// Average ms per frame of the C++ prototype, one core of an i7-4790K.
     pub ms: f64,
+    /// The row's breakdown in ms (its % of `ms`).
+    pub stages_ms: ThesisStages,
 }
 
 impl From<ThesisRow> for ThesisReport {
     fn from(row: ThesisRow) -> Self {
+        let [i, m, c, p, di, g, de] = row.stage_ms();
         Self {
             table: row.table.to_string(),
             scene: row.scene.to_string(),
             working: row.working,
             deformable: row.deformable,
             ms: row.ms,
+            stages_ms: ThesisStages {
+                intersection: Some(i),
+                mapping: Some(m),
+                contact_zone: Some(c),
+                parametrization: Some(p),
+                directions: Some(di),
+                guide: Some(g),
+                deformation: Some(de),
+                factorization: row.factorizations.map(|percent| row.ms * percent / 100.0),
+            },
         }
+    }
+}
+
+/// One figure per column of the thesis' tables 7.1–7.2 (`None` where there is none: table 7.1
+/// has no factorization column, and a ratio to a stage the thesis timed at 0 % is undefined).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ThesisStages {
+    pub intersection: Option<f64>,
+    pub mapping: Option<f64>,
+    pub contact_zone: Option<f64>,
+    pub parametrization: Option<f64>,
+    pub directions: Option<f64>,
+    pub guide: Option<f64>,
+    pub deformation: Option<f64>,
+    /// Part of parametrization, directions and guide.
+    pub factorization: Option<f64>,
+}
+
+impl ThesisStages {
+    /// Our stage times (ms) over the thesis' (ms), column by column.
+    fn ratios(ours: &Breakdown, thesis: &ThesisStages) -> Self {
+        let ratio = |ours: f64, thesis: Option<f64>| thesis.filter(|&t| t > 0.0).map(|t| ours / t);
+        Self {
+            intersection: ratio(ours.intersection, thesis.intersection),
+            mapping: ratio(ours.mapping, thesis.mapping),
+            contact_zone: ratio(ours.contact_zone, thesis.contact_zone),
+            parametrization: ratio(ours.parametrization, thesis.parametrization),
+            directions: ratio(ours.directions, thesis.directions),
+            guide: ratio(ours.guide, thesis.guide),
+            deformation: ratio(ours.deformation, thesis.deformation),
+            factorization: ratio(ours.factorization, thesis.factorization),
+        }
+    }
+
+    fn columns(&self) -> [Option<f64>; 8] {
+        [
+            self.intersection,
+            self.mapping,
+            self.contact_zone,
+            self.parametrization,
+            self.directions,
+            self.guide,
+            self.deformation,
+            self.factorization,
+        ]
     }
 }
 
@@ -293,6 +351,11 @@ pub struct SceneReport {
     pub frame_over_factorization_all_threads: Option<f64>,
     /// Single-thread median frame / the thesis' time.
     pub thesis_ratio: Option<f64>,
+    /// The single-thread median frame's stages over the thesis' (ms / ms, column by column):
+    /// where the time goes compared with the prototype.
+    pub stages_over_thesis: Option<ThesisStages>,
+    /// The part of that frame outside the thesis' columns (setup, working regions, other), ms.
+    pub outside_thesis_columns_ms: Option<f64>,
     /// Peak resident memory while the scene ran (see `memory_method`), MB, in the first round.
     pub peak_memory_mb: Option<f64>,
     /// Every round's figures; `single`, `multi` and `factorization` are each the round with the
@@ -345,6 +408,8 @@ impl SceneReport {
             frame_over_factorization: None,
             frame_over_factorization_all_threads: None,
             thesis_ratio: None,
+            stages_over_thesis: None,
+            outside_thesis_columns_ms: None,
             peak_memory_mb: None,
             rounds: None,
         }
@@ -372,6 +437,9 @@ impl SceneReport {
         let factorization_ms = self.factorization.as_ref().map(|f| f.numeric_ms).filter(|&ms| ms > 0.0);
         if let Some(single) = &self.single {
             self.thesis_ratio = self.thesis.as_ref().map(|t| single.median_ms / t.ms);
+            let ours = &single.breakdown_ms;
+            self.stages_over_thesis = self.thesis.as_ref().map(|t| ThesisStages::ratios(ours, &t.stages_ms));
+            self.outside_thesis_columns_ms = self.thesis.as_ref().map(|_| ours.setup + ours.regions + ours.other);
             self.frame_over_factorization = factorization_ms.map(|f| single.median_ms / f);
         }
         if let Some(multi) = &self.multi {
@@ -602,6 +670,25 @@ pub fn print_table(report: &BenchReport) {
          changed and was recomputed (the rest kept its values); symbolic = the regions' analyses in \
          the warm-up frame + in all timed frames; sub = analyses of coupled-row submatrices in all timed frames)"
     );
+    println!();
+    println!(
+        "single thread against the thesis, stage by stage: our ms ÷ the thesis' ms (its % × its total; s. = factorizations, \
+         part of p./di./g., table 7.2 only; outside = our setup, reg. and other, ms, not in its columns)"
+    );
+    println!(
+        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
+        "scene", "i.", "m.", "c.", "p.", "di.", "g.", "de.", "s.", "outside"
+    );
+    for scene in &report.scenes {
+        let (Some(ratios), Some(outside)) = (&scene.stages_over_thesis, scene.outside_thesis_columns_ms) else {
+            continue;
+        };
+        let [i, m, c, p, di, g, de, f] = ratios.columns().map(|r| opt(r, 2));
+        println!(
+            "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.2}",
+            scene.name, i, m, c, p, di, g, de, f, outside
+        );
+    }
     if let Some(speedup) = report.automatic_region_speedup {
         println!();
         println!(

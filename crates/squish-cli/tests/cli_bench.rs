@@ -105,8 +105,42 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
         assert!(number(&f["numeric_ms"], "numeric_ms") > 0.0, "{name}");
         assert!(number(&f["factor_nonzeros"], "factor_nonzeros") >= number(&f["matrix_nonzeros"], "matrix_nonzeros"));
         assert!(number(&scene["frame_over_factorization"], "ratio") > 0.0, "{name}");
-        if !scene["thesis"].is_null() {
+        if scene["thesis"].is_null() {
+            assert!(scene["stages_over_thesis"].is_null() && scene["outside_thesis_columns_ms"].is_null(), "{name}");
+        } else {
+            let thesis = &scene["thesis"];
             assert!(number(&scene["thesis_ratio"], "thesis ratio") > 0.0, "{name}");
+            // Stage by stage: our median frame's ms over the thesis' ms (its % of its total).
+            let columns = [
+                "intersection",
+                "mapping",
+                "contact_zone",
+                "parametrization",
+                "directions",
+                "guide",
+                "deformation",
+                "factorization",
+            ];
+            let thesis_stages = &thesis["stages_ms"];
+            let ratios = &scene["stages_over_thesis"];
+            let thesis_sum: f64 = columns[..7].iter().map(|k| number(&thesis_stages[*k], k)).sum();
+            let thesis_ms = number(&thesis["ms"], "thesis ms");
+            assert!((thesis_sum / thesis_ms - 1.0).abs() <= 0.0105, "{name}: the thesis' stages sum to {thesis_sum}");
+            for column in columns {
+                match (thesis_stages[column].as_f64(), ratios[column].as_f64()) {
+                    (Some(t), Some(r)) if t > 0.0 => {
+                        let ours = number(&b[column], column);
+                        assert!((r - ours / t).abs() <= 1e-9 * r.abs().max(1.0), "{name} {column}: {r} ≠ {ours}/{t}");
+                    }
+                    // No thesis figure (table 7.1 has no factorization column) or a 0 % stage.
+                    (t, None) => assert!(t.is_none_or(|t| t == 0.0), "{name} {column}"),
+                    (t, r) => panic!("{name} {column}: thesis {t:?}, ratio {r:?}"),
+                }
+            }
+            let outside =
+                number(&b["setup"], "setup") + number(&b["regions"], "regions") + number(&b["other"], "other");
+            let reported = number(&scene["outside_thesis_columns_ms"], "outside");
+            assert!((reported - outside).abs() <= 1e-9 * outside.abs().max(1.0), "{name}");
         }
         let working = scene["working"].as_array().expect("working");
         assert!(working.iter().all(|w| w.as_u64().is_some()), "{name}");

@@ -51,25 +51,95 @@ pub struct ThesisRow {
     pub deformable: [usize; 2],
     /// Average time per frame of the C++ prototype (one core of an i7-4790K), ms.
     pub ms: f64,
+    /// The row's breakdown, % of `ms`: intersection (i.), mapping (m.), contact zone (c.),
+    /// parametrization (p.), directions (di.), guiding fields (g.), deformation (de.). The
+    /// table's own rounding: a row sums to 99–101.
+    pub stages: [f64; 7],
+    /// % of `ms` spent in factorizations (table 7.2's s., part of p., di. and g.; table 7.1
+    /// has no such column).
+    pub factorizations: Option<f64>,
+}
+
+impl ThesisRow {
+    /// The thesis' stage times in ms, in the order of [`Self::stages`].
+    pub fn stage_ms(&self) -> [f64; 7] {
+        self.stages.map(|percent| self.ms * percent / 100.0)
+    }
 }
 
 /// The thesis rows (tables 7.1–7.3) of the scenes below.
-pub const FINGERS_BALL: ThesisRow =
-    ThesisRow { table: "7.2", scene: "fingers - ball", working: [1064, 1561], deformable: [194, 1479], ms: 5.6 };
-pub const FINGERS_PALM: ThesisRow =
-    ThesisRow { table: "7.2", scene: "fingers - palm", working: [2664, 2184], deformable: [616, 1202], ms: 9.0 };
-pub const PLANE_SPHERE: ThesisRow =
-    ThesisRow { table: "7.1", scene: "plane - sphere", working: [639, 1521], deformable: [568, 0], ms: 9.93 };
-pub const SMALL_BIG_SPHERES: ThesisRow =
-    ThesisRow { table: "7.1", scene: "s. sphere - b. sphere", working: [635, 10183], deformable: [0, 9995], ms: 233.1 };
-pub const BUNNY_JELLY: ThesisRow =
-    ThesisRow { table: "7.2", scene: "bunny - jelly", working: [14408, 5002], deformable: [4182, 4259], ms: 101.8 };
-pub const WALK: ThesisRow =
-    ThesisRow { table: "7.2", scene: "walk", working: [740, 11717], deformable: [0, 11682], ms: 76.8 };
-pub const HAT_EGG: ThesisRow =
-    ThesisRow { table: "7.2", scene: "hat - egg", working: [12092, 10242], deformable: [10137, 0], ms: 173.4 };
-pub const HAND_PILLOW: ThesisRow =
-    ThesisRow { table: "7.1", scene: "hand - pillow", working: [2285, 26234], deformable: [0, 18612], ms: 728.5 };
+pub const FINGERS_BALL: ThesisRow = ThesisRow {
+    table: "7.2",
+    scene: "fingers - ball",
+    working: [1064, 1561],
+    deformable: [194, 1479],
+    ms: 5.6,
+    stages: [11.0, 9.0, 1.0, 26.0, 4.0, 30.0, 18.0],
+    factorizations: Some(33.0),
+};
+pub const FINGERS_PALM: ThesisRow = ThesisRow {
+    table: "7.2",
+    scene: "fingers - palm",
+    working: [2664, 2184],
+    deformable: [616, 1202],
+    ms: 9.0,
+    stages: [23.0, 9.0, 1.0, 23.0, 3.0, 21.0, 20.0],
+    factorizations: Some(26.0),
+};
+pub const PLANE_SPHERE: ThesisRow = ThesisRow {
+    table: "7.1",
+    scene: "plane - sphere",
+    working: [639, 1521],
+    deformable: [568, 0],
+    ms: 9.93,
+    stages: [17.9, 3.4, 17.5, 20.3, 16.8, 9.4, 14.8],
+    factorizations: None,
+};
+pub const SMALL_BIG_SPHERES: ThesisRow = ThesisRow {
+    table: "7.1",
+    scene: "s. sphere - b. sphere",
+    working: [635, 10183],
+    deformable: [0, 9995],
+    ms: 233.1,
+    stages: [4.1, 0.6, 21.0, 26.5, 25.4, 13.7, 8.7],
+    factorizations: None,
+};
+pub const BUNNY_JELLY: ThesisRow = ThesisRow {
+    table: "7.2",
+    scene: "bunny - jelly",
+    working: [14408, 5002],
+    deformable: [4182, 4259],
+    ms: 101.8,
+    stages: [12.0, 9.0, 2.0, 43.0, 1.0, 18.0, 16.0],
+    factorizations: Some(41.0),
+};
+pub const WALK: ThesisRow = ThesisRow {
+    table: "7.2",
+    scene: "walk",
+    working: [740, 11717],
+    deformable: [0, 11682],
+    ms: 76.8,
+    stages: [5.0, 4.0, 0.0, 30.0, 1.0, 49.0, 11.0],
+    factorizations: Some(61.0),
+};
+pub const HAT_EGG: ThesisRow = ThesisRow {
+    table: "7.2",
+    scene: "hat - egg",
+    working: [12092, 10242],
+    deformable: [10137, 0],
+    ms: 173.4,
+    stages: [41.0, 12.0, 2.0, 30.0, 1.0, 10.0, 5.0],
+    factorizations: Some(33.0),
+};
+pub const HAND_PILLOW: ThesisRow = ThesisRow {
+    table: "7.1",
+    scene: "hand - pillow",
+    working: [2285, 26234],
+    deformable: [0, 18612],
+    ms: 728.5,
+    stages: [5.2, 0.8, 32.0, 31.2, 19.4, 5.0, 6.3],
+    factorizations: None,
+};
 
 /// A rigid translation of one object over the animation: `from` at t = 0, `to` at t = 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -468,6 +538,25 @@ mod tests {
             assert_eq!(oa.mesh.positions != ob.mesh.positions, moving, "object {i}");
         }
         assert_eq!(scene.rest.pairs.len(), 4);
+    }
+
+    #[test]
+    fn the_thesis_breakdowns_are_the_tables_rows() {
+        let rows =
+            [FINGERS_BALL, FINGERS_PALM, PLANE_SPHERE, SMALL_BIG_SPHERES, BUNNY_JELLY, WALK, HAT_EGG, HAND_PILLOW];
+        for row in rows {
+            // The tables' rounding: rows sum to 99–101 %.
+            let sum: f64 = row.stages.iter().sum();
+            assert!((99.0..=101.05).contains(&sum), "{}: {sum}", row.scene);
+            let ms: f64 = row.stage_ms().iter().sum();
+            assert!((ms - row.ms * sum / 100.0).abs() < 1e-9, "{}", row.scene);
+            // Table 7.2 (method B) has the factorization column, table 7.1 does not.
+            assert_eq!(row.factorizations.is_some(), row.table == "7.2", "{}", row.scene);
+            assert!(row.factorizations.is_none_or(|s| s > 0.0 && s < 100.0));
+        }
+        // Spot checks against the tables: hand – pillow's c., fingers – ball's g.
+        assert_eq!(HAND_PILLOW.stages[2], 32.0);
+        assert!((FINGERS_BALL.stage_ms()[5] - 1.68).abs() < 1e-12);
     }
 
     #[test]
