@@ -33,6 +33,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::region::crossing_edges;
 use super::{ContactError, ContactSide, EdgeRegion, Sample};
 use crate::linalg::EdgePoint;
 use crate::mesh::{Topology, TriMesh};
@@ -367,11 +368,12 @@ pub fn projected_region(
     }
     // Edges leaving the region, in increasing edge id (the order of the region's points).
     let edges = target_topology.edges();
-    let mixed: Vec<(u32, u32, u32)> = edges
-        .iter()
-        .enumerate()
-        .filter(|(_, [x, y])| inside[*x as usize] != inside[*y as usize])
-        .map(|(e, &[x, y])| if inside[x as usize] { (e as u32, x, y) } else { (e as u32, y, x) })
+    let mixed: Vec<(u32, u32, u32)> = crossing_edges(target_topology, &inside)
+        .into_iter()
+        .map(|e| {
+            let [x, y] = edges[e as usize];
+            if inside[x as usize] { (e, x, y) } else { (e, y, x) }
+        })
         .collect();
     let queries: Vec<[DVec2; 2]> =
         mixed.iter().map(|&(_, i, j)| [projected[i as usize], projected[j as usize]]).collect();

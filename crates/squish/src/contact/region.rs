@@ -73,6 +73,27 @@ impl PartialEq for EdgeRegion {
     }
 }
 
+/// The edges joining an inside vertex to an outside one, in increasing edge id (the order of a
+/// region's boundary points). A small region of a large mesh (a contact on a palm, a ground, a
+/// body; fewer than 1/[`SPARSE_REGION_FRACTION`] of the vertices inside) finds them among its
+/// vertices' edges, each once from its inside end, and sorts them; a larger one scans every edge.
+pub(crate) fn crossing_edges(topology: &Topology, inside: &[bool]) -> Vec<u32> {
+    let edges = topology.edges();
+    let crossing = |[a, b]: [u32; 2]| inside[a as usize] != inside[b as usize];
+    let count = inside.iter().filter(|&&x| x).count();
+    if count * SPARSE_REGION_FRACTION < inside.len() {
+        let mut mixed: Vec<u32> = (0..inside.len() as u32)
+            .filter(|&v| inside[v as usize])
+            .flat_map(|v| topology.vertex_edges(v).iter().copied())
+            .filter(|&e| crossing(edges[e as usize]))
+            .collect();
+        mixed.sort_unstable();
+        mixed
+    } else {
+        (0..edges.len() as u32).filter(|&e| crossing(edges[e as usize])).collect()
+    }
+}
+
 impl EdgeRegion {
     /// The empty region of a mesh.
     pub fn empty(topology: &Topology) -> Self {
@@ -107,27 +128,8 @@ impl EdgeRegion {
             region.point_edges.push(e);
         };
         let edges = topology.edges();
-        let crossing = |inside: &[bool], [a, b]: [u32; 2]| inside[a as usize] != inside[b as usize];
-        let count = region.inside.iter().filter(|&&x| x).count();
-        if count * SPARSE_REGION_FRACTION < region.inside.len() {
-            // A small region of a large mesh (a contact on a palm, a ground, a body): its boundary
-            // edges are among its vertices' edges, each found once from its inside end; sorted,
-            // they are visited in the same increasing order as below.
-            let mut mixed: Vec<u32> = (0..region.inside.len() as u32)
-                .filter(|&v| region.inside[v as usize])
-                .flat_map(|v| topology.vertex_edges(v).iter().copied())
-                .filter(|&e| crossing(&region.inside, edges[e as usize]))
-                .collect();
-            mixed.sort_unstable();
-            for e in mixed {
-                add(&mut region, e, edges[e as usize]);
-            }
-        } else {
-            for (e, &edge) in edges.iter().enumerate() {
-                if crossing(&region.inside, edge) {
-                    add(&mut region, e as u32, edge);
-                }
-            }
+        for e in crossing_edges(topology, &region.inside) {
+            add(&mut region, e, edges[e as usize]);
         }
         region
     }

@@ -30,6 +30,7 @@
 use glam::DVec3;
 
 use super::mapping::{NO_SLOT, SideMapping, cast_matches};
+use super::region::crossing_edges;
 use super::surface::{SideSurface, SurfaceSample, surface_sample};
 use super::{ContactSide, ContactZone, EdgeRegion, Sample};
 
@@ -212,10 +213,9 @@ pub fn extract_zone(
         reuse: Option<SurfaceSample>,
     }
     let mut leaving: Vec<Leaving> = Vec::new();
-    for (e, &[x, y]) in side.topology.edges().iter().enumerate() {
-        if inside[x as usize] == inside[y as usize] {
-            continue;
-        }
+    let edges = side.topology.edges();
+    for e in crossing_edges(side.topology, &inside) {
+        let [x, y] = edges[e as usize];
         let (i, j) = if inside[x as usize] { (x, y) } else { (y, x) };
         let Some(si) = surface.sample(mapping, Sample::Vertex(i)).copied() else { continue };
         let end = if mapping.vertex_slot[j as usize] != NO_SLOT {
