@@ -368,9 +368,10 @@ pub fn projected_region(
     }
     // Edges leaving the region, in increasing edge id (the order of the region's points).
     let edges = target_topology.edges();
-    let mixed: Vec<(u32, u32, u32)> = crossing_edges(target_topology, &inside)
-        .into_iter()
-        .map(|e| {
+    let crossing = crossing_edges(target_topology, &inside);
+    let mixed: Vec<(u32, u32, u32)> = crossing
+        .iter()
+        .map(|&e| {
             let [x, y] = edges[e as usize];
             if inside[x as usize] { (e, x, y) } else { (e, y, x) }
         })
@@ -396,7 +397,7 @@ pub fn projected_region(
         alphas.push(alpha);
         sources.push(source);
     }
-    let region = EdgeRegion::from_inside(target_topology, inside, |e, _, _| {
+    let region = EdgeRegion::from_crossing_edges(target_topology, inside, &crossing, |e, _, _| {
         mixed.binary_search_by_key(&e, |m| m.0).map_or(0.5, |k| alphas[k])
     });
     debug_assert_eq!(region.points().len(), sources.len());

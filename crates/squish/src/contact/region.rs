@@ -110,8 +110,21 @@ impl EdgeRegion {
     /// that joins an inside vertex to an outside one: `alpha(edge, inside_vertex, outside_vertex)`,
     /// called once per such edge in increasing edge id. α is clamped to [0, 1]; a non-finite α is
     /// replaced by 0.5.
-    pub fn from_inside(topology: &Topology, inside: Vec<bool>, mut alpha: impl FnMut(u32, u32, u32) -> f64) -> Self {
+    pub fn from_inside(topology: &Topology, inside: Vec<bool>, alpha: impl FnMut(u32, u32, u32) -> f64) -> Self {
+        let crossing = crossing_edges(topology, &inside);
+        Self::from_crossing_edges(topology, inside, &crossing, alpha)
+    }
+
+    /// [`Self::from_inside`] for a caller that already has [`crossing_edges`]`(topology, &inside)`
+    /// (it needed them to compute the α's).
+    pub(crate) fn from_crossing_edges(
+        topology: &Topology,
+        inside: Vec<bool>,
+        crossing: &[u32],
+        mut alpha: impl FnMut(u32, u32, u32) -> f64,
+    ) -> Self {
         debug_assert_eq!(inside.len(), topology.num_vertices());
+        debug_assert_eq!(crossing, crossing_edges(topology, &inside));
         let mut region = Self {
             inside,
             points: Vec::new(),
@@ -128,7 +141,7 @@ impl EdgeRegion {
             region.point_edges.push(e);
         };
         let edges = topology.edges();
-        for e in crossing_edges(topology, &region.inside) {
+        for &e in crossing {
             add(&mut region, e, edges[e as usize]);
         }
         region

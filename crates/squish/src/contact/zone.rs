@@ -214,21 +214,22 @@ pub fn extract_zone(
     }
     let mut leaving: Vec<Leaving> = Vec::new();
     let edges = side.topology.edges();
-    for e in crossing_edges(side.topology, &inside) {
+    let crossing = crossing_edges(side.topology, &inside);
+    for &e in &crossing {
         let [x, y] = edges[e as usize];
         let (i, j) = if inside[x as usize] { (x, y) } else { (y, x) };
         let Some(si) = surface.sample(mapping, Sample::Vertex(i)).copied() else { continue };
         let end = if mapping.vertex_slot[j as usize] != NO_SLOT {
             surface.sample(mapping, Sample::Vertex(j)).map(|s| (*s, 1.0))
         } else {
-            mapping.region.point_on_edge(e as u32).and_then(|p| {
+            mapping.region.point_on_edge(e).and_then(|p| {
                 let point = mapping.region.points()[p as usize];
                 (point.inside == i).then(|| surface.point_samples.get(p as usize).map(|s| (*s, point.alpha))).flatten()
             })
         };
         let Some((se, alpha_end)) = end else {
             // Unreachable (i ∈ ℳ, j ∉ ℳ means ℳ has a point here); keep the zone at i.
-            leaving.push(Leaving { edge: e as u32, alpha: 0.0, reuse: Some(si) });
+            leaving.push(Leaving { edge: e, alpha: 0.0, reuse: Some(si) });
             continue;
         };
         let (d0, dd) = (si.displacement(), se.displacement() - si.displacement());
@@ -248,9 +249,9 @@ pub fn extract_zone(
         } else {
             (s * alpha_end, None)
         };
-        leaving.push(Leaving { edge: e as u32, alpha, reuse });
+        leaving.push(Leaving { edge: e, alpha, reuse });
     }
-    let region = EdgeRegion::from_inside(side.topology, inside, |e, _, _| {
+    let region = EdgeRegion::from_crossing_edges(side.topology, inside, &crossing, |e, _, _| {
         leaving.binary_search_by_key(&e, |l| l.edge).map_or(0.0, |k| leaving[k].alpha)
     });
     debug_assert_eq!(region.points().len(), leaving.len());
