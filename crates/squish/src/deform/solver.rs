@@ -27,8 +27,8 @@ use std::time::{Duration, Instant};
 use super::DeformError;
 use crate::linalg::constraints::{find, union_through_faces};
 use crate::linalg::{
-    ConstrainedSolver, ConstraintParams, EdgeConstraint, NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NumericFactor, Operator,
-    SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
+    ConstrainedSolver, ConstraintParams, EdgeConstraint, FillOrder, NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NumericFactor,
+    Operator, SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
 };
 use crate::mesh::{Topology, TriMesh};
 
@@ -60,11 +60,19 @@ pub struct RegionSolver {
 }
 
 impl RegionSolver {
-    /// Builds the pattern and runs the symbolic analysis of the region `mesh` (once per region).
+    /// Builds the pattern and runs the symbolic analysis of the region `mesh` (once per region),
+    /// in the order of fewer flops ([`FillOrder::FewerFlops`]).
     pub fn new(mesh: &TriMesh, topology: &Topology) -> Result<Self, DeformError> {
+        Self::with_fill_order(mesh, topology, FillOrder::FewerFlops)
+    }
+
+    /// [`Self::new`] with the given kind of fill-reducing order ([`FillOrder::Amd`] for regions
+    /// analyzed again often).
+    pub fn with_fill_order(mesh: &TriMesh, topology: &Topology, fill_order: FillOrder) -> Result<Self, DeformError> {
         check_topology(mesh, topology)?;
         let pattern = SparsePattern::shared(mesh, topology).map_err(DeformError::solve("symbolic analysis"))?;
-        let symbolic = SymbolicFactor::analyze(&pattern).map_err(DeformError::solve("symbolic analysis"))?;
+        let symbolic =
+            SymbolicFactor::analyze_in(&pattern, fill_order).map_err(DeformError::solve("symbolic analysis"))?;
         Ok(Self {
             pattern,
             symbolic,

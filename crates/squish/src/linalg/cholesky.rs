@@ -1,7 +1,9 @@
 //! Sparse Cholesky factorization with symbolic reuse (thesis ch. 7 §5.2: factorizations dominate
-//! the cost of a frame): faer's AMD ordering, our symbolic analysis and numeric kernel.
+//! the cost of a frame): faer's AMD ordering or our nested dissection, our symbolic analysis and
+//! numeric kernel.
 //!
-//! The symbolic analysis (faer's AMD fill-reducing ordering, then our elimination tree, postorder,
+//! The symbolic analysis (a fill-reducing ordering — faer's AMD, or our nested dissection
+//! ([`super::dissection`]) when it needs fewer flops — then our elimination tree, postorder,
 //! column counts and relaxed supernodes, [`super::symbolic`]) depends on the [`SparsePattern`] only, so it is done once per working region
 //! ([`SymbolicFactor`], shared through an `Arc`) and reused by every numeric factorization on that
 //! region — heat step, Poisson, diffusions — across solves and across animation frames.
@@ -23,7 +25,7 @@
 //! coupled when one of its off-diagonal values is not exactly 0), [`NumericFactor`] factorizes only
 //! the coupled rows' principal submatrix and solves the decoupled rows as 1 × 1 blocks. This is the
 //! same linear system split into independent blocks, so the solution is the same up to round-off.
-//! The submatrix is ordered by the region's own AMD ordering restricted to its rows (a restriction
+//! The submatrix is ordered by the region's AMD ordering restricted to its rows (a restriction
 //! of a fill-reducing ordering stays a good one, and it costs no new AMD run), so its symbolic
 //! analysis is only the elimination tree and the supernodal structure, in near-linear time
 //! ([`super::symbolic`]; the restricted order is postordered again there, which keeps its fill
@@ -47,6 +49,7 @@ use faer::linalg::cholesky::llt::factor::LltError;
 use faer::sparse::linalg::amd;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 
+use super::dissection;
 use super::supernodal::{SOLVE_BLOCK, SupernodalPlan, Workspace};
 use super::symbolic;
 use super::{SolveError, SparsePattern, SymmetricMatrix};
@@ -113,25 +116,19 @@ impl Analysis {
         let permuted = SymbolicSparseColMat::new_unsorted_checked(n, n, a_col_ptr, None, a_row_idx);
         Ok(Self { forward, inverse, permuted, permuted_slot: a_slot, plan })
     }
+}
 
-    /// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
-    /// control): `order[new] = old`.
-    fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
-        let n = structure.nrows();
-        let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
-        let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-        let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
-        let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
-        amd::order_maybe_unsorted(
-            &mut forward,
-            &mut inverse,
-            structure,
-            Default::default(),
-            MemStack::new(&mut buffer),
-        )
+/// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
+/// control): `order[new] = old`.
+pub(super) fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
+    let n = structure.nrows();
+    let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
+    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
+    let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
+    let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
+    amd::order_maybe_unsorted(&mut forward, &mut inverse, structure, Default::default(), MemStack::new(&mut buffer))
         .map_err(|e| analysis_error(&e))?;
-        Ok(forward)
-    }
+    Ok(forward)
 }
 
 /// The analysis of the principal submatrix on one set of coupled rows.
@@ -144,22 +141,77 @@ struct RowsAnalysis {
     analysis: Analysis,
 }
 
+/// The fill-reducing order of a [`SymbolicFactor`]'s whole pattern.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FillOrder {
+    /// faer's AMD: the quicker analysis, for patterns analyzed often (the automatic working
+    /// regions, analyzed again whenever their faces change).
+    Amd,
+    /// Whichever of AMD and our nested dissection ([`super::dissection`]) needs fewer flops:
+    /// up to 1.8× fewer on round closed objects, for an analysis about twice as long.
+    #[default]
+    FewerFlops,
+}
+
 /// The symbolic analysis of one region's pattern, shared by all its factorizations.
 #[derive(Debug)]
 pub struct SymbolicFactor {
     pattern: Arc<SparsePattern>,
     analysis: Analysis,
+    /// The region's AMD order (`order[new] = old`) when the whole analysis is in the dissection's
+    /// order (`None`: it is AMD's, postordered): its restriction orders the submatrices of coupled
+    /// rows (see [`Self::analyze`]).
+    amd_order: Option<Vec<usize>>,
     /// The last coupled-row analyses, most recent first (at most [`RECENT_ROW_ANALYSES`]).
     recent_rows: Mutex<Vec<Arc<RowsAnalysis>>>,
 }
 
 impl SymbolicFactor {
-    /// Runs the symbolic analysis (AMD ordering + elimination tree) of `pattern`.
+    /// Runs the symbolic analysis of `pattern`: the whole pattern in the fill-reducing order of
+    /// the two, AMD and nested dissection ([`super::dissection`], leaves in AMD order), whose
+    /// factorization needs fewer flops (AMD on a tie), then the elimination tree and supernodes.
+    ///
+    /// Submatrices of coupled rows stay in AMD's order restricted to them, whichever order the
+    /// whole pattern got: on stress-100k's moving cap, the dissection's restriction gave factors
+    /// 15% costlier and analyses 35% slower, and choosing between the two restrictions for each
+    /// new set of rows (two flop counts) doubled the analysis time (`docs/decisions.md`, Speed).
     pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
-        let order = Analysis::amd_order(pattern.structure())?;
+        Self::analyze_in(pattern, FillOrder::FewerFlops)
+    }
+
+    /// [`Self::analyze`] with the whole pattern in the given kind of order.
+    pub fn analyze_in(pattern: &Arc<SparsePattern>, fill_order: FillOrder) -> Result<Arc<Self>, SolveError> {
+        let amd = amd_order(pattern.structure())?;
         let n = pattern.num_vertices();
-        let analysis = Analysis::new(n, pattern.col_ptr(), pattern.row_idx(), None, &order)?;
-        Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, recent_rows: Mutex::new(Vec::new()) }))
+        let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+        if fill_order == FillOrder::Amd {
+            let analysis = Analysis::new(n, col_ptr, row_idx, None, &amd)?;
+            return Ok(Arc::new(Self {
+                pattern: Arc::clone(pattern),
+                analysis,
+                amd_order: None,
+                recent_rows: Mutex::new(Vec::new()),
+            }));
+        }
+        let mut amd_rank = vec![0; n];
+        for (rank, &v) in amd.iter().enumerate() {
+            amd_rank[v] = rank;
+        }
+        let dissection = dissection::nested_dissection_order(n, col_ptr, row_idx, &amd_rank);
+        let (analysis, amd_order) = if symbolic::factorization_flops(n, col_ptr, row_idx, &dissection)
+            < symbolic::factorization_flops(n, col_ptr, row_idx, &amd)
+        {
+            (Analysis::new(n, col_ptr, row_idx, None, &dissection)?, Some(amd))
+        } else {
+            (Analysis::new(n, col_ptr, row_idx, None, &amd)?, None)
+        };
+        Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, amd_order, recent_rows: Mutex::new(Vec::new()) }))
+    }
+
+    /// True if the whole pattern is in the nested-dissection order, false if in AMD's (see
+    /// [`Self::analyze`]).
+    pub fn uses_nested_dissection(&self) -> bool {
+        self.amd_order.is_some()
     }
 
     /// The pattern this analysis belongs to.
@@ -229,8 +281,8 @@ impl SymbolicFactor {
             }
             sub_col_ptr.push(sub_row_idx.len());
         }
-        let sub_forward: Vec<usize> =
-            self.analysis.forward.iter().filter(|&&v| in_rows[v]).map(|&v| local[v]).collect();
+        let amd_order = self.amd_order.as_ref().unwrap_or(&self.analysis.forward);
+        let sub_forward: Vec<usize> = amd_order.iter().filter(|&&v| in_rows[v]).map(|&v| local[v]).collect();
         Analysis::new(m, &sub_col_ptr, &sub_row_idx, Some(&entry_slot), &sub_forward)
     }
 }
@@ -969,7 +1021,18 @@ mod tests {
             let theirs_symbolic =
                 factorize_symbolic_cholesky(pattern.structure(), Side::Lower, SymmetricOrdering::Amd, supernodal)
                     .unwrap();
-            assert_eq!(symbolic.factor_len(), theirs_symbolic.len_val(), "{} rows: factor size", mesh.num_vertices());
+            // The dissection is kept only when it needs fewer flops (the large sphere, not the
+            // grid): then the factor is smaller than AMD's, else the same size.
+            let rows = mesh.num_vertices();
+            if symbolic.uses_nested_dissection() {
+                assert!(symbolic.factor_len() < theirs_symbolic.len_val(), "{rows} rows: factor size");
+            } else {
+                assert_eq!(symbolic.factor_len(), theirs_symbolic.len_val(), "{rows} rows: factor size");
+            }
+            assert_eq!(symbolic.uses_nested_dissection(), rows == 10242, "{rows} rows: order kept");
+            let amd = SymbolicFactor::analyze_in(&pattern, FillOrder::Amd).unwrap();
+            assert!(!amd.uses_nested_dissection());
+            assert_eq!(amd.factor_len(), theirs_symbolic.len_val(), "{rows} rows: factor size in AMD's order");
             let theirs = Llt::try_new_with_symbolic(
                 SymbolicLlt::try_new(pattern.structure(), Side::Lower).unwrap(),
                 SparseColMatRef::new(pattern.structure(), op.matrix().values()),

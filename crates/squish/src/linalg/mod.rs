@@ -49,6 +49,7 @@
 mod cholesky;
 pub(crate) mod constraints;
 mod cut_weights;
+mod dissection;
 mod error;
 mod laplacian;
 mod operators;
@@ -61,7 +62,7 @@ mod timing;
 #[cfg(test)]
 pub(crate) mod test_support;
 
-pub use cholesky::{NumericFactor, SymbolicFactor};
+pub use cholesky::{FillOrder, NumericFactor, SymbolicFactor};
 pub use constraints::{
     ConstrainedSystem, ConstraintParams, DEFAULT_CONSTRAINT_WEIGHT_FACTOR, EdgeConstraint,
     NEGLIGIBLE_CONSTRAINT_COEFFICIENT, NEGLIGIBLE_FACE_WEIGHT,

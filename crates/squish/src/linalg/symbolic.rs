@@ -28,7 +28,7 @@
 //! structure our kernel ([`super::supernodal`]) reads and `A`'s permuted layout directly, and
 //! postorders the restricted order, whose chains then form wider supernodes (a faster numeric
 //! factorization on the same fill). Measurements in `docs/decisions.md` (Speed).
-//! The AMD ordering itself stays faer's.
+//! The AMD ordering itself stays faer's; the alternative, nested dissection, is [`super::dissection`].
 
 use super::SolveError;
 
@@ -138,6 +138,28 @@ pub(super) fn analyze(
     let row_entries = |i: usize| upper.column(post[i]).iter().map(|&k| post_inverse[k]);
     let (pattern_ptr, pattern) = supernode_patterns(&parent, &counts, &begin, row_entries);
     Ok(SupernodalStructure { forward, inverse, begin, pattern_ptr, row_idx: pattern, a_col_ptr, a_row_idx, a_slot })
+}
+
+/// The multiply-adds of a factorization of the symmetric matrix whose lower triangle is `col_ptr`,
+/// `row_idx` in the order `order` (`order[new] = old`, a permutation): `Σ_j c_j²` over the column
+/// counts of `L` (the elimination's own cost, before supernodes pad it), found in O(nnz(A) · α).
+pub(super) fn factorization_flops(n: usize, col_ptr: &[usize], row_idx: &[usize], order: &[usize]) -> f64 {
+    let mut order_inverse = vec![0; n];
+    for (new, &old) in order.iter().enumerate() {
+        order_inverse[old] = new;
+    }
+    let upper = Pattern::upper(n, col_ptr, row_idx, &order_inverse);
+    let tree = elimination_tree(&upper);
+    let post = postorder(&tree);
+    let mut inverse = vec![0; n];
+    let mut post_inverse = vec![0; n];
+    for (new, &k) in post.iter().enumerate() {
+        inverse[order[k]] = new;
+        post_inverse[k] = new;
+    }
+    let parent: Vec<usize> = post.iter().map(|&k| if tree[k] == NONE { NONE } else { post_inverse[tree[k]] }).collect();
+    let (a_col_ptr, a_row_idx, _) = lower_in_order(n, col_ptr, row_idx, None, &inverse);
+    column_counts(&parent, &a_col_ptr, &a_row_idx).iter().map(|&c| (c * c) as f64).sum()
 }
 
 /// A pattern by columns.
@@ -515,6 +537,19 @@ mod tests {
                     assert_eq!(pattern, union.into_iter().collect::<Vec<_>>(), "mesh {m}: supernode {sn}");
                 }
                 assert!(s.factor_len() >= truth.iter().map(|c| c.len() + 1).sum::<usize>());
+            }
+        }
+    }
+
+    #[test]
+    fn factorization_flops_are_the_squared_column_counts_of_the_fill() {
+        let meshes = [shapes::icosphere(1.0, 2), shapes::grid(1.0, 1.0, 17, 12)];
+        for (m, mesh) in meshes.iter().enumerate() {
+            for seed in 0..3 {
+                let (n, col_ptr, row_idx, order) = mesh_pattern(mesh, 20 + seed);
+                let s = analyze(n, &col_ptr, &row_idx, None, &order).unwrap();
+                let truth: f64 = brute_force_columns(&s).iter().map(|c| ((c.len() + 1) * (c.len() + 1)) as f64).sum();
+                assert_eq!(factorization_flops(n, &col_ptr, &row_idx, &order), truth, "mesh {m} seed {seed}");
             }
         }
     }

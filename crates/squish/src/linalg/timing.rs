@@ -19,7 +19,8 @@ pub struct FactorizationTiming {
     pub supernodes: usize,
     /// Building the sparsity pattern from the topology.
     pub pattern: Duration,
-    /// Symbolic analysis (AMD ordering, elimination tree): once per region.
+    /// Symbolic analysis (the fill-reducing order of fewer flops, elimination tree, supernodes):
+    /// once per region.
     pub symbolic: Duration,
     /// First numeric factorization, storage allocation included.
     pub first_numeric: Duration,

@@ -77,10 +77,16 @@ pub fn vertex_areas(mesh: &TriMesh) -> Vec<f64> {
 /// The sum is taken relative to the first vertex rather than the origin, which gives the same
 /// value on a closed mesh but with far less cancellation for meshes away from the origin.
 pub fn signed_volume(mesh: &TriMesh) -> f64 {
-    let Some(&o) = mesh.positions.first() else { return 0.0 };
+    signed_volume_of(&mesh.positions, &mesh.triangles)
+}
+
+/// [`signed_volume`] of the mesh made of `positions` and `triangles`, for positions held apart
+/// from their mesh (no copy). Triangles must index `positions`.
+pub fn signed_volume_of(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
+    let Some(&o) = positions.first() else { return 0.0 };
     let mut sum = 0.0;
-    for t in 0..mesh.num_triangles() {
-        let [a, b, c] = mesh.corners(t);
+    for triangle in triangles {
+        let [a, b, c] = triangle.map(|v| positions[v as usize]);
         sum += (a - o).dot((b - o).cross(c - o));
     }
     sum / 6.0

@@ -18,7 +18,7 @@ pub mod shapes;
 
 pub use geometry::{
     Aabb3, bounding_box, face_areas, face_normal_unnormalized, face_normals, mean_edge_length, signed_volume,
-    triangle_area, vertex_areas, vertex_centroid, vertex_normals,
+    signed_volume_of, triangle_area, vertex_areas, vertex_centroid, vertex_normals,
 };
 pub use region::{
     close_pinches, cut_border, edge_path_distance_bound, edge_path_distance_field, edge_path_distances,

@@ -44,7 +44,8 @@ pub use self_contact::SelfContactResult;
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, deform_region_with};
-use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, vertex_areas, vertex_normals};
+use crate::linalg::FillOrder;
+use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, signed_volume_of, vertex_areas, vertex_normals};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
@@ -964,12 +965,10 @@ impl Deformer {
             let combined = combine(input, &cache.regions, outcomes);
             match combined {
                 Some(deformation) => {
-                    let after =
-                        TriMesh { positions: deformation.positions.clone(), triangles: object.mesh.triangles.clone() };
-                    stats.volume_after = signed_volume(&after);
+                    stats.volume_after = signed_volume_of(&deformation.positions, &object.mesh.triangles);
                     stats.max_displacement =
                         input.iter().zip(&deformation.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
-                    positions.push(after.positions);
+                    positions.push(deformation.positions.clone());
                     kept.push(Some(deformation));
                 }
                 None => {
@@ -1040,7 +1039,10 @@ fn deform_one(
         RegionOverrides { normals: object_normals.filter(|_| region.sub.is_none()), ..RegionOverrides::default() };
     let new_solver = region.solver.is_none();
     if new_solver {
-        region.solver = Some(RegionSolver::new(mesh, topology).map_err(err)?);
+        // An automatic region is cut again whenever its faces change: its analysis, then paid
+        // every few frames, stays AMD's alone; the others are analyzed once per shot.
+        let fill_order = if object.params.region.is_automatic() { FillOrder::Amd } else { FillOrder::FewerFlops };
+        region.solver = Some(RegionSolver::with_fill_order(mesh, topology, fill_order).map_err(err)?);
     }
     let Some(solver) = region.solver.as_mut() else {
         return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
