@@ -272,13 +272,93 @@ mod tests {
     fn the_order_is_a_permutation_and_separators_come_after_what_they_separate() {
         for mesh in [shapes::icosphere(1.0, 3), shapes::grid(1.0, 1.0, 30, 17), shapes::cube(1.0, 6)] {
             let (order, n) = order_of(&mesh);
-            let mut seen = vec![false; n];
-            for &v in &order {
-                assert!(!seen[v], "vertex {v} twice");
-                seen[v] = true;
+            assert_permutation(&order, n, "mesh");
+            // The first split: no edge joins its two sides, each holds a quarter of the
+            // vertices, and its separator closes the order.
+            let topology = Topology::new(&mesh);
+            let pattern = SparsePattern::shared(&mesh, &topology).expect("pattern");
+            let graph = Graph::from_lower(n, pattern.col_ptr(), pattern.row_idx());
+            let all: Vec<u32> = (0..n as u32).collect();
+            let Split::Separated { near, far, separator } = Work::new(n).split(&graph, &all) else {
+                panic!("{n} vertices: the first split separates")
+            };
+            let mut side = vec![0u8; n];
+            near.iter().for_each(|&v| side[v as usize] = 1);
+            far.iter().for_each(|&v| side[v as usize] = 2);
+            for &v in &near {
+                assert!(
+                    graph.neighbours(v).iter().all(|&w| side[w as usize] != 2),
+                    "{n} vertices: {v} touches the far side"
+                );
             }
-            assert!(seen.iter().all(|&s| s));
+            assert!(
+                4 * near.len().min(far.len()) >= n,
+                "{n} vertices: {} | {} | {}",
+                near.len(),
+                separator.len(),
+                far.len()
+            );
+            let mut last: Vec<usize> = order[n - separator.len()..].to_vec();
+            let mut expected: Vec<usize> = separator.iter().map(|&v| v as usize).collect();
+            last.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(last, expected, "{n} vertices: the separator comes last");
         }
+    }
+
+    /// The lower triangle (with the diagonal) of the graph with these edges.
+    fn lower(n: usize, edges: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+        let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        for &(a, b) in edges {
+            columns[a.min(b)].push(a.max(b));
+        }
+        let mut col_ptr = vec![0];
+        let mut row_idx = Vec::new();
+        for mut column in columns {
+            column.sort_unstable();
+            column.dedup();
+            row_idx.extend(column);
+            col_ptr.push(row_idx.len());
+        }
+        (col_ptr, row_idx)
+    }
+
+    fn assert_permutation(order: &[usize], n: usize, what: &str) {
+        let mut seen = vec![false; n];
+        for &v in order {
+            assert!(v < n && !seen[v], "{what}: vertex {v} out of range or twice");
+            seen[v] = true;
+        }
+        assert_eq!(order.len(), n, "{what}");
+    }
+
+    #[test]
+    fn odd_graphs_give_permutations() {
+        // Empty, isolated vertices, a long path (one-vertex separators), a star (two levels: no
+        // separating level), a clique larger than a leaf.
+        let key = |n: usize| (0..n).rev().collect::<Vec<_>>();
+        let path: Vec<(usize, usize)> = (1..500).map(|v| (v - 1, v)).collect();
+        let star: Vec<(usize, usize)> = (1..300).map(|v| (0, v)).collect();
+        let clique: Vec<(usize, usize)> = (0..80).flat_map(|a| (a + 1..80).map(move |b| (a, b))).collect();
+        let mut isolated = path.clone();
+        isolated.retain(|&(a, _)| a % 7 != 0);
+        for (what, n, edges) in [
+            ("empty", 0, Vec::new()),
+            ("isolated", 500, isolated),
+            ("path", 500, path.clone()),
+            ("star", 300, star),
+            ("clique", 80, clique),
+        ] {
+            let (col_ptr, row_idx) = lower(n, &edges);
+            let order = nested_dissection_order(n, &col_ptr, &row_idx, &key(n));
+            assert_permutation(&order, n, what);
+        }
+        // A path is dissected at single vertices: its factor has no fill beyond what the order
+        // must have (each column of L holds at most log₂ n + 1 rows, against n for a bad order).
+        let (col_ptr, row_idx) = lower(500, &path);
+        let order = nested_dissection_order(500, &col_ptr, &row_idx, &key(500));
+        let flops = crate::linalg::symbolic::factorization_flops(500, &col_ptr, &row_idx, &order);
+        assert!(flops < 500.0 * 10.0 * 10.0, "path: {flops} flops");
     }
 
     #[test]
