@@ -49,6 +49,8 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
     let names: Vec<&str> = scenes.iter().map(|s| s["name"].as_str().expect("name")).collect();
     assert_eq!(names, SCENES);
     let data_present = shared_data().join("meshes/bunny_3301.obj").is_file();
+    // Scenes whose named stages explain less than 70% of the median frame (see below).
+    let mut thin_coverage = Vec::new();
     for scene in scenes {
         let name = scene["name"].as_str().unwrap_or_default();
         assert!(scene["error"].is_null(), "{name}: {}", scene["error"]);
@@ -93,7 +95,9 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
         let named: f64 = stages.iter().map(|k| number(&b[*k], k)).sum();
         assert!(stages.iter().all(|k| number(&b[*k], k) >= 0.0), "{name}: {b}");
         assert!(named <= total * 1.001 + 1e-6, "{name}: stages {named} ms > frame {total} ms");
-        assert!(named >= 0.7 * total, "{name}: stages {named} ms explain too little of {total} ms");
+        if named < 0.7 * total {
+            thin_coverage.push(name.to_string());
+        }
         assert!((named + number(&b["other"], "other") - total).abs() <= 1e-6 * total.max(1.0), "{name}");
         let percent = &single["breakdown_percent"];
         let shares: f64 = stages.iter().chain(&["other"]).map(|k| number(&percent[*k], k)).sum();
@@ -146,6 +150,21 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
     assert_eq!(shot["frames"], 4);
     assert!(number(&shot["single_fps"], "single fps") > 0.0 && number(&shot["multi_fps"], "multi fps") > 0.0);
     assert_eq!(report["machine_before"]["threads"], 2);
+    // The frames are wall-clock times of two frames, measured while the other tests of this file
+    // run too: a thread descheduled for a time slice (a few ms) between two stages puts a whole
+    // slice into "other". A stage left out of the breakdown shows in every measurement, so a
+    // scene that fails the check is measured once more and must pass then.
+    if !thin_coverage.is_empty() {
+        let again = bench_json(&["--scenes", &thin_coverage.join(",")]);
+        for scene in again["scenes"].as_array().expect("scenes") {
+            let name = scene["name"].as_str().unwrap_or_default();
+            let single = &scene["single"];
+            let total = number(&single["median_ms"], "median_ms");
+            let b = &single["breakdown_ms"];
+            let other = number(&b["other"], "other");
+            assert!(other <= 0.3 * total, "{name}: stages explain too little of {total} ms (other {other} ms), twice");
+        }
+    }
 }
 
 #[test]
