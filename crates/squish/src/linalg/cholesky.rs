@@ -184,26 +184,21 @@ impl SymbolicFactor {
         let amd = amd_order(pattern.structure())?;
         let n = pattern.num_vertices();
         let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-        if fill_order == FillOrder::Amd {
-            let analysis = Analysis::new(n, col_ptr, row_idx, None, &amd)?;
-            return Ok(Arc::new(Self {
-                pattern: Arc::clone(pattern),
-                analysis,
-                amd_order: None,
-                recent_rows: Mutex::new(Vec::new()),
-            }));
-        }
-        let mut amd_rank = vec![0; n];
-        for (rank, &v) in amd.iter().enumerate() {
-            amd_rank[v] = rank;
-        }
-        let dissection = dissection::nested_dissection_order(n, col_ptr, row_idx, &amd_rank);
-        let (analysis, amd_order) = if symbolic::factorization_flops(n, col_ptr, row_idx, &dissection)
-            < symbolic::factorization_flops(n, col_ptr, row_idx, &amd)
-        {
-            (Analysis::new(n, col_ptr, row_idx, None, &dissection)?, Some(amd))
-        } else {
-            (Analysis::new(n, col_ptr, row_idx, None, &amd)?, None)
+        let dissection = (fill_order == FillOrder::FewerFlops)
+            .then(|| {
+                let mut amd_rank = vec![0; n];
+                for (rank, &v) in amd.iter().enumerate() {
+                    amd_rank[v] = rank;
+                }
+                dissection::nested_dissection_order(n, col_ptr, row_idx, &amd_rank)
+            })
+            .filter(|dissection| {
+                symbolic::factorization_flops(n, col_ptr, row_idx, dissection)
+                    < symbolic::factorization_flops(n, col_ptr, row_idx, &amd)
+            });
+        let (analysis, amd_order) = match dissection {
+            Some(dissection) => (Analysis::new(n, col_ptr, row_idx, None, &dissection)?, Some(amd)),
+            None => (Analysis::new(n, col_ptr, row_idx, None, &amd)?, None),
         };
         Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, amd_order, recent_rows: Mutex::new(Vec::new()) }))
     }

@@ -111,26 +111,9 @@ pub(super) fn analyze(
         order_inverse[old] = new;
     }
 
-    // 1–2. Elimination tree in the given order, then its postorder composed with the order.
-    let upper = Pattern::upper(n, col_ptr, row_idx, &order_inverse);
-    let tree = elimination_tree(&upper);
-    let post = postorder(&tree);
-    let forward: Vec<usize> = post.iter().map(|&k| order[k]).collect();
-    let mut inverse = vec![0; n];
-    for (new, &old) in forward.iter().enumerate() {
-        inverse[old] = new;
-    }
-    let mut post_inverse = vec![0; n];
-    for (new, &k) in post.iter().enumerate() {
-        post_inverse[k] = new;
-    }
-    let parent: Vec<usize> = post.iter().map(|&k| if tree[k] == NONE { NONE } else { post_inverse[tree[k]] }).collect();
-
-    // PAPᵀ's lower triangle in the final order, with the value slots.
-    let (a_col_ptr, a_row_idx, a_slot) = lower_in_order(n, col_ptr, row_idx, slot, &inverse);
-
-    // 3–5.
-    let counts = column_counts(&parent, &a_col_ptr, &a_row_idx);
+    let Elimination { upper, post, post_inverse, forward, inverse, parent, a_col_ptr, a_row_idx, a_slot, counts } =
+        eliminate(n, col_ptr, row_idx, slot, order, &order_inverse);
+    // 4–5.
     let begin = relaxed_supernodes(&parent, &counts);
     // Row i of A below the diagonal, in the final order: the AMD-order upper column of the node
     // that became i (a row of A lies on its columns' ancestors, which the postorder keeps after
@@ -148,18 +131,56 @@ pub(super) fn factorization_flops(n: usize, col_ptr: &[usize], row_idx: &[usize]
     for (new, &old) in order.iter().enumerate() {
         order_inverse[old] = new;
     }
-    let upper = Pattern::upper(n, col_ptr, row_idx, &order_inverse);
+    let counts = eliminate(n, col_ptr, row_idx, None, order, &order_inverse).counts;
+    counts.iter().map(|&c| (c * c) as f64).sum()
+}
+
+/// Steps 1–3 of the analysis (module doc) of a checked pattern and order.
+struct Elimination {
+    /// The strict upper triangle of `A` in the given order.
+    upper: Pattern,
+    /// `post[new] = k`: the postorder of the elimination tree, and its inverse.
+    post: Vec<usize>,
+    post_inverse: Vec<usize>,
+    /// The final order (the postorder composed with the given one) and its inverse.
+    forward: Vec<usize>,
+    inverse: Vec<usize>,
+    /// The elimination tree in the final order.
+    parent: Vec<usize>,
+    /// `PAPᵀ`'s lower triangle in the final order, with the value slots.
+    a_col_ptr: Vec<usize>,
+    a_row_idx: Vec<usize>,
+    a_slot: Vec<usize>,
+    /// The column counts of `L`.
+    counts: Vec<usize>,
+}
+
+/// 1–2. The elimination tree in the given order (`order_inverse[old] = new`), then its postorder
+/// composed with the order; 3. the column counts.
+fn eliminate(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    slot: Option<&[usize]>,
+    order: &[usize],
+    order_inverse: &[usize],
+) -> Elimination {
+    let upper = Pattern::upper(n, col_ptr, row_idx, order_inverse);
     let tree = elimination_tree(&upper);
     let post = postorder(&tree);
+    let forward: Vec<usize> = post.iter().map(|&k| order[k]).collect();
     let mut inverse = vec![0; n];
+    for (new, &old) in forward.iter().enumerate() {
+        inverse[old] = new;
+    }
     let mut post_inverse = vec![0; n];
     for (new, &k) in post.iter().enumerate() {
-        inverse[order[k]] = new;
         post_inverse[k] = new;
     }
     let parent: Vec<usize> = post.iter().map(|&k| if tree[k] == NONE { NONE } else { post_inverse[tree[k]] }).collect();
-    let (a_col_ptr, a_row_idx, _) = lower_in_order(n, col_ptr, row_idx, None, &inverse);
-    column_counts(&parent, &a_col_ptr, &a_row_idx).iter().map(|&c| (c * c) as f64).sum()
+    let (a_col_ptr, a_row_idx, a_slot) = lower_in_order(n, col_ptr, row_idx, slot, &inverse);
+    let counts = column_counts(&parent, &a_col_ptr, &a_row_idx);
+    Elimination { upper, post, post_inverse, forward, inverse, parent, a_col_ptr, a_row_idx, a_slot, counts }
 }
 
 /// A pattern by columns.
