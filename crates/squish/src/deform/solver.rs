@@ -95,6 +95,11 @@ impl RegionSolver {
         })
     }
 
+    /// True if the region's analysis kept the nested-dissection order (see [`FillOrder`]).
+    pub fn uses_nested_dissection(&self) -> bool {
+        self.symbolic.uses_nested_dissection()
+    }
+
     /// The region's pattern and real symbolic analysis (for the transport field's systems).
     pub(crate) fn shared_analysis(&self) -> (&Arc<SparsePattern>, &Arc<SymbolicFactor>) {
         (&self.pattern, &self.symbolic)

@@ -516,3 +516,26 @@ fn a_scanned_hand_with_automatic_regions_pressing_a_ball() {
     println!("scanned hand: automatic regions vs whole objects {worst:.2e} ({:.2e} of {moved:.2e})", worst / moved);
     assert!(worst <= 0.01 * moved);
 }
+
+#[test]
+fn whole_round_objects_take_the_nested_dissection_and_automatic_regions_keep_amd() {
+    // Two icospheres of 10242 vertices: AMD's order needs ~1.8× the dissection's flops on them,
+    // so a whole ball keeps the dissection. An automatic region is cut again whenever its faces
+    // change, and its analysis stays AMD's alone (its cap here would also prefer the dissection).
+    let mut scene = scenes::two_balls(0.1, 5);
+    let whole = Deformer::new().deform(&scene.frame()).unwrap();
+    assert_eq!(whole.stats.regions.len(), 2);
+    for region in &whole.stats.regions {
+        assert!(region.deformed && region.whole, "{}", region.name);
+        assert!(region.nested_dissection, "whole ball {} should keep the dissection", region.name);
+    }
+    scene.objects[1].params.region = WorkingRegion::Distance(0.0);
+    scene.objects[1].params.extent = Some(1.2);
+    let automatic = Deformer::new().deform(&scene.frame()).unwrap();
+    let big: Vec<_> = automatic.stats.regions.iter().filter(|r| r.object == 1).collect();
+    assert_eq!(big.len(), 1);
+    assert!(big[0].deformed && !big[0].whole, "the big ball's region is an automatic cap");
+    assert!(!big[0].nested_dissection, "automatic regions use AMD's order");
+    let small = automatic.stats.regions.iter().find(|r| r.object == 0).unwrap();
+    assert!(small.nested_dissection, "the small ball is still whole");
+}
