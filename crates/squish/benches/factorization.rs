@@ -9,7 +9,10 @@
 //! refactorization: only the values around one point change (a contact moving on a static
 //! object: the supernodes there and their ancestors are recomputed), (e) solves of one and of
 //! three right-hand sides, and (f) a heat system and a guide system on a smaller cap inside it,
-//! the guide system on its own rows and on the heat system's (`factorize_within`: no analysis).
+//! the guide system on its own rows and on the heat system's (`factorize_within`: no analysis),
+//! and (g) the symbolic analysis alone in AMD's order and in the cheaper of AMD's and the nested
+//! dissection's (what a region's first frame pays for the choice; an icosphere keeps the
+//! dissection).
 //!
 //! Run: `cargo bench -p squish --bench factorization -- --quick`.
 
@@ -18,7 +21,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use squish::linalg::{NumericFactor, SparsePattern, SymbolicFactor, SymmetricMatrix, cotangent_stiffness};
+use squish::linalg::{FillOrder, NumericFactor, SparsePattern, SymbolicFactor, SymmetricMatrix, cotangent_stiffness};
 use squish::mesh::{Topology, shapes};
 
 /// `K + diag(d)` with a seeded pseudo-random positive diagonal, so every variant is a new set of
@@ -72,6 +75,12 @@ fn factorization(c: &mut Criterion) {
                 black_box(factor.is_factorized())
             })
         });
+
+        for (name, fill_order) in [("symbolic-amd", FillOrder::Amd), ("symbolic-fewer-flops", FillOrder::FewerFlops)] {
+            group.bench_function(BenchmarkId::new(name, &label), |b| {
+                b.iter(|| black_box(SymbolicFactor::analyze_in(&pattern, fill_order).expect("analysis").factor_len()))
+            });
+        }
 
         let symbolic = SymbolicFactor::analyze(&pattern).expect("analysis");
         let mut factor = NumericFactor::factorize_new(&symbolic, &variants[0]).expect("factorization");
