@@ -571,6 +571,12 @@ pub fn print_table(report: &BenchReport) {
         load(&report.machine_after),
         if machine.optimized_build { "" } else { "; DEBUG BUILD, times are not meaningful" },
     );
+    if machine.quick {
+        println!(
+            "(--quick: smaller scenes than the thesis' (W, D below), so the ÷ thesis columns are not a comparison; \
+             run without --quick for that)"
+        );
+    }
     println!();
     println!(
         "{:<18} {:>13} {:>11} {:>13} {:>11} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>8}",

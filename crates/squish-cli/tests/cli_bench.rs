@@ -214,6 +214,7 @@ fn missing_data_skips_the_file_scenes_with_a_note_and_the_table_prints() {
     assert!(table.contains("sphere-plane"), "{table}");
     assert!(table.contains("bunny-jelly") && table.contains("not found"), "{table}");
     assert!(table.contains("shot: 1 frames of small-big-spheres"), "{table}");
+    assert!(table.contains("--quick: smaller scenes than the thesis'"), "a quick table warns: {table}");
 }
 
 #[test]
