@@ -102,6 +102,11 @@ impl Analysis {
         entry_slot: Option<&[usize]>,
         order: &[usize],
     ) -> Result<Self, SolveError> {
+        Ok(Self::from_structure(n, symbolic::analyze(n, col_ptr, row_idx, entry_slot, order)?))
+    }
+
+    /// The analysis of an `n`-column structure computed already.
+    fn from_structure(n: usize, structure: symbolic::SupernodalStructure) -> Self {
         let symbolic::SupernodalStructure {
             forward,
             inverse,
@@ -111,10 +116,10 @@ impl Analysis {
             a_col_ptr,
             a_row_idx,
             a_slot,
-        } = symbolic::analyze(n, col_ptr, row_idx, entry_slot, order)?;
+        } = structure;
         let plan = SupernodalPlan::new(n, begin, pattern_ptr, row_idx);
         let permuted = SymbolicSparseColMat::new_unsorted_checked(n, n, a_col_ptr, None, a_row_idx);
-        Ok(Self { forward, inverse, permuted, permuted_slot: a_slot, plan })
+        Self { forward, inverse, permuted, permuted_slot: a_slot, plan }
     }
 }
 
@@ -184,21 +189,23 @@ impl SymbolicFactor {
         let amd = amd_order(pattern.structure())?;
         let n = pattern.num_vertices();
         let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-        let dissection = (fill_order == FillOrder::FewerFlops)
-            .then(|| {
+        // Steps 1–3 of each candidate order; the chosen one is finished, not eliminated again.
+        let amd_elimination = symbolic::Elimination::checked(n, col_ptr, row_idx, None, &amd)?;
+        let dissection = match fill_order {
+            FillOrder::Amd => None,
+            FillOrder::FewerFlops => {
                 let mut amd_rank = vec![0; n];
                 for (rank, &v) in amd.iter().enumerate() {
                     amd_rank[v] = rank;
                 }
-                dissection::nested_dissection_order(n, col_ptr, row_idx, &amd_rank)
-            })
-            .filter(|dissection| {
-                symbolic::factorization_flops(n, col_ptr, row_idx, dissection)
-                    < symbolic::factorization_flops(n, col_ptr, row_idx, &amd)
-            });
+                let order = dissection::nested_dissection_order(n, col_ptr, row_idx, &amd_rank);
+                let elimination = symbolic::Elimination::checked(n, col_ptr, row_idx, None, &order)?;
+                (elimination.flops() < amd_elimination.flops()).then_some(elimination)
+            }
+        };
         let (analysis, amd_order) = match dissection {
-            Some(dissection) => (Analysis::new(n, col_ptr, row_idx, None, &dissection)?, Some(amd)),
-            None => (Analysis::new(n, col_ptr, row_idx, None, &amd)?, None),
+            Some(elimination) => (Analysis::from_structure(n, elimination.into_structure()), Some(amd)),
+            None => (Analysis::from_structure(n, amd_elimination.into_structure()), None),
         };
         Ok(Arc::new(Self { pattern: Arc::clone(pattern), analysis, amd_order, recent_rows: Mutex::new(Vec::new()) }))
     }

@@ -90,53 +90,75 @@ pub(super) fn analyze(
     slot: Option<&[usize]>,
     order: &[usize],
 ) -> Result<SupernodalStructure, SolveError> {
-    let invalid = |reason: String| Err(SolveError::Analysis { reason });
-    if col_ptr.len() != n + 1 || order.len() != n || col_ptr.windows(2).any(|w| w[0] > w[1]) {
-        return invalid(format!("a pattern of {n} columns needs {} column pointers, increasing", n + 1));
-    }
-    let nnz = col_ptr[n];
-    if row_idx.len() < nnz || slot.is_some_and(|s| s.len() < nnz) {
-        return invalid(format!("the pattern has {nnz} entries but fewer row indices or slots"));
-    }
-    for j in 0..n {
-        if let Some(&i) = row_idx[col_ptr[j]..col_ptr[j + 1]].iter().find(|&&i| i < j || i >= n) {
-            return invalid(format!("entry ({i}, {j}) is not in the lower triangle of a {n} × {n} matrix"));
-        }
-    }
-    let mut order_inverse = vec![NONE; n];
-    for (new, &old) in order.iter().enumerate() {
-        if old >= n || order_inverse[old] != NONE {
-            return invalid(format!("the ordering is not a permutation of 0..{n} (row {old})"));
-        }
-        order_inverse[old] = new;
-    }
-
-    let Elimination { upper, post, post_inverse, forward, inverse, parent, a_col_ptr, a_row_idx, a_slot, counts } =
-        eliminate(n, col_ptr, row_idx, slot, order, &order_inverse);
-    // 4–5.
-    let begin = relaxed_supernodes(&parent, &counts);
-    // Row i of A below the diagonal, in the final order: the AMD-order upper column of the node
-    // that became i (a row of A lies on its columns' ancestors, which the postorder keeps after
-    // them, so every j < i).
-    let row_entries = |i: usize| upper.column(post[i]).iter().map(|&k| post_inverse[k]);
-    let (pattern_ptr, pattern) = supernode_patterns(&parent, &counts, &begin, row_entries);
-    Ok(SupernodalStructure { forward, inverse, begin, pattern_ptr, row_idx: pattern, a_col_ptr, a_row_idx, a_slot })
+    Ok(Elimination::checked(n, col_ptr, row_idx, slot, order)?.into_structure())
 }
 
 /// The multiply-adds of a factorization of the symmetric matrix whose lower triangle is `col_ptr`,
 /// `row_idx` in the order `order` (`order[new] = old`, a permutation): `Σ_j c_j²` over the column
 /// counts of `L` (the elimination's own cost, before supernodes pad it), found in O(nnz(A) · α).
+#[cfg(test)]
 pub(super) fn factorization_flops(n: usize, col_ptr: &[usize], row_idx: &[usize], order: &[usize]) -> f64 {
     let mut order_inverse = vec![0; n];
     for (new, &old) in order.iter().enumerate() {
         order_inverse[old] = new;
     }
-    let counts = eliminate(n, col_ptr, row_idx, None, order, &order_inverse).counts;
-    counts.iter().map(|&c| (c * c) as f64).sum()
+    eliminate(n, col_ptr, row_idx, None, order, &order_inverse).flops()
+}
+
+impl Elimination {
+    /// Steps 1–3 of [`analyze`] after checking its arguments: an analysis that chooses between
+    /// orders by their [`Self::flops`] finishes the chosen one with [`Self::into_structure`]
+    /// instead of eliminating it again.
+    pub(super) fn checked(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        slot: Option<&[usize]>,
+        order: &[usize],
+    ) -> Result<Self, SolveError> {
+        let invalid = |reason: String| Err(SolveError::Analysis { reason });
+        if col_ptr.len() != n + 1 || order.len() != n || col_ptr.windows(2).any(|w| w[0] > w[1]) {
+            return invalid(format!("a pattern of {n} columns needs {} column pointers, increasing", n + 1));
+        }
+        let nnz = col_ptr[n];
+        if row_idx.len() < nnz || slot.is_some_and(|s| s.len() < nnz) {
+            return invalid(format!("the pattern has {nnz} entries but fewer row indices or slots"));
+        }
+        for j in 0..n {
+            if let Some(&i) = row_idx[col_ptr[j]..col_ptr[j + 1]].iter().find(|&&i| i < j || i >= n) {
+                return invalid(format!("entry ({i}, {j}) is not in the lower triangle of a {n} × {n} matrix"));
+            }
+        }
+        let mut order_inverse = vec![NONE; n];
+        for (new, &old) in order.iter().enumerate() {
+            if old >= n || order_inverse[old] != NONE {
+                return invalid(format!("the ordering is not a permutation of 0..{n} (row {old})"));
+            }
+            order_inverse[old] = new;
+        }
+        Ok(eliminate(n, col_ptr, row_idx, slot, order, &order_inverse))
+    }
+
+    /// `Σ_j c_j²` over the column counts (see [`factorization_flops`]).
+    pub(super) fn flops(&self) -> f64 {
+        self.counts.iter().map(|&c| (c * c) as f64).sum()
+    }
+
+    /// Steps 4–5: the supernodes and their row patterns.
+    pub(super) fn into_structure(self) -> SupernodalStructure {
+        let Self { upper, post, post_inverse, forward, inverse, parent, a_col_ptr, a_row_idx, a_slot, counts } = self;
+        let begin = relaxed_supernodes(&parent, &counts);
+        // Row i of A below the diagonal, in the final order: the given order's upper column of the
+        // node that became i (a row of A lies on its columns' ancestors, which the postorder keeps
+        // after them, so every j < i).
+        let row_entries = |i: usize| upper.column(post[i]).iter().map(|&k| post_inverse[k]);
+        let (pattern_ptr, pattern) = supernode_patterns(&parent, &counts, &begin, row_entries);
+        SupernodalStructure { forward, inverse, begin, pattern_ptr, row_idx: pattern, a_col_ptr, a_row_idx, a_slot }
+    }
 }
 
 /// Steps 1–3 of the analysis (module doc) of a checked pattern and order.
-struct Elimination {
+pub(super) struct Elimination {
     /// The strict upper triangle of `A` in the given order.
     upper: Pattern,
     /// `post[new] = k`: the postorder of the elimination tree, and its inverse.
