@@ -152,8 +152,8 @@ pub enum FillOrder {
     /// faer's AMD: the quicker analysis, for patterns analyzed often (the automatic working
     /// regions, analyzed again whenever their faces change).
     Amd,
-    /// Whichever of AMD and our nested dissection ([`super::dissection`]) needs fewer flops:
-    /// up to 1.8× fewer on round closed objects, for an analysis about twice as long.
+    /// Whichever of AMD and our nested dissection (the private `linalg::dissection`) needs fewer
+    /// flops: up to 1.8× fewer on round closed objects, for an analysis about twice as long.
     #[default]
     FewerFlops,
 }
@@ -173,7 +173,7 @@ pub struct SymbolicFactor {
 
 impl SymbolicFactor {
     /// Runs the symbolic analysis of `pattern`: the whole pattern in the fill-reducing order of
-    /// the two, AMD and nested dissection ([`super::dissection`], leaves in AMD order), whose
+    /// the two, AMD and nested dissection (`linalg::dissection`, leaves in AMD order), whose
     /// factorization needs fewer flops (AMD on a tie), then the elimination tree and supernodes.
     ///
     /// Submatrices of coupled rows stay in AMD's order restricted to them, whichever order the
@@ -533,9 +533,9 @@ impl NumericFactor {
 
     /// [`Self::factorize`], on the rows `other` (a factor of the same region, factorized in the
     /// same frame) last factorized instead of this matrix's own coupled rows, when those are
-    /// among them and not many fewer ([`WITHIN_MAX_EXTRA_ROWS`]): the analysis of `other`'s rows
-    /// is already made (the region's own one when `other` factorized the whole region), and an
-    /// analysis costs more than factorizing a few extra rows. The extra rows have no off-diagonal
+    /// among them and not many fewer (at most 60% more, `WITHIN_MAX_EXTRA_ROWS`): the analysis of
+    /// `other`'s rows is already made (the region's own one when `other` factorized the whole
+    /// region), and an analysis costs more than factorizing a few extra rows. The extra rows have no off-diagonal
     /// value here, so they add their 1 × 1 pivots and exact zeros; the other rows are eliminated in
     /// `other`'s order, so the factor equals the one of [`Self::factorize`] up to round-off.
     /// `other` must be a function of the current matrices only (not of the frames before), for the

@@ -139,7 +139,8 @@ impl Elimination {
         Ok(eliminate(n, col_ptr, row_idx, slot, order, &order_inverse))
     }
 
-    /// `Σ_j c_j²` over the column counts (see [`factorization_flops`]).
+    /// The multiply-adds of a factorization in this order: `Σ_j c_j²` over the column counts of
+    /// `L` (the elimination's own cost, before supernodes pad it).
     pub(super) fn flops(&self) -> f64 {
         self.counts.iter().map(|&c| (c * c) as f64).sum()
     }
