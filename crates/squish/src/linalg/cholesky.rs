@@ -535,9 +535,10 @@ impl NumericFactor {
     /// same frame) last factorized instead of this matrix's own coupled rows, when those are
     /// among them and not many fewer (at most 60% more, `WITHIN_MAX_EXTRA_ROWS`): the analysis of
     /// `other`'s rows is already made (the region's own one when `other` factorized the whole
-    /// region), and an analysis costs more than factorizing a few extra rows. The extra rows have no off-diagonal
-    /// value here, so they add their 1 × 1 pivots and exact zeros; the other rows are eliminated in
-    /// `other`'s order, so the factor equals the one of [`Self::factorize`] up to round-off.
+    /// region), and an analysis costs more than factorizing a few extra rows. The extra rows have
+    /// no off-diagonal value here, so they add their 1 × 1 pivots and exact zeros; the other rows
+    /// are eliminated in `other`'s order, so the factor equals the one of [`Self::factorize`] up
+    /// to round-off.
     /// `other` must be a function of the current matrices only (not of the frames before), for the
     /// result not to depend on the order frames are computed in. `None`, a factor of another
     /// region or an unfactorized one: [`Self::factorize`].
