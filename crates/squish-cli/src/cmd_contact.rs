@@ -85,8 +85,9 @@ struct Timings {
 const LABELS: [Label; 4] = [Label::Outside, Label::Intersection, Label::Mapping, Label::Contact];
 
 pub fn run(args: &ContactArgs) -> Result<(), CliError> {
-    let settings = pair_settings(args.params.as_deref(), &args.sets)?;
+    let mut settings = pair_settings(args.params.as_deref(), &args.sets)?;
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
+    settings.complete(&inputs)?;
     let stems = output_stems(&inputs[0], &inputs[1]);
     let mut prepared = Vec::new();
     for (input, name) in inputs.iter().zip(&stems) {
@@ -98,7 +99,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         let (topology, normals, bvh): &(Topology, _, TriangleBvh) = &prepared[i];
         ContactSide::new(&inputs[i].mesh, topology, normals, bvh)
             .with_name(&stems[i])
-            .with_stiffness(params.contact_stiffness())
+            .with_stiffness(squish::contact::Stiffness::of(params))
     };
     let result = contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair)
         .map_err(|e| CliError::input(e.to_string()))?;

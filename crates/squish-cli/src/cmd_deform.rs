@@ -51,7 +51,7 @@ struct DeformReport<'a> {
 struct Parameters<'a> {
     a: &'a squish::ObjectParams,
     b: &'a squish::ObjectParams,
-    pair: &'a squish::contact::PairParams,
+    pair: &'a squish::PairParams,
 }
 
 /// Deepest penetration of either closed mesh into the other, or `None` if one is open.
@@ -62,8 +62,9 @@ pub fn deepest_penetration(a: &squish::TriMesh, b: &squish::TriMesh) -> Option<f
 }
 
 pub fn run(args: &DeformArgs) -> Result<(), CliError> {
-    let settings: PairSettings = pair_settings(args.params.as_deref(), &args.sets)?;
+    let mut settings: PairSettings = pair_settings(args.params.as_deref(), &args.sets)?;
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
+    settings.complete(&inputs)?;
     let stems = output_stems(&inputs[0], &inputs[1]);
     let names = [stems[0].as_str(), stems[1].as_str()];
     let frame = Frame {

@@ -20,7 +20,7 @@ use clap::Args;
 use glam::DVec3;
 use serde::Serialize;
 use squish::ObjectParams;
-use squish::contact::PairParams;
+use squish::PairParams;
 use squish::mesh::shapes;
 use squish::pipeline::FramePair;
 use squish::pipeline::scenes::{self, ProceduralScene, SceneObject};

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::Args;
 use serde_json::json;
 use squish_io::Scene;
-use squish_io::scene::{ContactMethod, MeshSource, OutputFormat, OutputSpec};
+use squish_io::scene::{MeshSource, OutputFormat, OutputSpec};
 
 use crate::console::say;
 use crate::error::CliError;
@@ -260,7 +260,8 @@ fn print_dry_run(
             MeshSource::Sequence { pattern, .. } => format!("sequence {}", pattern.display()),
             MeshSource::Gltf(g) => format!("glTF {}", g.file.display()),
         };
-        let kind = if spec.rigid { "rigid".to_string() } else { format!("stiffness {}", object.params.stiffness) };
+        let kind =
+            if object.params.rigid { "rigid".to_string() } else { format!("stiffness {}", object.params.stiffness) };
         let vertices = object.mesh.num_vertices();
         let written = n.vertex_count(vertices);
         let numbering = if written == vertices { String::new() } else { format!(", {written} in the file") };
@@ -274,9 +275,9 @@ fn print_dry_run(
             say!("  {:<16} note: {note}", "");
         }
         for a in &object.params.self_contact {
-            let direction = match a.direction {
-                squish::skinning::ArticulationDirection::Joints(_) => "direction from the joints".to_string(),
-                squish::skinning::ArticulationDirection::Fixed(d) => format!("direction [{}, {}, {}]", d.x, d.y, d.z),
+            let direction = match a.params.direction {
+                None => "direction from the joints".to_string(),
+                Some(d) => format!("direction [{}, {}, {}]", d.x, d.y, d.z),
             };
             say!(
                 "  {:<16} self-contact \"{}\": regions of {} and {} vertices, {direction}",
@@ -291,12 +292,9 @@ fn print_dry_run(
     if description.pairs.is_empty() {
         say!("  none (the objects are copied unchanged)");
     }
-    for pair in &description.pairs {
-        let method = match pair.contact_method {
-            ContactMethod::Geometric => "geometric",
-            ContactMethod::Ball { .. } => "ball",
-        };
-        say!("  {} / {}: {method} contact", pair.objects[0], pair.objects[1]);
+    for pair in &first.pairs {
+        let [a, b] = pair.objects.map(|i| first.objects[i].name.as_str());
+        say!("  {a} / {b}: {} contact", pair.params.contact_method.name());
     }
     let ext = output.format.extension();
     match output.format {

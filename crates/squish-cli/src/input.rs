@@ -60,6 +60,11 @@ impl InputMesh {
         Ok(Self { path: path.to_path_buf(), format, file, mesh, welded })
     }
 
+    /// File vertex → processed vertex, when the file was welded.
+    pub fn weld_map(&self) -> Option<&[u32]> {
+        self.welded.as_deref()
+    }
+
     /// The file name without its extension.
     pub fn stem(&self) -> String {
         self.path.file_stem().map_or_else(|| "mesh".to_string(), |s| s.to_string_lossy().into_owned())

@@ -10,6 +10,7 @@ mod cmd_contact;
 mod cmd_deform;
 mod cmd_demo;
 mod cmd_info;
+mod cmd_params;
 mod cmd_run;
 mod console;
 mod error;
@@ -20,6 +21,8 @@ mod preview;
 mod quality;
 mod report;
 mod scene_shot;
+#[cfg(test)]
+mod schema_tests;
 mod shot;
 
 use std::process::ExitCode;
@@ -54,6 +57,8 @@ enum Command {
     Demo(cmd_demo::DemoArgs),
     /// Time the pipeline on reproducible scenes at the thesis' sizes.
     Bench(cmd_bench::BenchArgs),
+    /// List every parameter: key, type, default, valid range, thesis symbol and meaning.
+    Params(cmd_params::ParamsArgs),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +70,7 @@ fn main() -> ExitCode {
         Command::Run(args) => cmd_run::run(&args),
         Command::Demo(args) => cmd_demo::run(&args),
         Command::Bench(args) => cmd_bench::run(&args),
+        Command::Params(args) => cmd_params::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,21 +1,24 @@
 //! Parameters from the command line: `--params FILE.toml` and `--set KEY=VALUE`.
 //!
-//! The keys are the library's own field names ([`ObjectParams`], [`PairParams`]) with a prefix
-//! naming what they apply to: `a.` and `b.` for the two objects, `pair.` for the pair. Nested
-//! fields use dots (`a.profile.x2=0.4`). The command line never re-declares a parameter: values
-//! are merged into the serialized defaults and deserialized back, so every field of the library
-//! is settable and an unknown key is an error that lists the valid ones.
+//! Keys are the library's schema keys ([`squish::params`]) with a prefix naming what they apply
+//! to: `a.` and `b.` for the two objects, `pair.` for the pair (`--set a.stiffness=2`,
+//! `--set pair.contact_method=ball --set pair.ball_radius=0.3`). A parameters file has the same
+//! keys in tables `[a]`, `[b]`, `[pair]`. Nothing here lists parameters: every key of the schema
+//! is settable, and an unknown key is an error with the key meant.
 //!
-//! Values: numbers, `true`/`false`, comma-separated vectors (`0,1,0`), `auto`/`none` for
-//! optional values left to the library (an automatic extent or mapping direction), or JSON.
+//! Values are read by the key's kind ([`squish::params::ParamInfo::parse`]): numbers, `true` /
+//! `false`, vectors `0,1,0`, words (`auto`, `ball` …). A per-vertex parameter (`bulge_map`,
+//! `region_mask`) is a list of numbers, a text file with one number per line, or an attribute
+//! (`{ file = "mesh.ply", attribute = "bulge" }`); files are read with the meshes
+//! ([`PairSettings::read_per_vertex`]).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use serde_json::{Map, Value};
-use squish::ObjectParams;
-use squish::contact::PairParams;
+use squish::params::{ObjectParams, PairParams, ParamError, ParamKind, ParamValue, Params};
+use squish_io::scene::{VertexData, param_value, read_vertex_map};
 
 use crate::error::CliError;
+use crate::input::InputMesh;
 
 /// Parameters of a two-object command (`contact`, `deform`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -23,190 +26,257 @@ pub struct PairSettings {
     pub a: ObjectParams,
     pub b: ObjectParams,
     pub pair: PairParams,
+    /// Per-vertex parameters given as files: (object 0 or 1, key, data, where it was given).
+    per_vertex: Vec<(usize, &'static str, VertexData, String)>,
 }
 
-/// Reads `--params` (if any), then applies every `--set`, in order.
-pub fn pair_settings(params_file: Option<&Path>, sets: &[String]) -> Result<PairSettings, CliError> {
-    let defaults = PairSettings::default();
-    let mut values = Map::new();
-    values.insert("a".into(), to_json(&defaults.a)?);
-    values.insert("b".into(), to_json(&defaults.b)?);
-    values.insert("pair".into(), to_json(&defaults.pair)?);
-    let mut root = Value::Object(values);
-    if let Some(path) = params_file {
+/// Where a value comes from, for messages: `--set a.extent=-1`, `params.toml: [a]`.
+fn set_error(context: &str, e: ParamError) -> CliError {
+    CliError::input(format!("{context}: {e}"))
+}
+
+impl PairSettings {
+    /// The object of a prefix (`a` → 0, `b` → 1).
+    fn object(&mut self, which: usize) -> &mut ObjectParams {
+        if which == 0 { &mut self.a } else { &mut self.b }
+    }
+
+    /// Sets `prefix.key` to a value read by `read` (from `--set` text or a file's value).
+    fn set(
+        &mut self,
+        prefix: &str,
+        key: &str,
+        context: &str,
+        mut read: impl FnMut(&squish::params::ParamInfo) -> Result<Option<ParamValue>, String>,
+    ) -> Result<(), CliError> {
+        let unknown_prefix = || {
+            CliError::input(format!(
+                "{context}: \"{prefix}\" is not a, b or pair; write a.KEY, b.KEY or pair.KEY (see `squish params`)"
+            ))
+        };
+        let fail = |info: &squish::params::ParamInfo, message: String| {
+            set_error(context, ParamError::new(&info.qualified(prefix), None, message))
+        };
+        match prefix {
+            "a" | "b" => {
+                let which = usize::from(prefix == "b");
+                let info = ObjectParams::info(key).ok_or_else(|| {
+                    set_error(context, squish::params::unknown_key::<ObjectParams>(key).with_prefix(prefix))
+                })?;
+                match read(info).map_err(|m| fail(info, m))? {
+                    Some(value) => {
+                        self.per_vertex.retain(|(w, k, ..)| !(*w == which && *k == info.key));
+                        self.object(which).set(key, &value).map_err(|e| set_error(context, e.with_prefix(prefix)))
+                    }
+                    None => Ok(()),
+                }
+            }
+            "pair" => {
+                let info = PairParams::info(key).ok_or_else(|| {
+                    set_error(context, squish::params::unknown_key::<PairParams>(key).with_prefix(prefix))
+                })?;
+                match read(info).map_err(|m| fail(info, m))? {
+                    Some(value) => self.pair.set(key, &value).map_err(|e| set_error(context, e.with_prefix(prefix))),
+                    None => Ok(()),
+                }
+            }
+            _ => Err(unknown_prefix()),
+        }
+    }
+
+    /// Applies `--set KEY=VALUE`.
+    pub fn apply_set(&mut self, set: &str) -> Result<(), CliError> {
+        let context = format!("--set {set}");
+        let (key, text) = set
+            .split_once('=')
+            .ok_or_else(|| CliError::input(format!("{context}: expected KEY=VALUE, e.g. --set a.extent=0.4")))?;
+        let (prefix, key) = key.trim().split_once('.').ok_or_else(|| {
+            CliError::input(format!("{context}: the key needs its object: a.{0}, b.{0} or pair.{0}", key.trim()))
+        })?;
+        let text = text.trim().to_string();
+        let which = usize::from(prefix == "b");
+        let mut file = None;
+        self.set(prefix, key, &context, |info| {
+            if info.kind == ParamKind::PerVertex && !info.parse(&text).is_ok_and(|v| matches!(v, ParamValue::List(_))) {
+                let data = if text.starts_with('{') {
+                    let value: toml::Value = toml::from_str(&format!("v = {text}"))
+                        .map_err(|e| format!("cannot read {text}: {}", e.message()))?;
+                    VertexData::from_value(&value["v"])?
+                } else {
+                    VertexData::Text { file: PathBuf::from(&text) }
+                };
+                file = Some((info.key, data));
+                return Ok(None);
+            }
+            info.parse(&text).map(Some)
+        })?;
+        if let Some((key, data)) = file {
+            self.per_vertex.push((which, key, data, context));
+        }
+        Ok(())
+    }
+
+    /// Merges a parameters file: tables `[a]`, `[b]`, `[pair]` of schema keys.
+    pub fn apply_file(&mut self, path: &Path) -> Result<(), CliError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CliError::input(format!("cannot read parameters {}: {e}", path.display())))?;
         let table: toml::Table = toml::from_str(&text)
             .map_err(|e| CliError::input(format!("{}: {}", path.display(), e.to_string().trim())))?;
-        let file_values = serde_json::to_value(table)?;
-        merge(&mut root, &file_values, "", &path.display().to_string())?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        for (prefix, entries) in &table {
+            let context = format!("{}: [{prefix}]", path.display());
+            let toml::Value::Table(entries) = entries else {
+                return Err(CliError::input(format!(
+                    "{}: \"{prefix}\" must be a table [a], [b] or [pair] of parameters",
+                    path.display()
+                )));
+            };
+            for (key, value) in entries {
+                let which = usize::from(prefix == "b");
+                let mut file = None;
+                self.set(prefix, key, &context, |info| {
+                    if info.kind == ParamKind::PerVertex && !matches!(value, toml::Value::Array(_)) {
+                        let mut data = VertexData::from_value(value)?;
+                        if let Some(f) = data.file_mut().filter(|f| f.is_relative()) {
+                            *f = base.join(&*f);
+                        }
+                        file = Some((info.key, data));
+                        return Ok(None);
+                    }
+                    param_value(value).map(Some).map_err(|m| format!("{m}; expected {}", info.expected()))
+                })?;
+                if let Some((key, data)) = file {
+                    self.per_vertex.push((which, key, data, context.clone()));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Completes the settings for the two meshes: reads the per-vertex parameters given as
+    /// files, then checks every parameter.
+    pub fn complete(&mut self, inputs: &[InputMesh; 2]) -> Result<(), CliError> {
+        self.read_per_vertex(inputs)?;
+        self.validate()
+    }
+
+    /// Reads the per-vertex parameters given as files, for the two meshes.
+    fn read_per_vertex(&mut self, inputs: &[InputMesh; 2]) -> Result<(), CliError> {
+        for (which, key, data, context) in std::mem::take(&mut self.per_vertex) {
+            let input = &inputs[which];
+            let values = read_vertex_map(&data, &input.path, input.mesh.num_vertices(), input.weld_map(), key)?;
+            self.object(which)
+                .set(key, &ParamValue::List(values))
+                .map_err(|e| set_error(&context, e.with_prefix(if which == 0 { "a" } else { "b" })))?;
+        }
+        Ok(())
+    }
+
+    /// Checks every parameter and the conditions between them.
+    pub(crate) fn validate(&self) -> Result<(), CliError> {
+        let check = |prefix: &str, result: Result<(), ParamError>| {
+            result.map_err(|e| CliError::input(format!("parameters: {}", e.with_prefix(prefix))))
+        };
+        check("a", self.a.validate())?;
+        check("b", self.b.validate())?;
+        check("pair", self.pair.validate())
+    }
+}
+
+/// Reads `--params` (if any), then applies every `--set`, in order.
+pub fn pair_settings(params_file: Option<&Path>, sets: &[String]) -> Result<PairSettings, CliError> {
+    let mut settings = PairSettings::default();
+    if let Some(path) = params_file {
+        settings.apply_file(path)?;
     }
     for set in sets {
-        let (key, value) = set
-            .split_once('=')
-            .ok_or_else(|| CliError::input(format!("--set {set}: expected KEY=VALUE, e.g. --set a.extent=0.4")))?;
-        let path: Vec<&str> = key.trim().split('.').collect();
-        set_path(&mut root, &path, parse_value(value.trim()), &format!("--set {set}"))?;
+        settings.apply_set(set)?;
     }
-    let take = |name: &str| root.get(name).cloned().unwrap_or(Value::Null);
-    Ok(PairSettings {
-        a: from_json(take("a"), "a")?,
-        b: from_json(take("b"), "b")?,
-        pair: from_json(take("pair"), "pair")?,
-    })
-}
-
-fn to_json<T: serde::Serialize>(value: &T) -> Result<Value, CliError> {
-    Ok(serde_json::to_value(value)?)
-}
-
-fn from_json<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T, CliError> {
-    serde_json::from_value(value).map_err(|e| CliError::input(format!("parameters of \"{prefix}\": {e}")))
-}
-
-/// A command-line value as JSON.
-pub fn parse_value(text: &str) -> Value {
-    match text {
-        "auto" | "none" | "null" => return Value::Null,
-        "true" => return Value::Bool(true),
-        "false" => return Value::Bool(false),
-        _ => {}
-    }
-    if let Ok(number) = text.parse::<f64>()
-        && let Some(n) = serde_json::Number::from_f64(number)
-    {
-        return Value::Number(n);
-    }
-    if text.contains(',') && !text.starts_with('[') {
-        let parts: Vec<Value> = text.split(',').map(|p| parse_value(p.trim())).collect();
-        return Value::Array(parts);
-    }
-    serde_json::from_str(text).unwrap_or_else(|_| Value::String(text.to_string()))
-}
-
-/// Sets `root[path] = value`, refusing keys that the defaults do not have.
-fn set_path(root: &mut Value, path: &[&str], value: Value, context: &str) -> Result<(), CliError> {
-    let mut node = root;
-    for (depth, key) in path.iter().enumerate() {
-        let Value::Object(map) = node else {
-            return Err(CliError::input(format!("{context}: \"{}\" has no fields", path[..depth].join("."))));
-        };
-        if !map.contains_key(*key) {
-            let mut valid: Vec<&String> = map.keys().collect();
-            valid.sort();
-            let valid: Vec<String> = valid.iter().map(|k| format!("{}{k}", prefix_of(&path[..depth]))).collect();
-            return Err(CliError::input(format!(
-                "{context}: unknown key \"{}\"; valid keys here: {}",
-                path[..=depth].join("."),
-                valid.join(", ")
-            )));
-        }
-        if depth + 1 == path.len() {
-            map.insert((*key).to_string(), value);
-            return Ok(());
-        }
-        // Optional sub-structures left at `null` become objects when a field of them is set.
-        let child = map.get_mut(*key).ok_or_else(|| CliError::input(format!("{context}: bad key")))?;
-        node = child;
-    }
-    Err(CliError::input(format!("{context}: empty key")))
-}
-
-fn prefix_of(path: &[&str]) -> String {
-    if path.is_empty() { String::new() } else { format!("{}.", path.join(".")) }
-}
-
-/// Merges a parameters file (tables `[a]`, `[b]`, `[pair]`) into the defaults.
-fn merge(root: &mut Value, file: &Value, prefix: &str, source: &str) -> Result<(), CliError> {
-    let Value::Object(entries) = file else { return Ok(()) };
-    for (key, value) in entries {
-        let path = if prefix.is_empty() { key.clone() } else { format!("{prefix}.{key}") };
-        let is_table = matches!(value, Value::Object(_));
-        let existing_is_table = path_value(root, &path).is_some_and(Value::is_object);
-        if is_table && existing_is_table {
-            merge(root, value, &path, source)?;
-        } else {
-            let parts: Vec<&str> = path.split('.').collect();
-            set_path(root, &parts, value.clone(), source)?;
-        }
-    }
-    Ok(())
-}
-
-fn path_value<'v>(root: &'v Value, path: &str) -> Option<&'v Value> {
-    path.split('.').try_fold(root, |node, key| node.get(key))
+    Ok(settings)
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use squish::params::{ContactMethod, DirectionFieldMethod, MappingMethod, RegionChoice};
 
-    #[test]
-    fn set_applies_values_to_the_library_structures() {
-        let sets: Vec<String> = [
-            "b.rigid=true",
-            "a.extent=0.4",
-            "pair.contact_tau=0.5",
-            "pair.direction=0,1,0",
-            "a.bulge=1.5",
-            "a.profile.x2=0.4",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        let settings = pair_settings(None, &sets).unwrap();
-        assert!(settings.b.rigid);
-        assert_eq!(settings.a.extent, Some(0.4));
-        assert_eq!(settings.pair.contact_tau, 0.5);
-        assert_eq!(settings.pair.direction, Some(glam::DVec3::Y));
-        assert_eq!(settings.a.bulge, 1.5);
-        assert_eq!(settings.a.profile.x2, 0.4);
-        let settings = pair_settings(None, &["a.extent=auto".into()]).unwrap();
-        assert_eq!(settings.a.extent, None);
-        // Method A's choices and working regions, as words or JSON.
-        let sets: Vec<String> = [
-            "b.direction_field=parallel_transport",
-            r#"pair.contact_method={"ball":{"radius":0.3}}"#,
-            "pair.mapping=shared_parametrization",
-            "a.region=components",
-            r#"b.region={"distance":0.5}"#,
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        let settings = pair_settings(None, &sets).unwrap();
-        assert_eq!(settings.b.direction_field, squish::deform::DirectionFieldMethod::ParallelTransport);
-        assert_eq!(settings.pair.contact_method, squish::contact::ContactMethod::Ball { radius: 0.3 });
-        assert_eq!(settings.pair.mapping, squish::contact::MappingMethod::SharedParametrization);
-        assert_eq!(settings.a.region, squish::pipeline::WorkingRegion::Components);
-        assert_eq!(settings.b.region, squish::pipeline::WorkingRegion::Distance(0.5));
+    fn sets(items: &[&str]) -> Vec<String> {
+        items.iter().map(|s| s.to_string()).collect()
     }
 
     #[test]
-    fn unknown_keys_and_bad_values_are_errors() {
-        let err = pair_settings(None, &["a.extnet=0.4".into()]).unwrap_err().to_string();
-        assert!(err.contains("a.extnet") && err.contains("a.extent"), "{err}");
-        let err = pair_settings(None, &["c.extent=0.4".into()]).unwrap_err().to_string();
-        assert!(err.contains("\"c\""), "{err}");
-        let err = pair_settings(None, &["a.stiffness=soft".into()]).unwrap_err().to_string();
-        assert!(err.contains("parameters of \"a\""), "{err}");
-        let err = pair_settings(None, &["a.extent".into()]).unwrap_err().to_string();
-        assert!(err.contains("KEY=VALUE"), "{err}");
+    fn set_applies_values_to_the_library_structures() {
+        let s = pair_settings(
+            None,
+            &sets(&[
+                "b.rigid=true",
+                "a.extent=0.4",
+                "pair.contact_tau=0.5",
+                "pair.direction=0,1,0",
+                "a.bulge=1.5",
+                "a.profile_v2=0.4",
+                "b.direction_field=parallel_transport",
+                "pair.contact_method=ball",
+                "pair.ball_radius=0.3",
+                "pair.mapping=shared_parametrization",
+                "a.region=components",
+                "b.region=distance",
+                "b.region_distance=0.5",
+            ]),
+        )
+        .unwrap();
+        assert!(s.b.rigid);
+        assert_eq!((s.a.extent, s.a.bulge, s.a.profile_v2), (Some(0.4), 1.5, 0.4));
+        assert_eq!((s.pair.contact_tau, s.pair.direction), (0.5, Some(glam::DVec3::Y)));
+        assert_eq!((s.pair.contact_method, s.pair.ball()), (ContactMethod::Ball, Some(0.3)));
+        assert_eq!(s.pair.mapping, MappingMethod::SharedParametrization);
+        assert_eq!(s.b.direction_field, DirectionFieldMethod::ParallelTransport);
+        assert_eq!(
+            (s.a.region, s.b.region, s.b.region_distance),
+            (RegionChoice::Components, RegionChoice::Distance, 0.5)
+        );
+        assert_eq!(pair_settings(None, &sets(&["a.extent=auto"])).unwrap().a.extent, None);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_name_the_key_and_the_fix() {
+        let err = |items: &[&str]| pair_settings(None, &sets(items)).unwrap_err().to_string();
+        let e = err(&["a.extnet=0.4"]);
+        assert!(e.contains("a.extnet") && e.contains("did you mean \"a.extent\""), "{e}");
+        let e = err(&["c.extent=0.4"]);
+        assert!(e.contains("\"c\" is not a, b or pair"), "{e}");
+        let e = err(&["a.stiffness=soft"]);
+        assert!(e.contains("a.stiffness") && e.contains("cannot read \"soft\""), "{e}");
+        let e = err(&["a.stiffness=nan"]);
+        assert!(e.contains("a.stiffness") && e.contains("cannot read \"nan\""), "{e}");
+        let e = err(&["a.rigid=maybe"]);
+        assert!(e.contains("a.rigid") && e.contains("true or false"), "{e}");
+        let e = err(&["a.extent"]);
+        assert!(e.contains("KEY=VALUE"), "{e}");
+        let e = err(&["a.profile.x2=0.4"]);
+        assert!(e.contains("renamed (did you mean \"a.profile_v2\""), "{e}");
+        let e = err(&["pair.safeguard_angle_degrees=70"]);
+        assert!(e.contains("renamed (did you mean \"pair.safeguard_angle\""), "{e}");
+        let s = pair_settings(None, &sets(&["pair.contact_method=ball"])).unwrap();
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains("pair.ball_radius") && e.contains("needs ball_radius"), "{e}");
     }
 
     #[test]
     fn a_parameters_file_is_merged_then_overridden_by_set() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("params.toml");
-        std::fs::write(&path, "[a]\nextent = 0.3\nbulge = 2.0\n[a.profile]\nx2 = 0.45\n[pair]\ncontact_tau = -0.5\n")
+        std::fs::write(&path, "[a]\nextent = 0.3\nbulge = 2.0\nprofile_v2 = 0.45\n[pair]\ncontact_tau = -0.5\n")
             .unwrap();
-        let settings = pair_settings(Some(&path), &["a.bulge=0.5".into()]).unwrap();
-        assert_eq!(settings.a.extent, Some(0.3));
-        assert_eq!(settings.a.bulge, 0.5);
-        assert_eq!(settings.a.profile.x2, 0.45);
-        assert_eq!(settings.pair.contact_tau, -0.5);
+        let s = pair_settings(Some(&path), &sets(&["a.bulge=0.5"])).unwrap();
+        assert_eq!((s.a.extent, s.a.bulge, s.a.profile_v2, s.pair.contact_tau), (Some(0.3), 0.5, 0.45, -0.5));
         std::fs::write(&path, "[a]\nstifness = 2\n").unwrap();
-        let err = pair_settings(Some(&path), &[]).unwrap_err().to_string();
-        assert!(err.contains("stifness") && err.contains("params.toml"), "{err}");
+        let e = pair_settings(Some(&path), &[]).unwrap_err().to_string();
+        assert!(e.contains("stifness") && e.contains("params.toml"), "{e}");
+        std::fs::write(&path, "[a]\nstiffness = nan\n").unwrap();
+        let e = pair_settings(Some(&path), &[]).unwrap_err().to_string();
+        assert!(e.contains("params.toml: [a]: a.stiffness = NaN: must be > 0"), "{e}");
     }
 }

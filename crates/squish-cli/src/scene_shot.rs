@@ -6,81 +6,20 @@
 use std::path::PathBuf;
 
 use glam::DVec3;
-use squish::contact::{ContactMethod, PairParams};
-use squish::deform::{ProfileShape, Wrinkles};
-use squish::pipeline::{FramePair, WorkingRegion};
-use squish::{ObjectParams, TriMesh};
-use squish_io::scene::{
-    ContactMethodFrame, FramePattern, MeshSource, ObjectFrame, PairFrame, PreserveVolume, RegionFrame, Weld,
-};
+use squish::TriMesh;
+use squish::pipeline::FramePair;
+use squish_io::scene::{FramePattern, MeshSource, Weld};
 use squish_io::{FrameSpec, GltfReadOptions, Scene, WeldMode, read_gltf, read_mesh, weld_positions};
 
 use crate::error::CliError;
 use crate::shot::{ShotFrame, ShotObject, ShotSource};
 
-/// The library's parameters for an object at a frame.
-pub fn object_params(object: &ObjectFrame) -> ObjectParams {
-    let defaults = ObjectParams::default();
-    ObjectParams {
-        rigid: object.rigid,
-        stiffness: object.stiffness,
-        extent: object.extent,
-        bulge: object.bulge,
-        bulge_height: object.bulge_height,
-        preserve_volume: match object.preserve_volume {
-            PreserveVolume::Auto => None,
-            PreserveVolume::On => Some(true),
-            PreserveVolume::Off => Some(false),
-        },
-        profile: ProfileShape { x2: object.profile.v2, x3: object.profile.v3, x4: object.profile.v4 },
-        wrinkles: Wrinkles { amplitude: object.profile.wrinkle_amplitude, frequency: object.profile.wrinkle_frequency },
-        anisotropy: object.anisotropy.is_some(),
-        anisotropy_exponent: object.anisotropy.map_or(defaults.anisotropy_exponent, |a| a.exponent),
-        anisotropy_offset: object.anisotropy.map_or(defaults.anisotropy_offset, |a| a.offset),
-        bulge_map: object.bulge_map.as_deref().map(<[f64]>::to_vec),
-        self_contact: object.self_contact.iter().map(|a| a.to_articulation()).collect(),
-        rest_positions: object.rest_positions.as_deref().map(<[DVec3]>::to_vec),
-        ..defaults
-    }
-}
-
-/// The library's parameters for a pair at a frame.
-pub fn pair_params(pair: &PairFrame) -> PairParams {
-    let contact_method = match pair.contact_method {
-        ContactMethodFrame::Geometric => ContactMethod::Geometric,
-        ContactMethodFrame::Ball { radius } => ContactMethod::Ball { radius },
-    };
-    PairParams { contact_tau: pair.contact_tau, direction: pair.direction, contact_method, ..PairParams::default() }
-}
-
-/// The library's working region of an object at a frame.
-fn working_region(region: &RegionFrame) -> WorkingRegion {
-    match region {
-        RegionFrame::Whole => WorkingRegion::Whole,
-        RegionFrame::Mask(mask) => WorkingRegion::Mask(mask.to_vec()),
-        RegionFrame::Distance(distance) => WorkingRegion::Distance(*distance),
-    }
-}
-
-/// A scene frame as the library's frame: every object, and the pairs enabled at this frame.
-///
-/// The only place where scene values become library values; the library checks them (and its
-/// errors name the object or pair).
+/// A scene frame as the library's frame: every object with its parameters, every pair (the
+/// library leaves out the pairs disabled at this frame).
 pub fn library_frame(spec: FrameSpec) -> ShotFrame {
-    let pairs = spec
-        .pairs
-        .iter()
-        .filter(|p| p.enabled)
-        .map(|pair| FramePair { objects: pair.objects, params: pair_params(pair) })
-        .collect();
-    let objects = spec
-        .objects
-        .into_iter()
-        .map(|o| {
-            let params = ObjectParams { region: working_region(&o.region), ..object_params(&o) };
-            ShotObject { name: o.name, mesh: o.mesh, params }
-        })
-        .collect();
+    let pairs = spec.pairs.iter().map(|pair| FramePair { objects: pair.objects, params: pair.params }).collect();
+    let objects =
+        spec.objects.into_iter().map(|o| ShotObject { name: o.name, mesh: o.mesh, params: o.params }).collect();
     ShotFrame { objects, pairs }
 }
 
@@ -203,90 +142,28 @@ fn source_file_mesh(source: &MeshSource, scene: &Scene) -> Result<TriMesh, Strin
 #[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 mod tests {
     use super::*;
-    use squish_io::scene::{AnisotropyValues, ProfileValues};
-    use std::sync::Arc;
-
-    fn object() -> ObjectFrame {
-        ObjectFrame {
-            name: "ball".into(),
-            mesh: squish::mesh::shapes::icosphere(1.0, 0),
-            rigid: false,
-            stiffness: 2.0,
-            extent: Some(0.4),
-            bulge: 1.5,
-            bulge_height: 0.1,
-            preserve_volume: PreserveVolume::Off,
-            profile: ProfileValues { v2: 0.3, v3: 0.8, v4: 0.9, wrinkle_amplitude: 0.01, wrinkle_frequency: 3.0 },
-            anisotropy: Some(AnisotropyValues { exponent: 3.0, offset: 0.2 }),
-            bulge_map: Some(Arc::from(vec![0.5; 12])),
-            region: RegionFrame::Whole,
-            self_contact: Vec::new(),
-            rest_positions: None,
-        }
-    }
+    use squish::{ObjectParams, PairParams};
+    use squish_io::scene::{ObjectFrame, PairFrame};
 
     #[test]
-    fn every_object_value_reaches_the_library() {
-        let p = object_params(&object());
-        assert!(!p.rigid);
-        assert_eq!((p.stiffness, p.extent, p.bulge, p.bulge_height), (2.0, Some(0.4), 1.5, 0.1));
-        assert_eq!(p.preserve_volume, Some(false));
-        assert_eq!((p.profile.x2, p.profile.x3, p.profile.x4), (0.3, 0.8, 0.9));
-        assert_eq!((p.wrinkles.amplitude, p.wrinkles.frequency), (0.01, 3.0));
-        assert!(p.anisotropy);
-        assert_eq!((p.anisotropy_exponent, p.anisotropy_offset), (3.0, 0.2));
-        assert_eq!(p.bulge_map.as_deref(), Some(&[0.5; 12][..]));
-    }
-
-    #[test]
-    fn articulations_and_the_rest_pose_reach_the_library() {
-        use squish::skinning::{ArticulationDirection, ArticulationParams};
-        use squish_io::scene::ArticulationFrame;
-        let mut o = object();
-        let params = ArticulationParams { contact_tau: 0.5, stiffness: [2.0, 0.5], ..ArticulationParams::default() };
-        let direction = ArticulationDirection::Joints([DVec3::NEG_X, DVec3::ZERO, DVec3::Y]);
-        o.self_contact = vec![ArticulationFrame {
-            name: "elbow".into(),
-            regions: Arc::new([vec![0, 1, 2], vec![2, 3]]),
-            direction,
-            params: params.clone(),
-        }];
-        o.rest_positions = Some(Arc::from(o.mesh.positions.clone()));
-        let p = object_params(&o);
-        let [a] = p.self_contact.as_slice() else { panic!("one articulation") };
-        assert_eq!(a.name, "elbow");
-        assert_eq!(a.regions, [vec![0, 1, 2], vec![2, 3]]);
-        assert_eq!(a.direction, direction);
-        assert_eq!(a.params, params);
-        assert_eq!(p.rest_positions.as_deref(), Some(o.mesh.positions.as_slice()));
-        assert!(object_params(&object()).self_contact.is_empty());
-    }
-
-    #[test]
-    fn regions_and_contact_methods_reach_the_library() {
-        let mut masked = object();
-        masked.region = RegionFrame::Mask(vec![true; 12].into());
-        let mut near = object();
-        near.region = RegionFrame::Distance(0.5);
+    fn every_object_and_pair_reaches_the_library_as_evaluated() {
+        let params = ObjectParams::default().with_extent(0.4).with_bulge(1.5).with_region_distance(0.5);
+        let object = ObjectFrame { name: "ball".into(), mesh: squish::mesh::shapes::icosphere(1.0, 0), params };
         let pair = PairFrame {
             objects: [0, 1],
             names: ["ball".into(), "ground".into()],
-            enabled: true,
-            contact_tau: 0.5,
-            direction: Some(DVec3::Z),
-            contact_method: ContactMethodFrame::Ball { radius: 0.3 },
+            params: PairParams::default().with_ball(0.3),
         };
-        let geometric = PairFrame { contact_method: ContactMethodFrame::Geometric, ..pair.clone() };
-        let disabled = PairFrame { enabled: false, ..pair.clone() };
-        let spec = FrameSpec { frame: 7.0, objects: vec![masked, near], pairs: vec![pair, geometric, disabled] };
+        let disabled = PairFrame { params: PairParams { enabled: false, ..pair.params }, ..pair.clone() };
+        let spec = FrameSpec {
+            frame: 7.0,
+            objects: vec![object.clone(), object.clone()],
+            pairs: vec![pair.clone(), disabled],
+        };
         let frame = library_frame(spec);
-        assert_eq!(frame.objects[0].params.region, WorkingRegion::Mask(vec![true; 12]));
-        assert_eq!(frame.objects[1].params.region, WorkingRegion::Distance(0.5));
-        // Disabled pairs are left out.
-        assert_eq!(frame.pairs.len(), 2);
-        assert_eq!(frame.pairs[0].params.contact_method, ContactMethod::Ball { radius: 0.3 });
-        assert_eq!(frame.pairs[1].params.contact_method, ContactMethod::Geometric);
-        assert_eq!(frame.pairs[1].params.contact_tau, 0.5);
-        assert_eq!(frame.pairs[1].params.direction, Some(DVec3::Z));
+        assert_eq!(frame.objects[0].params, object.params);
+        assert_eq!(frame.pairs[0].params, pair.params);
+        // Disabled pairs reach the library, which leaves them out.
+        assert!(!frame.pairs[1].params.enabled);
     }
 }

@@ -218,11 +218,11 @@ fn ball_testing_and_working_regions_run_and_bad_arguments_are_clean_errors() {
     let dir = tempfile::tempdir().unwrap();
     write_meshes(dir.path(), 3);
     let scene = write_scene(dir.path(), 4, "obj");
-    let text = std::fs::read_to_string(&scene).unwrap() + "contact_method = { ball = 0.1 }\n";
+    let text = std::fs::read_to_string(&scene).unwrap() + "contact_method = \"ball\"\nball_radius = 0.1\n";
     let ball = dir.path().join("ball_method.toml");
     let method_a = text
         .replace("stiffness = 2.0", "rigid = true")
-        .replace("mesh = \"ball.obj\"", "mesh = \"ball.obj\"\nregion = { distance = 0.6 }");
+        .replace("mesh = \"ball.obj\"", "mesh = \"ball.obj\"\nregion = \"distance\"\nregion_distance = 0.6");
     std::fs::write(&ball, method_a).unwrap();
     let out = dir.path().join("ball_out");
     run(&ball, &out, &[]);

@@ -1,4 +1,5 @@
-//! Keyframed parameters (`squish::animation::Keyframed`): values at and between keys, clamping,
+//! Keyframed parameters (`squish::animation::Keyframed`, spelled in scene files as
+//! `squish_io::scene::Keyed`): values at and between keys, clamping,
 //! step, smoothness (C¹ at keys, no overshoot on monotone data), vectors and booleans, rejected
 //! key lists, and the three TOML spellings.
 
@@ -6,6 +7,7 @@
 
 use glam::DVec3;
 use squish::animation::{KeyInterpolation, KeyframeError, Keyframed};
+use squish_io::scene::Keyed;
 
 fn linear(keys: &[(f64, f64)]) -> Keyframed<f64> {
     Keyframed::keys(keys.to_vec(), KeyInterpolation::Linear).unwrap()
@@ -142,13 +144,13 @@ fn bad_keys_are_rejected() {
 
 #[derive(serde::Deserialize, serde::Serialize)]
 struct Doc {
-    a: Keyframed<f64>,
-    b: Keyframed<f64>,
-    c: Keyframed<f64>,
-    d: Keyframed<DVec3>,
-    e: Keyframed<DVec3>,
-    f: Keyframed<bool>,
-    g: Keyframed<bool>,
+    a: Keyed<f64>,
+    b: Keyed<f64>,
+    c: Keyed<f64>,
+    d: Keyed<DVec3>,
+    e: Keyed<DVec3>,
+    f: Keyed<bool>,
+    g: Keyed<bool>,
 }
 
 #[test]
@@ -165,12 +167,12 @@ fn toml_spellings() {
         "#,
     )
     .unwrap();
-    assert_eq!(doc.a, Keyframed::constant(2.0));
-    assert_eq!(doc.b, linear(&[(1.0, 0.5), (48.0, 2.0)]));
-    assert_eq!(doc.c, smooth(&[(1.0, 0.5), (48.0, 2.0)]));
-    assert_eq!(doc.d, Keyframed::constant(DVec3::Z));
+    assert_eq!(doc.a.0, Keyframed::constant(2.0));
+    assert_eq!(doc.b.0, linear(&[(1.0, 0.5), (48.0, 2.0)]));
+    assert_eq!(doc.c.0, smooth(&[(1.0, 0.5), (48.0, 2.0)]));
+    assert_eq!(doc.d.0, Keyframed::constant(DVec3::Z));
     assert_eq!(doc.e.at(24.5), DVec3::X);
-    assert_eq!(doc.f, Keyframed::constant(true));
+    assert_eq!(doc.f.0, Keyframed::constant(true));
     assert!(!doc.g.at(5.0) && doc.g.at(10.0));
 
     // JSON round trip keeps everything.
@@ -185,7 +187,7 @@ fn toml_spellings() {
 #[derive(Debug, serde::Deserialize)]
 #[allow(dead_code)]
 struct One {
-    x: Keyframed<f64>,
+    x: Keyed<f64>,
 }
 
 #[test]
@@ -199,11 +201,11 @@ fn toml_errors_name_the_problem_and_the_line() {
     let err = toml::from_str::<One>("x = { key = [[1, 2.0]] }").unwrap_err();
     assert!(err.to_string().contains("key"), "{err}");
     let err = toml::from_str::<One>("x = [[1, 2.0], 3]").unwrap_err();
-    assert!(err.to_string().contains("mixes"), "{err}");
+    assert!(err.to_string().contains("key 2 must be [frame, value]"), "{err}");
     let err = toml::from_str::<One>("x = [[1, 2.0, 3.0]]").unwrap_err();
     assert!(err.to_string().contains("[frame, value]"), "{err}");
     let err = toml::from_str::<One>("x = \"fast\"").unwrap_err();
     assert!(err.to_string().contains("a number, a list of [frame, value] keys"), "{err}");
     let err = toml::from_str::<One>("x = [1, 2, 3]").unwrap_err();
-    assert!(err.to_string().contains("not a number"), "{err}");
+    assert!(err.to_string().contains("expected a number, not a list of 3 values"), "{err}");
 }

@@ -12,8 +12,9 @@ use std::path::PathBuf;
 
 use common::*;
 use glam::DVec3;
+use squish::ArticulationParams;
 use squish::mesh::shapes;
-use squish::skinning::{ArticulationDirection, ArticulationParams};
+use squish::params::Articulation;
 use squish_io::scene::*;
 use squish_io::{IoError, write_obj};
 
@@ -80,11 +81,9 @@ fn close(a: DVec3, b: DVec3) -> bool {
     (a - b).length() < 1e-5
 }
 
-fn joints(direction: ArticulationDirection) -> [DVec3; 3] {
-    match direction {
-        ArticulationDirection::Joints(q) => q,
-        other => panic!("expected joints, got {other:?}"),
-    }
+fn joints(articulation: &Articulation) -> [DVec3; 3] {
+    assert_eq!(articulation.params.direction, None, "the direction comes from the joints");
+    articulation.joints.expect("joint positions")
 }
 
 #[test]
@@ -93,21 +92,18 @@ fn a_minimal_entry_takes_the_defaults_and_the_regions_of_the_skin() {
     let scene = shot.load("", ELBOW).unwrap();
     let entry = &scene.description().objects[0].self_contact[0];
     assert_eq!(entry.name, "elbow");
-    assert_eq!(entry.min_weight, None);
-    assert_eq!(entry.direction, SelfContactDirection::Joints);
-    assert_eq!(entry.contact_tau.at(1.0), -1.0);
-    assert_eq!(entry.stiffness.at(1.0), StiffnessPair([1.0, 1.0]));
+    assert!(entry.params.is_empty(), "no parameter given");
 
     let frame = scene.evaluate(1.0).unwrap();
     let object = &frame.objects[0];
     let n = object.mesh.num_vertices();
     assert_eq!(n, 21 * 12 + 2);
-    let rest = object.rest_positions.as_deref().unwrap();
+    let rest = object.params.rest_positions.as_deref().unwrap();
     assert_eq!(rest.len(), n);
     assert!(close(rest[0], DVec3::new(-1.0, 0.25, 0.0)));
-    let [a] = object.self_contact.as_slice() else { panic!("one articulation") };
+    let [a] = object.params.self_contact.as_slice() else { panic!("one articulation") };
     assert_eq!(a.params, ArticulationParams::default());
-    let [w1, w2] = &*a.regions;
+    let [w1, w2] = &a.regions;
     // Region 1: the root's influence ≥ 0.05 (x < 0.18); region 2: the elbow's (x > −0.18).
     let xs = |r: &[u32]| r.iter().map(|&v| rest[v as usize].x).collect::<Vec<_>>();
     assert!(xs(w1).iter().all(|&x| x < 0.19) && xs(w1).contains(&-1.0));
@@ -115,7 +111,7 @@ fn a_minimal_entry_takes_the_defaults_and_the_regions_of_the_skin() {
     let shared = w1.iter().filter(|v| w2.contains(v)).count();
     assert_eq!(shared, 3 * 12, "the blend rings x = −0.1, 0, 0.1 are in both");
     // At rest the joints are in a line along x.
-    let q = joints(a.direction);
+    let q = joints(a);
     assert!(close(q[0], DVec3::new(-1.0, 0.0, 0.0)) && close(q[1], DVec3::ZERO) && close(q[2], DVec3::X), "{q:?}");
     // The description (and so report.json's scene) writes the entry back.
     let json = scene.to_json().unwrap();
@@ -138,29 +134,28 @@ safeguard_angle = 70
 contact_gap = 0.001
 "#;
     let scene = shot.load("", entry).unwrap();
-    let at = |f: f64| scene.evaluate(f).unwrap().objects[0].self_contact[0].clone();
+    let at = |f: f64| scene.evaluate(f).unwrap().objects[0].params.self_contact[0].clone();
     let a = at(13.0);
-    let d = match a.direction {
-        ArticulationDirection::Fixed(d) => d,
-        other => panic!("{other:?}"),
-    };
-    assert!(close(d, DVec3::new(1.0, 1.0, 0.0).normalize()), "keyed direction, normalized: {d}");
+    let d = a.params.direction.expect("a given direction");
+    assert!(close(d, DVec3::new(0.5, 0.5, 0.0)), "keyed direction, interpolated: {d}");
+    assert_eq!(a.joints, None, "no joint positions when the direction is given");
     assert!((a.params.contact_tau - (-0.25)).abs() < 1e-12);
     assert_eq!(a.params.stiffness, [2.0, 0.5]);
     assert_eq!(a.params.extent, Some(0.3));
     assert_eq!(a.params.cut_regional_weight, 0.0, "step holds the first key");
     assert_eq!(at(25.0).params.cut_regional_weight, 2.0);
-    assert_eq!(a.params.safeguard_angle_degrees, 70.0);
+    assert_eq!(a.params.safeguard_angle, 70.0);
+    assert_eq!(a.params.min_weight, 0.5);
     assert_eq!(a.params.contact_gap, Some(0.001));
     // A larger min_weight gives smaller regions that no longer overlap much.
-    let [w1, w2] = &*a.regions;
+    let [w1, w2] = &a.regions;
     let default = shot.load("", ELBOW).unwrap();
     let d = default.evaluate(1.0).unwrap();
-    let [d1, d2] = &*d.objects[0].self_contact[0].regions;
+    let [d1, d2] = &d.objects[0].params.self_contact[0].regions;
     assert!(w1.len() < d1.len() && w2.len() < d2.len());
     // A single stiffness applies to both sides; a keyed one interpolates per side.
     let scene = shot.load("", &format!("{ELBOW}stiffness = [[1, [1, 3]], [25, 2]]\n")).unwrap();
-    let k = scene.evaluate(13.0).unwrap().objects[0].self_contact[0].params.stiffness;
+    let k = scene.evaluate(13.0).unwrap().objects[0].params.self_contact[0].params.stiffness;
     assert_eq!(k, [1.5, 2.5]);
 }
 
@@ -169,17 +164,13 @@ fn the_joints_follow_the_animation_and_the_object_transform() {
     let shot = Shot::new();
     let scene = shot.load("transform = { translate = [0, 0, 2] }", ELBOW).unwrap();
     let frame = scene.evaluate(25.0).unwrap();
-    let q = joints(frame.objects[0].self_contact[0].direction);
+    let q = joints(&frame.objects[0].params.self_contact[0]);
     let bent = DVec3::new(150f64.to_radians().cos(), 150f64.to_radians().sin(), 0.0);
     let up = DVec3::new(0.0, 0.0, 2.0);
     assert!(close(q[0], DVec3::new(-1.0, 0.0, 0.0) + up) && close(q[1], up) && close(q[2], bent + up), "{q:?}");
     // The mesh went through the same transform: the tip's cap centre is at the child joint's end.
     let tip = frame.objects[0].mesh.positions[21 * 12 + 1];
     assert!(close(tip, q[2]), "{tip} vs {}", q[2]);
-    // The library's articulation carries the same values.
-    let lib = frame.objects[0].self_contact[0].to_articulation();
-    assert_eq!(lib.name, "elbow");
-    assert_eq!(lib.direction, ArticulationDirection::Joints(q));
 }
 
 #[test]
@@ -189,9 +180,9 @@ fn a_leaf_joint_extends_its_parent_bone() {
     let shot = Shot::new();
     let scene = shot.load("", "[[objects.self_contact]]\nname = \"wrist\"\njoints = [\"elbow\", \"tip\"]\n").unwrap();
     let bent = DVec3::new(150f64.to_radians().cos(), 150f64.to_radians().sin(), 0.0);
-    let q = joints(scene.evaluate(25.0).unwrap().objects[0].self_contact[0].direction);
+    let q = joints(&scene.evaluate(25.0).unwrap().objects[0].params.self_contact[0]);
     assert!(close(q[0], DVec3::ZERO) && close(q[1], bent) && close(q[2], 2.0 * bent), "{q:?}");
-    let q = joints(scene.evaluate(1.0).unwrap().objects[0].self_contact[0].direction);
+    let q = joints(&scene.evaluate(1.0).unwrap().objects[0].params.self_contact[0]);
     assert!(close(q[2], DVec3::new(2.0, 0.0, 0.0)), "{q:?}");
 }
 
@@ -199,10 +190,10 @@ fn a_leaf_joint_extends_its_parent_bone() {
 fn unknown_keys_are_errors_naming_the_key() {
     let shot = Shot::new();
     let e = shot.error("", &format!("{ELBOW}stifness = 2\n"));
-    assert!(e.contains("unknown key \"stifness\"") && e.contains("did you mean \"stiffness\""), "{e}");
+    assert!(e.contains("stifness: unknown articulation parameter") && e.contains("did you mean \"stiffness\""), "{e}");
     assert!(e.contains("scene.toml:10") && e.contains("[[objects]] \"arm\" self_contact \"elbow\""), "located: {e}");
     let e = shot.error("", &format!("{ELBOW}direction = \"joint\"\n"));
-    assert!(e.contains("unknown value \"joint\"") && e.contains("did you mean \"joints\""), "{e}");
+    assert!(e.contains("direction: \"joint\"") && e.contains("\"joints\""), "{e}");
 }
 
 #[test]
@@ -240,13 +231,14 @@ fn entries_are_checked_when_the_scene_is_read() {
         ("", "[[objects.self_contact]]\nname = \"elbow\"\n", &["joints", "masks"]),
         ("", &format!("{ELBOW}masks = [\"a.txt\", \"b.txt\"]\n"), &["both joints and masks"]),
         ("", &format!("{ELBOW}min_weight = 0\n"), &["min_weight", "(0, 1]"]),
-        ("", &format!("{ELBOW}stiffness = [1, 0]\n"), &["stiffness", "greater than 0"]),
+        ("", &format!("{ELBOW}stiffness = [1, 0]\n"), &["stiffness", "must be > 0"]),
         ("", &format!("{ELBOW}safeguard_angle = 95\n"), &["safeguard_angle", "(0, 90]"]),
-        ("", &format!("{ELBOW}extent = -1\n"), &["extent", "greater than 0"]),
+        ("", &format!("{ELBOW}extent = -1\n"), &["extent", "must be > 0"]),
         ("", &format!("{ELBOW}contact_gap = -1\n"), &["contact_gap", "≥ 0"]),
         ("", &format!("{ELBOW}cut_regional_weight = -1\n"), &["cut_regional_weight", "≥ 0"]),
         ("", &format!("{ELBOW}direction = [0, 0, 0]\n"), &["direction", "non-zero"]),
         ("", &format!("{ELBOW}direction = [[1, [1, 0, 0]], [25, [-1, 0, 0]]]\n"), &["direction", "frame 13"]),
+        ("", &format!("{ELBOW}safeguard_angle_degrees = 70\n"), &["renamed (did you mean \"safeguard_angle\""]),
     ];
     for (object_keys, entries, parts) in cases {
         let e = shot.error(object_keys, entries);
@@ -281,10 +273,10 @@ fn masks_give_the_regions_of_any_mesh() {
     let scene = ball_scene(&shot, entry).unwrap();
     let frame = scene.evaluate(2.0).unwrap();
     let object = &frame.objects[0];
-    assert_eq!(object.rest_positions, None, "an OBJ's rest pose is the frame's mesh");
-    let a = &object.self_contact[0];
-    assert_eq!(a.direction, ArticulationDirection::Fixed(DVec3::new(0.0, 0.0, -1.0)));
-    let [w1, w2] = &*a.regions;
+    assert_eq!(object.params.rest_positions, None, "an OBJ's rest pose is the frame's mesh");
+    let a = &object.params.self_contact[0];
+    assert_eq!((a.params.direction, a.joints), (Some(DVec3::new(0.0, 0.0, -2.0)), None));
+    let [w1, w2] = &a.regions;
     assert!(w1.iter().all(|&v| ball.positions[v as usize].z > -0.2));
     assert!(w2.iter().all(|&v| ball.positions[v as usize].z < 0.2));
     assert!(w1.len() < n && w2.len() < n);
@@ -318,8 +310,8 @@ fn objects_without_self_contact_are_unchanged() {
     let shot = Shot::new();
     let scene = shot.load("", "").unwrap();
     let frame = scene.evaluate(1.0).unwrap();
-    assert!(frame.objects[0].self_contact.is_empty());
-    assert_eq!(frame.objects[0].rest_positions, None);
+    assert!(frame.objects[0].params.self_contact.is_empty());
+    assert_eq!(frame.objects[0].params.rest_positions, None);
     assert!(!scene.to_json().unwrap().contains("self_contact"));
 }
 
@@ -332,7 +324,13 @@ fn the_documented_example_parses() {
     let description = SceneDescription::parse(&text, std::path::Path::new("/shots/scene.toml")).unwrap();
     let [man, head] = description.objects.as_slice() else { panic!("two objects") };
     assert_eq!(man.self_contact.len(), 2);
-    assert_eq!(man.self_contact[1].stiffness.at(1.0), StiffnessPair([1.0, 2.0]));
-    assert_eq!(man.self_contact[1].min_weight, Some(0.1));
-    assert_eq!(head.self_contact[0].direction, SelfContactDirection::Fixed(DVec3::new(0.0, -1.0, 0.0).into()));
+    let params = |entry: &SelfContactSpec| {
+        ParamTracks::<ArticulationParams>::parse(&entry.params, SelfContactSpec::TABLE_KEYS, |_, _| Ok(None))
+            .unwrap()
+            .at(1.0)
+            .unwrap()
+    };
+    let elbow = params(&man.self_contact[1]);
+    assert_eq!((elbow.stiffness, elbow.min_weight), ([1.0, 2.0], 0.1));
+    assert_eq!(params(&head.self_contact[0]).direction, Some(DVec3::new(0.0, -1.0, 0.0)));
 }

@@ -16,9 +16,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use squish::PairParams;
 use squish::contact::intersect::intersect;
 use squish::contact::mapping::map_regions;
-use squish::contact::{ContactSide, PairParams, contact_pair};
+use squish::contact::{ContactSide, contact_pair};
 use squish::deform::direction_field::{DirectionParams, direction_field};
 use squish::deform::guide::{GuideParams, guide_fields};
 use squish::deform::parametrize::{ParametrizeParams, parametrize};
@@ -91,19 +92,19 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
     let zones = vec![contact.sides[1].zone.clone()];
     let (mesh, topology) = (&b.mesh, &b.topology);
     let object = &scene.rest.objects[scene.rest.pairs[0].objects[1]];
-    let deform_params = object.params.deform_params(object.params.extent.unwrap_or(1.0), true);
+    let deform_params = squish::deform::DeformParams::of(&object.params, object.params.extent.unwrap_or(1.0), true);
     let mut solver = RegionSolver::new(mesh, topology).expect("solver");
     let contact_set = ContactSet::new(mesh, topology, &zones).expect("contact set");
     let parametrize_params = ParametrizeParams {
         extent: deform_params.extent,
         domain_radius: deform_params.domain_radius(),
-        heat_time_factor: deform_params.heat_time_factor,
+        heat_time_factor: deform_params.object.heat_time_factor,
         constraint_weight_factor: deform_params.constraint_weight_factor,
         edge_length: None,
     };
     let direction_params = DirectionParams {
-        method: deform_params.direction_method,
-        normalize_diffused: deform_params.normalize_diffused,
+        method: deform_params.object.direction_field,
+        normalize_diffused: deform_params.object.normalize_diffused_direction,
         mapping_field: None,
     };
     let guide_params = GuideParams { constraint_weight_factor: deform_params.constraint_weight_factor };

@@ -14,17 +14,23 @@
 //! - [`contact`]: intersection, mapping, potential contact surface and contact zones (ch. 4);
 //! - [`deform`]: radial parametrization, direction field, amplitude/slope fields, profile curve,
 //!   volume-preserving bulge and bulge maps of one working region (ch. 5);
-//! - [`animation`], [`skinning`]: skeletal animation evaluation and linear blend skinning.
+//! - [`animation`], [`skinning`]: skeletal animation evaluation and linear blend skinning;
+//! - [`params`]: the one declaration of every user-facing parameter and its schema.
+
+// `#[derive(Params)]` names this crate `::squish`, inside it as outside.
+extern crate self as squish;
 
 pub mod animation;
 pub mod contact;
 pub mod deform;
 pub mod linalg;
 pub mod mesh;
+pub mod params;
 pub mod pipeline;
 pub mod skinning;
 pub mod spatial;
 
 pub use glam::DVec3;
 pub use mesh::{MeshError, SubMesh, Topology, TriMesh};
-pub use pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats, ObjectParams};
+pub use params::{ArticulationParams, ObjectParams, PairParams, ParamError, Params};
+pub use pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats};

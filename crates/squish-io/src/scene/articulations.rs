@@ -15,11 +15,12 @@
 use std::sync::Arc;
 
 use glam::{DMat4, DVec3};
+use squish::params::{ArticulationParams, did_you_mean};
 use squish::skinning::regions_from_skin_weights;
 
-use super::diagnostics::did_you_mean;
 use super::source::SourceAssets;
-use super::types::{DEFAULT_MIN_WEIGHT, ObjectSpec, SelfContactDirection, VertexData};
+use super::tracks::ParamTracks;
+use super::types::{ObjectSpec, SelfContactSpec, VertexData};
 use crate::IoError;
 
 /// Where an articulation's three direction points come from.
@@ -51,8 +52,11 @@ impl JointPoints {
 pub(crate) struct ArticulationAssets {
     /// Region 1 (parent side) and region 2 (child side), sorted object vertex ids.
     pub(crate) regions: Arc<[Vec<u32>; 2]>,
-    /// With `direction = "joints"`: the joints giving the direction.
+    /// With `joints = [A, B]`: the joints giving the direction (used at the frames where
+    /// `direction = "joints"`).
     pub(crate) joints: Option<JointPoints>,
+    /// Its parameters over the shot.
+    pub(crate) params: ParamTracks<ArticulationParams>,
 }
 
 /// The self-contact assets of an object: its articulations, and its bind pose when the mesh is a
@@ -85,12 +89,15 @@ pub(crate) fn load_articulations(
     };
     for (k, entry) in object.self_contact.iter().enumerate() {
         let name = &entry.name;
+        let entry_params =
+            ParamTracks::<ArticulationParams>::parse(&entry.params, SelfContactSpec::TABLE_KEYS, |_, _| Ok(None))
+                .map_err(|e| located(k, "name", format!("{}: {}", e.key, e.message)))?;
         let (regions, joints) = match (&entry.joints, &entry.masks) {
             (Some(joint_names), _) => {
                 let Some(g) = gltf else {
                     return Err(located(k, "joints", format!("articulation \"{name}\": joints need a glTF mesh")));
                 };
-                let (regions, points) = skin_regions(object, k, joint_names, g, &located)?;
+                let (regions, points) = skin_regions(object, k, joint_names, g, &entry_params, &located)?;
                 (regions, Some(points))
             }
             (None, Some([m1, m2])) => {
@@ -117,11 +124,7 @@ pub(crate) fn load_articulations(
                 return Err(located(k, "name", format!("articulation \"{name}\" gives neither joints nor masks")));
             }
         };
-        let joints = match entry.direction {
-            SelfContactDirection::Joints => joints,
-            SelfContactDirection::Fixed(_) => None,
-        };
-        articulations.push(ArticulationAssets { regions: Arc::new(regions), joints });
+        articulations.push(ArticulationAssets { regions: Arc::new(regions), joints, params: entry_params });
     }
     Ok(ObjectArticulations { articulations, rest_positions })
 }
@@ -132,6 +135,7 @@ fn skin_regions(
     k: usize,
     [parent_name, child_name]: &[String; 2],
     g: &super::source::GltfAssets,
+    entry_params: &ParamTracks<ArticulationParams>,
     located: &impl Fn(usize, &'static str, String) -> IoError,
 ) -> Result<([Vec<u32>; 2], JointPoints), IoError> {
     let entry = &object.self_contact[k];
@@ -217,7 +221,7 @@ fn skin_regions(
             ),
         ));
     }
-    let min_weight = entry.min_weight.unwrap_or(DEFAULT_MIN_WEIGHT);
+    let min_weight = entry_params.at(0.0).map_err(|e| located(k, "min_weight", e.to_string()))?.min_weight;
     let regions = regions_from_skin_weights(weights, &parents, parent, child, min_weight)
         .map_err(|e| located(k, "joints", format!("articulation \"{name}\": {e}")))?;
     let points = match children_of(child).first() {

@@ -21,7 +21,9 @@ mod articulations;
 mod diagnostics;
 mod evaluate;
 mod frames;
+mod keys;
 mod source;
+mod tracks;
 mod types;
 mod validate;
 mod vertex_data;
@@ -30,26 +32,26 @@ use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use evaluate::{
-    AnisotropyValues, ArticulationFrame, ContactMethodFrame, FrameSpec, ObjectFrame, PairFrame, ProfileValues,
-    RegionFrame,
-};
+pub use evaluate::{FrameSpec, ObjectFrame, PairFrame};
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
+pub use keys::Keyed;
+pub use tracks::{ParamTracks, RawParams, Track, TrackError, names_vertex_data, param_value, toml_value};
 pub use types::{
-    Anisotropy, AxisAngle, ContactMethod, DEFAULT_MIN_WEIGHT, DEFAULT_V2, DEFAULT_V3, DEFAULT_V4, Direction,
-    FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreserveVolume, Profile,
-    Region, Scale, SceneDescription, SelfContactDirection, SelfContactSpec, StiffnessPair, Transform, VertexData, Weld,
+    AxisAngle, FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, Scale,
+    SceneDescription, SelfContactSpec, Transform, VertexData, Weld,
 };
+pub use vertex_data::read_vertex_map;
 
 use articulations::{ArticulationAssets, load_articulations};
 use diagnostics::{Seg, SourceText};
 use source::{GltfCache, SourceAssets, VertexNumbering, load_source};
+use squish::params::{ObjectParams, PairParams, ParamValue, Params, RegionChoice};
 use vertex_data::{OwnGltf, load_vertex_values};
 
 use crate::IoError;
 
-/// A loaded scene: its description (defaults filled, paths absolute) and the assets every frame
-/// reads (meshes, parsed glTF files, per-vertex data), loaded once.
+/// A loaded scene: its description (paths absolute) and the assets every frame reads (meshes,
+/// parsed glTF files, per-vertex data, the parameters' curves), loaded once.
 #[derive(Debug)]
 pub struct Scene {
     path: PathBuf,
@@ -57,6 +59,8 @@ pub struct Scene {
     assets: Vec<ObjectAssets>,
     /// Per pair: the indices of its two objects.
     pair_objects: Vec<[usize; 2]>,
+    /// Per pair: its parameters over the shot.
+    pair_params: Vec<ParamTracks<PairParams>>,
 }
 
 /// What an object's frames are made from.
@@ -64,8 +68,8 @@ pub struct Scene {
 struct ObjectAssets {
     source: SourceAssets,
     numbering: VertexNumbering,
-    bulge_map: Option<Arc<[f64]>>,
-    mask: Option<Arc<[bool]>>,
+    /// Its parameters over the shot, per-vertex ones loaded.
+    params: ParamTracks<ObjectParams>,
     /// `[[objects.self_contact]]`, in order.
     articulations: Vec<ArticulationAssets>,
     /// The bind pose of a glTF mesh with articulations.
@@ -93,13 +97,14 @@ impl SceneDescription {
         resolve(&mut self.output.dir);
         for object in &mut self.objects {
             resolve(object.mesh.file_mut());
-            if let Some(file) = object.bulge_map.as_mut().and_then(VertexData::file_mut) {
-                resolve(file);
-            }
-            if let Region::Mask(data) = &mut object.region
-                && let Some(file) = data.file_mut()
-            {
-                resolve(file);
+            for (key, value) in &mut object.params {
+                let per_vertex = ObjectParams::info(key).is_some_and(|i| names_vertex_data(i, value));
+                if let (true, Ok(mut data)) = (per_vertex, VertexData::from_value(value)) {
+                    if let Some(file) = data.file_mut() {
+                        resolve(file);
+                    }
+                    *value = toml::Value::try_from(&data).unwrap_or_else(|_| value.clone());
+                }
             }
             for entry in &mut object.self_contact {
                 for mask in entry.masks.iter_mut().flatten() {
@@ -187,26 +192,29 @@ impl Scene {
                 }
                 load_vertex_values(&object.name, what, &file, attribute, &numbering, own_gltf.as_ref())
             };
-            let bulge_map = match &object.bulge_map {
-                Some(data) => Some(Arc::from(load_data(data, "bulge_map", "bulge_map")?)),
-                None => None,
-            };
-            let mask = match &object.region {
-                Region::Mask(data) => {
-                    let values = load_data(data, "region", "the region mask")?;
-                    let mask: Arc<[bool]> = values.iter().map(|&v| v >= 0.5).collect();
-                    if !mask.iter().any(|&m| m) {
-                        return Err(located(
-                            i,
-                            "region",
-                            "the mask selects no vertex (every value is below 0.5); paint the region with values ≥ 0.5"
-                                .to_string(),
-                        ));
-                    }
-                    Some(mask)
-                }
-                _ => None,
-            };
+            // Per-vertex parameters: their files, read once, in the object's numbering.
+            let mut loaded = std::collections::BTreeMap::new();
+            for (key, value) in &object.params {
+                let Some(info) = ObjectParams::info(key).filter(|i| names_vertex_data(i, value)) else { continue };
+                let data = VertexData::from_value(value).map_err(|m| located(i, info.key, m))?;
+                loaded.insert(info.key, load_data(&data, info.key, info.key)?);
+            }
+            let params = ParamTracks::<ObjectParams>::parse(&object.params, ObjectSpec::TABLE_KEYS, |info, _| {
+                Ok(loaded.remove(info.key).map(ParamValue::List))
+            })
+            .map_err(|e| located(i, "name", format!("{}: {}", e.key, e.message)))?;
+            let first = params.at(frames.0 as f64).ok();
+            if let Some(p) = first.filter(|p| p.region == RegionChoice::Mask)
+                && let Some(mask) = &p.region_mask
+                && !mask.iter().any(|&v| v >= 0.5)
+            {
+                return Err(located(
+                    i,
+                    "region_mask",
+                    "the mask selects no vertex (every value is below 0.5); paint the region with values ≥ 0.5"
+                        .to_string(),
+                ));
+            }
             let located_entry = |k: usize, key: &'static str, message: String| match src {
                 Some(src) => src.error_at_key(
                     &[Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)],
@@ -217,20 +225,20 @@ impl Scene {
                     format!("[[objects]] \"{}\" self_contact #{}: {key}: {message}", object.name, k + 1),
                 ),
             };
-            let loaded = load_articulations(object, &source, numbering.count, located_entry, |mask| {
+            let self_contact = load_articulations(object, &source, numbering.count, located_entry, |mask| {
                 load_data(mask, "self_contact", "a self_contact mask")
             })?;
             assets.push(ObjectAssets {
                 source,
                 numbering,
-                bulge_map,
-                mask,
-                articulations: loaded.articulations,
-                rest_positions: loaded.rest_positions,
+                params,
+                articulations: self_contact.articulations,
+                rest_positions: self_contact.rest_positions,
             });
         }
         let index = |name: &str| description.objects.iter().position(|o| o.name == name);
         let mut pair_objects = Vec::with_capacity(description.pairs.len());
+        let mut pair_params = Vec::with_capacity(description.pairs.len());
         for (p, pair) in description.pairs.iter().enumerate() {
             match (index(&pair.objects[0]), index(&pair.objects[1])) {
                 (Some(a), Some(b)) => pair_objects.push([a, b]),
@@ -241,8 +249,11 @@ impl Scene {
                     ));
                 }
             }
+            let tracks = ParamTracks::<PairParams>::parse(&pair.params, PairSpec::TABLE_KEYS, |_, _| Ok(None))
+                .map_err(|e| IoError::format(path, format!("[[pairs]] #{}: {}: {}", p + 1, e.key, e.message)))?;
+            pair_params.push(tracks);
         }
-        Ok(Self { path: path.to_path_buf(), description, assets, pair_objects })
+        Ok(Self { path: path.to_path_buf(), description, assets, pair_objects, pair_params })
     }
 
     /// The scene file.
@@ -292,9 +303,25 @@ impl Scene {
         missing
     }
 
-    /// The resolved description as pretty JSON (every parameter, defaults included).
+    /// The resolved description as pretty JSON: every parameter of every table, the defaults of
+    /// the ones the file leaves out included (it reads back to the same scene).
     pub fn to_json(&self) -> Result<String, IoError> {
-        serde_json::to_string_pretty(&self.description)
+        fn fill<P: Params>(raw: &mut RawParams) {
+            for entry in squish::params::entries::<P>() {
+                raw.entry(entry.info.key.to_string()).or_insert_with(|| toml_value(&entry.default));
+            }
+        }
+        let mut description = self.description.clone();
+        for object in &mut description.objects {
+            fill::<ObjectParams>(&mut object.params);
+            for entry in &mut object.self_contact {
+                fill::<squish::ArticulationParams>(&mut entry.params);
+            }
+        }
+        for pair in &mut description.pairs {
+            fill::<PairParams>(&mut pair.params);
+        }
+        serde_json::to_string_pretty(&description)
             .map_err(|e| IoError::format(&self.path, format!("cannot write the scene as JSON: {e}")))
     }
 }

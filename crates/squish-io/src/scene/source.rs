@@ -256,7 +256,7 @@ fn load_gltf(
                 Some(&i) => i,
                 None => {
                     let names: Vec<&str> = instances.iter().map(|inst| scene.nodes[inst.node].name.as_str()).collect();
-                    let hint = match super::diagnostics::did_you_mean(name, &names) {
+                    let hint = match squish::params::did_you_mean(name, &names) {
                         Some(s) => format!(" (did you mean \"{s}\"?)"),
                         None => String::new(),
                     };
@@ -297,7 +297,7 @@ fn load_gltf(
         Some(name) => match scene.find_animation(name) {
             Some(a) => Some(a),
             None => {
-                let hint = match super::diagnostics::did_you_mean(name, &names) {
+                let hint = match squish::params::did_you_mean(name, &names) {
                     Some(s) => format!(" (did you mean \"{s}\"?)"),
                     None => String::new(),
                 };

@@ -1,20 +1,24 @@
-//! The scene description: what the scene file says, as typed values with every default filled
-//! in and every path resolved (see `docs/scene-format.md` for the file format).
+//! The scene description: what the scene file says, as typed values with every path resolved
+//! (see `docs/scene-format.md` for the file format).
 //!
-//! Each type reads the spellings a person writes (a bare number or a table, `"auto"` or a
-//! vector …) and writes one canonical form that reads back to the same value, so that a
-//! resolved scene can be dumped as JSON, inspected, and loaded again. Unknown keys are errors
-//! everywhere (`deny_unknown_fields`), so that a typo never silently falls back to a default.
+//! The scene's own structure (frames, output, objects with their meshes, transforms and
+//! articulations, pairs) is read by serde derives; the deformer's parameters in each table are
+//! kept as written ([`RawParams`]) and read through the library's schema ([`super::tracks`]).
+//! Values with several spellings (a file name or a table, `true` or a distance) read through
+//! an untagged form whose catch-all variant turns anything else into a message that says what
+//! to write. Every form writes back to one that reads again, so that a resolved scene can be
+//! dumped as JSON, inspected, and loaded again. Unknown keys are errors everywhere, so that a
+//! typo never silently falls back to a default.
 
-use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use serde::de::{self, MapAccess, SeqAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use squish::animation::{KeyValue, Keyframed};
+use serde::{Deserialize, Serialize, Serializer};
+use squish::animation::KeyValue;
+use toml::Value;
 
-use super::diagnostics::did_you_mean;
+use super::keys::Keyed;
+use super::tracks::RawParams;
 
 /// A whole scene file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -34,25 +38,34 @@ pub struct SceneDescription {
 }
 
 /// `frames = { start = 1, end = 48, fps = 24 }`: an inclusive range of whole frames.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, PartialEq, squish::params::Params)]
+#[params(level = Scene, table = "frames")]
 pub struct FrameRange {
+    /// The shot's first frame.
+    #[param(required)]
     pub start: i64,
-    /// Inclusive.
+    /// The shot's last frame (inclusive, ≥ start).
+    #[param(required)]
     pub end: i64,
-    /// Frames per second, to turn frames into glTF animation time. Default 24.
-    #[serde(default = "default_fps")]
+    /// Frames per second, which turn frames into the time of glTF animations.
+    #[param(unit = "frames per second", range = "(0, inf)")]
     pub fps: f64,
 }
 
-fn default_fps() -> f64 {
-    24.0
+impl Default for FrameRange {
+    fn default() -> Self {
+        Self { start: 1, end: 1, fps: 24.0 }
+    }
 }
 
 impl FrameRange {
-    /// Number of frames.
+    /// Number of frames (0 for an empty range; saturates beyond `usize`).
     pub fn len(&self) -> usize {
-        usize::try_from(self.end - self.start + 1).unwrap_or(0)
+        usize::try_from(i128::from(self.end) - i128::from(self.start) + 1).unwrap_or(if self.end < self.start {
+            0
+        } else {
+            usize::MAX
+        })
     }
 
     /// True if the range holds no frame (`end < start`, rejected when a scene loads).
@@ -67,38 +80,36 @@ impl FrameRange {
 }
 
 /// `output = { dir = "out", format = "obj" }`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq, squish::params::Params)]
+#[params(level = Scene, table = "output")]
 pub struct OutputSpec {
-    /// Output folder (relative to the scene file's folder when read). Default `out`.
-    #[serde(default = "default_output_dir")]
+    /// The folder results are written to, relative to the scene file's folder.
+    #[param]
     pub dir: PathBuf,
-    /// Default `obj`.
-    #[serde(default)]
+    /// The format of the results: one OBJ or PLY per object and frame, or one animated GLB per
+    /// object.
+    #[param]
     pub format: OutputFormat,
-}
-
-fn default_output_dir() -> PathBuf {
-    PathBuf::from("out")
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { dir: default_output_dir(), format: OutputFormat::default() }
+        Self { dir: PathBuf::from("out"), format: OutputFormat::default() }
     }
 }
 
-/// The format of the results.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum OutputFormat {
-    /// One `.obj` per object and frame.
-    #[default]
-    Obj,
-    /// One binary `.ply` per object and frame.
-    Ply,
-    /// One animated `.glb` per object (all frames).
-    Glb,
+squish::choice! {
+    /// The format of the results.
+    #[derive(Default)]
+    pub enum OutputFormat {
+        /// One `.obj` per object and frame.
+        #[default]
+        Obj = "obj",
+        /// One binary `.ply` per object and frame.
+        Ply = "ply",
+        /// One animated `.glb` per object (all frames).
+        Glb = "glb",
+    }
 }
 
 impl OutputFormat {
@@ -118,44 +129,14 @@ impl OutputFormat {
     }
 }
 
-/// An `[[objects]]` entry.
+/// An `[[objects]]` entry: its own keys, and the object parameters of the library's schema
+/// (`stiffness`, `extent`, `bulge` …, constant or keyframed) in `params`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct ObjectSpec {
     /// Unique; used in output paths.
     pub name: String,
     /// Where the mesh of each frame comes from.
     pub mesh: MeshSource,
-    /// A rigid object is never deformed (it deforms the other object of its pairs).
-    #[serde(default)]
-    pub rigid: bool,
-    /// Relative stiffness k̄ (> 0): the stiffer object of a pair deforms less. Default 1.
-    #[serde(default = "one")]
-    pub stiffness: Keyframed<f64>,
-    /// Extent of the deformation φ_max (> 0, scene units). `None`: automatic.
-    #[serde(default)]
-    pub extent: Option<Keyframed<f64>>,
-    /// Bulge factor γ: 0 no bulge, 1 volume preserved, > 1 exaggerated. Default 1.
-    #[serde(default = "one")]
-    pub bulge: Keyframed<f64>,
-    /// Bulge height used when volume preservation is off (open meshes). Default 0.
-    #[serde(default)]
-    pub bulge_height: Keyframed<f64>,
-    /// Whether the bulge preserves the enclosed volume. Default `auto` (closed meshes only).
-    #[serde(default)]
-    pub preserve_volume: PreserveVolume,
-    /// Abscissas of the profile curve's control points v2, v3, v4, and wrinkles.
-    #[serde(default)]
-    pub profile: Profile,
-    /// Procedural anisotropic bulge map (thesis §5.5.2). Default off.
-    #[serde(default)]
-    pub anisotropy: Anisotropy,
-    /// Painted bulge map η, one value per vertex. `None`: uniform.
-    #[serde(default)]
-    pub bulge_map: Option<VertexData>,
-    /// The part of the mesh that may deform. Default the whole mesh.
-    #[serde(default)]
-    pub region: Region,
     /// Placement applied to the mesh of every frame (after glTF posing).
     #[serde(default)]
     pub transform: Transform,
@@ -163,12 +144,20 @@ pub struct ObjectSpec {
     /// thesis ch. 6), resolved before the pairs. Default none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub self_contact: Vec<SelfContactSpec>,
+    /// Every other key: the object's parameters, as written.
+    #[serde(flatten)]
+    pub params: RawParams,
+}
+
+impl ObjectSpec {
+    /// The keys of the table that are not parameters.
+    pub const TABLE_KEYS: &[&str] = &["name", "mesh", "transform", "self_contact"];
 }
 
 /// An `[[objects.self_contact]]` entry: one articulation of the object (a knee, an elbow, lips)
-/// whose two sides, region 1 (parent side) and region 2 (child side), may fold onto each other.
+/// whose two sides, region 1 (parent side) and region 2 (child side), may fold onto each other;
+/// and the articulation parameters of the library's schema in `params`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct SelfContactSpec {
     /// Unique within the object; names the articulation in messages and reports.
     pub name: String,
@@ -180,146 +169,30 @@ pub struct SelfContactSpec {
     /// The two regions as per-vertex masks (values ≥ 0.5 select a vertex).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub masks: Option<[VertexData; 2]>,
-    /// With `joints`: the skinning weight from which a vertex belongs to a side, in (0, 1].
-    /// `None`: [`DEFAULT_MIN_WEIGHT`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_weight: Option<f64>,
-    /// The mapping direction d̂: from the joints' positions at each frame (default), or given.
-    #[serde(default)]
-    pub direction: SelfContactDirection,
-    /// τ of the contact criterion. Default −1 (the thesis' value for skinning).
-    #[serde(default = "minus_one")]
-    pub contact_tau: Keyframed<f64>,
-    /// Pseudo-stiffnesses k₁, k₂ of the two sides (a number gives both). Default 1, 1.
-    #[serde(default)]
-    pub stiffness: Keyframed<StiffnessPair>,
-    /// φ_max (> 0, scene units). `None`: automatic.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub extent: Option<Keyframed<f64>>,
-    /// Weight (≥ 0) of the regional term of the crease cut's energy. Default 1.
-    #[serde(default = "one")]
-    pub cut_regional_weight: Keyframed<f64>,
-    /// Angle (degrees, in (0, 90]) beyond which a point cannot be in contact. Default 80.
-    #[serde(default = "eighty")]
-    pub safeguard_angle: Keyframed<f64>,
-    /// Distance (≥ 0, scene units) left between the two sides where they touch. `None`:
-    /// automatic.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub contact_gap: Option<Keyframed<f64>>,
+    /// Every other key: the articulation's parameters, as written.
+    #[serde(flatten)]
+    pub params: RawParams,
 }
 
-/// Default of [`SelfContactSpec::min_weight`].
-pub const DEFAULT_MIN_WEIGHT: f64 = 0.05;
-
-fn minus_one() -> Keyframed<f64> {
-    Keyframed::constant(-1.0)
+impl SelfContactSpec {
+    /// The keys of the table that are not parameters.
+    pub const TABLE_KEYS: &[&str] = &["name", "joints", "masks"];
 }
 
-fn eighty() -> Keyframed<f64> {
-    Keyframed::constant(80.0)
+/// A `[[pairs]]` entry: two objects that may collide, and the pair parameters of the library's
+/// schema in `params`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairSpec {
+    /// The names of the two objects.
+    pub objects: [String; 2],
+    /// Every other key: the pair's parameters, as written.
+    #[serde(flatten)]
+    pub params: RawParams,
 }
 
-/// `direction = "joints" | [x, y, z] | keys of [x, y, z]` of an articulation.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum SelfContactDirection {
-    /// From the world positions of the parent joint, the joint, and the end of the child bone
-    /// at each frame (see `docs/scene-format.md`).
-    #[default]
-    Joints,
-    /// Given, from region 1 toward region 2 (normalized at each frame; must not vanish).
-    Fixed(Keyframed<DVec3>),
-}
-
-impl Serialize for SelfContactDirection {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        match self {
-            Self::Joints => s.serialize_str("joints"),
-            Self::Fixed(k) => k.serialize(s),
-        }
-    }
-}
-
-impl<'de> Deserialize<'de> for SelfContactDirection {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = SelfContactDirection;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"joints\", a vector [x, y, z], or keys [[frame, [x, y, z]], …]")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<SelfContactDirection, E> {
-                match v {
-                    "joints" => Ok(SelfContactDirection::Joints),
-                    _ => Err(unknown_word(v, &["joints"], "\"joints\" or a vector [x, y, z]")),
-                }
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<SelfContactDirection, A::Error> {
-                Ok(SelfContactDirection::Fixed(Keyframed::deserialize(de::value::SeqAccessDeserializer::new(seq))?))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SelfContactDirection, A::Error> {
-                Ok(SelfContactDirection::Fixed(Keyframed::deserialize(de::value::MapAccessDeserializer::new(map))?))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// The pseudo-stiffnesses `[k1, k2]` of an articulation's two sides; reads from a number (both
-/// sides) or `[k1, k2]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StiffnessPair(pub [f64; 2]);
-
-impl Default for StiffnessPair {
-    fn default() -> Self {
-        Self([1.0, 1.0])
-    }
-}
-
-impl KeyValue for StiffnessPair {
-    const COMPONENTS: usize = 2;
-    const DESCRIPTION: &'static str = "a stiffness (a number, or [k1, k2] for the two sides)";
-    fn component(&self, i: usize) -> f64 {
-        self.0[i]
-    }
-    fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
-        Self([f(0), f(1)])
-    }
-}
-
-impl Serialize for StiffnessPair {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.0.serialize(s)
-    }
-}
-
-impl<'de> Deserialize<'de> for StiffnessPair {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = StiffnessPair;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or [k1, k2]")
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<StiffnessPair, E> {
-                Ok(StiffnessPair([v as f64; 2]))
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<StiffnessPair, E> {
-                Ok(StiffnessPair([v as f64; 2]))
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<StiffnessPair, E> {
-                Ok(StiffnessPair([v; 2]))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<StiffnessPair, A::Error> {
-                let k = <[f64; 2]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
-                Ok(StiffnessPair(k))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-fn one() -> Keyframed<f64> {
-    Keyframed::constant(1.0)
+impl PairSpec {
+    /// The keys of the table that are not parameters.
+    pub const TABLE_KEYS: &[&str] = &["objects"];
 }
 
 /// Where an object's mesh comes from.
@@ -376,7 +249,8 @@ pub struct GltfSource {
 }
 
 /// Welding of a mesh's vertices by position.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(try_from = "WeldForm")]
 pub enum Weld {
     /// Keep the file's vertices.
     Off,
@@ -407,32 +281,26 @@ impl Serialize for Weld {
     }
 }
 
-impl<'de> Deserialize<'de> for Weld {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl Visitor<'_> for V {
-            type Value = Weld;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("true, false, or a distance ≥ 0 under which vertices merge")
+/// The spellings of `weld`: `true`, `false` or a distance.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum WeldForm {
+    Flag(bool),
+    Distance(f64),
+    Other(serde::de::IgnoredAny),
+}
+
+impl TryFrom<WeldForm> for Weld {
+    type Error = String;
+    fn try_from(form: WeldForm) -> Result<Self, String> {
+        match form {
+            WeldForm::Flag(b) => Ok(if b { Weld::Exact } else { Weld::Off }),
+            WeldForm::Distance(v) if v.is_finite() && v >= 0.0 => {
+                Ok(if v == 0.0 { Weld::Exact } else { Weld::Within(v) })
             }
-            fn visit_bool<E: de::Error>(self, v: bool) -> Result<Weld, E> {
-                Ok(if v { Weld::Exact } else { Weld::Off })
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Weld, E> {
-                self.visit_f64(v as f64)
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Weld, E> {
-                self.visit_f64(v as f64)
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Weld, E> {
-                if v.is_finite() && v >= 0.0 {
-                    Ok(if v == 0.0 { Weld::Exact } else { Weld::Within(v) })
-                } else {
-                    Err(E::custom(format!("weld distance {v} must be a finite number ≥ 0")))
-                }
-            }
+            WeldForm::Distance(v) => Err(format!("weld distance {v} must be a finite number ≥ 0")),
+            WeldForm::Other(_) => Err("weld is true, false, or a distance ≥ 0 under which vertices merge".into()),
         }
-        d.deserialize_any(V)
     }
 }
 
@@ -450,17 +318,17 @@ struct MeshTable {
 }
 
 /// True if `path` names a glTF file.
-fn is_gltf(path: &std::path::Path) -> bool {
+fn is_gltf(path: &Path) -> bool {
     matches!(path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref(), Some("glb") | Some("gltf"))
 }
 
 impl MeshSource {
-    fn from_table<E: de::Error>(t: MeshTable) -> Result<Self, E> {
+    fn from_table(t: MeshTable) -> Result<Self, String> {
         let text = t.file.to_string_lossy();
         let sequence = text.contains("{frame");
         if is_gltf(&t.file) {
             if sequence {
-                return Err(E::custom("a glTF mesh cannot be a {frame} sequence; animate it inside the file"));
+                return Err("a glTF mesh cannot be a {frame} sequence; animate it inside the file".into());
             }
             return Ok(Self::Gltf(GltfSource {
                 file: t.file,
@@ -478,9 +346,9 @@ impl MeshSource {
             ("repeat", t.repeat),
         ];
         if let Some((key, _)) = gltf_only.iter().find(|(_, set)| *set) {
-            return Err(E::custom(format!(
+            return Err(format!(
                 "\"{key}\" only applies to .glb / .gltf meshes; remove it or point `file` at a glTF file"
-            )));
+            ));
         }
         let weld = t.weld.unwrap_or(Weld::Off);
         Ok(if sequence { Self::Sequence { pattern: t.file, weld } } else { Self::File { file: t.file, weld } })
@@ -503,238 +371,38 @@ impl Serialize for MeshSource {
 }
 
 impl<'de> Deserialize<'de> for MeshSource {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+    /// A file name or a table. A visitor rather than an untagged form: the table is read by
+    /// toml's own deserializer, so that an error names its key (`repeat = 1`).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct V;
-        impl<'de> Visitor<'de> for V {
+        impl<'de> serde::de::Visitor<'de> for V {
             type Value = MeshSource;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
                 f.write_str("a file name (\"ball.obj\", \"ball_{frame:04}.obj\", \"walk.glb\") or { file = …, node = …, animation = …, weld = … }")
             }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<MeshSource, E> {
-                MeshSource::from_table(MeshTable {
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<MeshSource, E> {
+                let table = MeshTable {
                     file: PathBuf::from(v),
                     node: None,
                     animation: None,
                     weld: None,
                     start_frame: None,
                     repeat: false,
-                })
+                };
+                MeshSource::from_table(table).map_err(E::custom)
             }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MeshSource, A::Error> {
-                MeshSource::from_table(MeshTable::deserialize(de::value::MapAccessDeserializer::new(map))?)
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// `preserve_volume = "auto" | true | false`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum PreserveVolume {
-    /// On for closed meshes, off for open ones (decided from the geometry).
-    #[default]
-    Auto,
-    On,
-    Off,
-}
-
-impl Serialize for PreserveVolume {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        match self {
-            Self::Auto => s.serialize_str("auto"),
-            Self::On => s.serialize_bool(true),
-            Self::Off => s.serialize_bool(false),
-        }
-    }
-}
-
-impl<'de> Deserialize<'de> for PreserveVolume {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl Visitor<'_> for V {
-            type Value = PreserveVolume;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"auto\", true or false")
-            }
-            fn visit_bool<E: de::Error>(self, v: bool) -> Result<PreserveVolume, E> {
-                Ok(if v { PreserveVolume::On } else { PreserveVolume::Off })
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<PreserveVolume, E> {
-                match v {
-                    "auto" => Ok(PreserveVolume::Auto),
-                    "true" | "on" | "yes" => Ok(PreserveVolume::On),
-                    "false" | "off" | "no" => Ok(PreserveVolume::Off),
-                    _ => Err(unknown_word(v, &["auto"], "\"auto\", true or false")),
-                }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<MeshSource, A::Error> {
+                let table = MeshTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                MeshSource::from_table(table).map_err(serde::de::Error::custom)
             }
         }
         d.deserialize_any(V)
     }
 }
-
-/// An error for an unknown word, with a did-you-mean among `words`.
-fn unknown_word<E: de::Error>(v: &str, words: &[&str], expected: &str) -> E {
-    match did_you_mean(v, words) {
-        Some(s) => E::custom(format!("unknown value \"{v}\"; use {expected} (did you mean \"{s}\"?)")),
-        None => E::custom(format!("unknown value \"{v}\"; use {expected}")),
-    }
-}
-
-/// The profile curve's editable abscissas (thesis Fig. 5.4: defaults 1/3, 5/6, 11/12) and an
-/// added sinusoid for wrinkles (§7.3.1).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Profile {
-    #[serde(default = "default_v2")]
-    pub v2: Keyframed<f64>,
-    #[serde(default = "default_v3")]
-    pub v3: Keyframed<f64>,
-    #[serde(default = "default_v4")]
-    pub v4: Keyframed<f64>,
-    #[serde(default)]
-    pub wrinkle_amplitude: Keyframed<f64>,
-    /// Wrinkles per unit of the radial parametrization u (≥ 0).
-    #[serde(default)]
-    pub wrinkle_frequency: Keyframed<f64>,
-}
-
-/// Default abscissa of v2.
-pub const DEFAULT_V2: f64 = 1.0 / 3.0;
-/// Default abscissa of v3.
-pub const DEFAULT_V3: f64 = 5.0 / 6.0;
-/// Default abscissa of v4.
-pub const DEFAULT_V4: f64 = 11.0 / 12.0;
-
-fn default_v2() -> Keyframed<f64> {
-    Keyframed::constant(DEFAULT_V2)
-}
-fn default_v3() -> Keyframed<f64> {
-    Keyframed::constant(DEFAULT_V3)
-}
-fn default_v4() -> Keyframed<f64> {
-    Keyframed::constant(DEFAULT_V4)
-}
-
-impl Default for Profile {
-    fn default() -> Self {
-        Self {
-            v2: default_v2(),
-            v3: default_v3(),
-            v4: default_v4(),
-            wrinkle_amplitude: Keyframed::constant(0.0),
-            wrinkle_frequency: Keyframed::constant(0.0),
-        }
-    }
-}
-
-/// The derived table form of [`Profile`] (the custom impl below adds the list form).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields, remote = "Profile")]
-struct ProfileTable {
-    #[serde(default = "default_v2")]
-    v2: Keyframed<f64>,
-    #[serde(default = "default_v3")]
-    v3: Keyframed<f64>,
-    #[serde(default = "default_v4")]
-    v4: Keyframed<f64>,
-    #[serde(default)]
-    wrinkle_amplitude: Keyframed<f64>,
-    #[serde(default)]
-    wrinkle_frequency: Keyframed<f64>,
-}
-
-/// `anisotropy = true | false | [[frame, bool], …] | { enabled, exponent, offset }`: the
-/// procedural bulge map of thesis Eq. 5.6, with ω = `exponent` and ψ = `offset`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Anisotropy {
-    pub enabled: Keyframed<bool>,
-    /// ω (> 0), default 2.
-    pub exponent: Keyframed<f64>,
-    /// ψ (> −1), default 0.
-    pub offset: Keyframed<f64>,
-}
-
-impl Default for Anisotropy {
-    fn default() -> Self {
-        Self { enabled: Keyframed::constant(false), exponent: default_exponent(), offset: Keyframed::constant(0.0) }
-    }
-}
-
-fn default_exponent() -> Keyframed<f64> {
-    Keyframed::constant(2.0)
-}
-
-fn enabled() -> Keyframed<bool> {
-    Keyframed::constant(true)
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AnisotropyTable {
-    #[serde(default = "enabled")]
-    enabled: Keyframed<bool>,
-    #[serde(default = "default_exponent")]
-    exponent: Keyframed<f64>,
-    #[serde(default)]
-    offset: Keyframed<f64>,
-}
-
-impl<'de> Deserialize<'de> for Anisotropy {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Anisotropy;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("true, false, [[frame, true/false], …] or { exponent = 2.0, offset = 0.0 }")
-            }
-            fn visit_bool<E: de::Error>(self, v: bool) -> Result<Anisotropy, E> {
-                Ok(Anisotropy { enabled: Keyframed::constant(v), ..Anisotropy::default() })
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Anisotropy, A::Error> {
-                let enabled = Keyframed::<bool>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
-                Ok(Anisotropy { enabled, ..Anisotropy::default() })
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Anisotropy, A::Error> {
-                let t = AnisotropyTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(Anisotropy { enabled: t.enabled, exponent: t.exponent, offset: t.offset })
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-impl<'de> Deserialize<'de> for Profile {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Profile;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("[v2, v3, v4] (three abscissas) or { v2 = …, v3 = …, v4 = …, wrinkle_amplitude = …, wrinkle_frequency = … }")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Profile, A::Error> {
-                let mut v: Vec<Keyframed<f64>> = Vec::new();
-                while let Some(x) = seq.next_element()? {
-                    v.push(x);
-                }
-                let [v2, v3, v4]: [Keyframed<f64>; 3] = v.try_into().map_err(|v: Vec<_>| {
-                    de::Error::custom(format!(
-                        "profile takes three abscissas [v2, v3, v4] (each a number or [[frame, value], …]), not {}",
-                        v.len()
-                    ))
-                })?;
-                Ok(Profile { v2, v3, v4, ..Profile::default() })
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Profile, A::Error> {
-                ProfileTable::deserialize(de::value::MapAccessDeserializer::new(map))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
 /// Per-vertex values: a text file with one number per line, or a vertex attribute of a PLY or
 /// glTF file (`file` absent: the object's own mesh file).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-#[serde(untagged)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged, try_from = "Value")]
 pub enum VertexData {
     Text { file: PathBuf },
     Attribute { file: Option<PathBuf>, attribute: String },
@@ -756,118 +424,67 @@ impl VertexData {
         }
     }
 
-    pub(crate) fn file_mut(&mut self) -> Option<&mut PathBuf> {
+    /// The file named, to change (a relative path made absolute).
+    pub fn file_mut(&mut self) -> Option<&mut PathBuf> {
         match self {
             Self::Text { file } => Some(file),
             Self::Attribute { file, .. } => file.as_mut(),
         }
     }
-}
 
-impl<'de> Deserialize<'de> for VertexData {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = VertexData;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a text file with one number per vertex (\"map.txt\") or { file = \"mesh.ply\", attribute = \"name\" }")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<VertexData, E> {
-                let file = PathBuf::from(v);
+    /// Reads `"map.txt"` or `{ file = "mesh.ply", attribute = "name" }`.
+    pub fn from_value(v: &Value) -> Result<Self, String> {
+        const EXPECTED: &str =
+            "a text file with one number per vertex (\"map.txt\") or { file = \"mesh.ply\", attribute = \"name\" }";
+        match v {
+            Value::String(text) => {
+                let file = PathBuf::from(text);
                 let ext = file.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
                 if matches!(ext.as_deref(), Some("ply" | "glb" | "gltf" | "obj")) {
-                    return Err(E::custom(format!(
-                        "\"{v}\" is a mesh file: name the vertex attribute to read, {{ file = \"{v}\", attribute = \"…\" }}"
-                    )));
+                    return Err(format!(
+                        "\"{text}\" is a mesh file: name the vertex attribute to read, {{ file = \"{text}\", attribute = \"…\" }}"
+                    ));
                 }
-                Ok(VertexData::Text { file })
+                Ok(Self::Text { file })
             }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<VertexData, A::Error> {
-                let t = VertexDataTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
+            Value::Table(_) => {
+                let t = VertexDataTable::deserialize(v.clone()).map_err(|e| e.message().to_string())?;
                 match (t.file, t.attribute) {
-                    (file, Some(attribute)) => Ok(VertexData::Attribute { file, attribute }),
-                    (Some(file), None) => Ok(VertexData::Text { file }),
-                    (None, None) => Err(de::Error::custom("give `file` (a text file), `attribute`, or both")),
+                    (file, Some(attribute)) => Ok(Self::Attribute { file, attribute }),
+                    (Some(file), None) => Ok(Self::Text { file }),
+                    (None, None) => Err("give `file` (a text file), `attribute`, or both".to_string()),
                 }
             }
+            _ => Err(format!("expected {EXPECTED}")),
         }
-        d.deserialize_any(V)
     }
 }
 
-/// The part of an object that may deform (the working region 𝒲).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Region {
-    /// The whole mesh.
-    #[default]
-    Whole,
-    /// The vertices whose mask value is ≥ 0.5.
-    Mask(VertexData),
-    /// An automatic band: the vertices within this distance of the intersection (> 0).
-    Distance(Keyframed<f64>),
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RegionTable {
-    mask: Option<VertexData>,
-    mask_attribute: Option<String>,
-    distance: Option<Keyframed<f64>>,
-}
-
-impl<'de> Deserialize<'de> for Region {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Region;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"whole\", { mask = \"mask.txt\" }, { mask_attribute = \"name\" } or { distance = 0.5 }")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<Region, E> {
-                match v {
-                    "whole" => Ok(Region::Whole),
-                    _ => Err(unknown_word(
-                        v,
-                        &["whole"],
-                        "\"whole\", { mask = \"mask.txt\" }, { mask_attribute = \"name\" } or { distance = 0.5 }",
-                    )),
-                }
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Region, A::Error> {
-                let t = RegionTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                match (t.mask, t.mask_attribute, t.distance) {
-                    (Some(mask), None, None) => Ok(Region::Mask(mask)),
-                    (None, Some(attribute), None) => Ok(Region::Mask(VertexData::Attribute { file: None, attribute })),
-                    (None, None, Some(d)) => Ok(Region::Distance(d)),
-                    _ => Err(de::Error::custom("give exactly one of mask, mask_attribute or distance")),
-                }
-            }
-        }
-        d.deserialize_any(V)
+impl TryFrom<Value> for VertexData {
+    type Error = String;
+    fn try_from(v: Value) -> Result<Self, String> {
+        Self::from_value(&v)
     }
 }
 
 /// `transform = { translate, rotate, scale }`, each keyframable; applied as T·R·S.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Transform {
-    #[serde(default)]
-    pub translate: Keyframed<DVec3>,
+    pub translate: Keyed<DVec3>,
     /// Axis and angle in degrees, `[x, y, z, degrees]`.
-    #[serde(default)]
-    pub rotate: Keyframed<AxisAngle>,
+    pub rotate: Keyed<AxisAngle>,
     /// Uniform (`2.0`) or per axis (`[sx, sy, sz]`).
-    #[serde(default)]
-    pub scale: Keyframed<Scale>,
+    pub scale: Keyed<Scale>,
 }
 
 impl Default for Transform {
     fn default() -> Self {
+        use squish::animation::Keyframed;
         Self {
-            translate: Keyframed::constant(DVec3::ZERO),
-            rotate: Keyframed::constant(AxisAngle::default()),
-            scale: Keyframed::constant(Scale::default()),
+            translate: Keyed(Keyframed::constant(DVec3::ZERO)),
+            rotate: Keyed(Keyframed::constant(AxisAngle::default())),
+            scale: Keyed(Keyframed::constant(Scale::default())),
         }
     }
 }
@@ -904,19 +521,6 @@ impl KeyValue for AxisAngle {
     }
 }
 
-impl Serialize for AxisAngle {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        [self.axis.x, self.axis.y, self.axis.z, self.degrees].serialize(s)
-    }
-}
-
-impl<'de> Deserialize<'de> for AxisAngle {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let [x, y, z, degrees] = <[f64; 4]>::deserialize(d)?;
-        Ok(Self { axis: DVec3::new(x, y, z), degrees })
-    }
-}
-
 /// A scale per axis; reads from a number (uniform) or `[sx, sy, sz]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scale(pub DVec3);
@@ -935,155 +539,5 @@ impl KeyValue for Scale {
     }
     fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
         Self(DVec3::new(f(0), f(1), f(2)))
-    }
-}
-
-impl Serialize for Scale {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.0.to_array().serialize(s)
-    }
-}
-
-impl<'de> Deserialize<'de> for Scale {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Scale;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or [sx, sy, sz]")
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v)))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Scale, A::Error> {
-                let [x, y, z] = <[f64; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
-                Ok(Scale(DVec3::new(x, y, z)))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// A `[[pairs]]` entry: two objects that may collide.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PairSpec {
-    /// The names of the two objects.
-    pub objects: [String; 2],
-    /// Whether the pair is processed (keyframable, steps). Default true.
-    #[serde(default = "enabled")]
-    pub enabled: Keyframed<bool>,
-    /// Apparent stiffness τ of the geometric contact criterion (Eq. 4.3). Default 0.
-    #[serde(default)]
-    pub contact_tau: Keyframed<f64>,
-    /// Mapping direction d̂. Default automatic.
-    #[serde(default)]
-    pub direction: Direction,
-    /// How the contact zone is found. Default geometric (method B).
-    #[serde(default)]
-    pub contact_method: ContactMethod,
-}
-
-/// `direction = "auto" | [x, y, z] | keys of [x, y, z]`.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum Direction {
-    /// Computed from the geometry at each frame (thesis §4.2.2).
-    #[default]
-    Auto,
-    /// Given (normalized at each frame; must not vanish).
-    Fixed(Keyframed<DVec3>),
-}
-
-impl Serialize for Direction {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        match self {
-            Self::Auto => s.serialize_str("auto"),
-            Self::Fixed(k) => k.serialize(s),
-        }
-    }
-}
-
-impl<'de> Deserialize<'de> for Direction {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Direction;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"auto\", a vector [x, y, z], or keys [[frame, [x, y, z]], …]")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<Direction, E> {
-                match v {
-                    "auto" => Ok(Direction::Auto),
-                    _ => Err(unknown_word(v, &["auto"], "\"auto\" or a vector [x, y, z]")),
-                }
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Direction, A::Error> {
-                Ok(Direction::Fixed(Keyframed::deserialize(de::value::SeqAccessDeserializer::new(seq))?))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Direction, A::Error> {
-                Ok(Direction::Fixed(Keyframed::deserialize(de::value::MapAccessDeserializer::new(map))?))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// `contact_method = "geometric" | { ball = radius }`.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum ContactMethod {
-    /// Method B (thesis §4.4.2): symmetric, elastic–elastic or rigid–elastic.
-    #[default]
-    Geometric,
-    /// Method A (§4.4.1): ball testing with this radius r_s (> 0); rigid–elastic only.
-    Ball { radius: Keyframed<f64> },
-}
-
-impl Serialize for ContactMethod {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        match self {
-            Self::Geometric => s.serialize_str("geometric"),
-            Self::Ball { radius } => {
-                let mut m = s.serialize_map(Some(1))?;
-                m.serialize_entry("ball", radius)?;
-                m.end()
-            }
-        }
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct BallTable {
-    ball: Keyframed<f64>,
-}
-
-impl<'de> Deserialize<'de> for ContactMethod {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = ContactMethod;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"geometric\" or { ball = radius }")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> Result<ContactMethod, E> {
-                match v {
-                    "geometric" => Ok(ContactMethod::Geometric),
-                    "ball" => Err(E::custom("the ball method needs its radius: contact_method = { ball = 0.3 }")),
-                    _ => Err(unknown_word(v, &["geometric", "ball"], "\"geometric\" or { ball = radius }")),
-                }
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ContactMethod, A::Error> {
-                let t = BallTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(ContactMethod::Ball { radius: t.ball })
-            }
-        }
-        d.deserialize_any(V)
     }
 }

@@ -1,28 +1,29 @@
-//! Checks of a deserialized scene that serde cannot express: ranges of values, names that must
-//! be unique or must exist, combinations that make no sense. Every error points at the key in
-//! the file and says what to write instead.
+//! Checks of a deserialized scene that serde cannot express: the parameters of every table
+//! against the library's schema ([`super::tracks`]: kinds, ranges at every key, conditions between
+//! keys at every frame), names that must be unique or must exist, combinations that make no
+//! sense. Every error points at the key in the file and says what to write instead.
 //!
-//! Keyed scalars are checked at their keys: linear, smooth and step curves never leave the range
+//! Keyed values are checked at their keys: linear, smooth and step curves never leave the range
 //! of their neighbouring keys, so a bound that holds at every key holds at every frame.
-//! Conditions that involve several curves (profile abscissas in order) or that interpolation can
-//! break (a direction or scale passing through zero) are checked at every whole frame of the
-//! scene and at every key; frame evaluation checks them again at fractional frames.
+//! Conditions that interpolation can break (profile abscissas in order, a direction or scale
+//! passing through zero) are checked at every whole frame of the scene and at every key; frame
+//! evaluation checks them again at fractional frames.
 
 use std::collections::HashMap;
 
-use squish::animation::{KeyInterpolation, KeyValue, Keyframed};
+use squish::animation::KeyInterpolation;
+use squish::params::{ArticulationParams, ObjectParams, PairParams, ParamInfo, ParamValue, Params};
+use toml::Value;
 
-use super::diagnostics::{Seg, SourceText, did_you_mean};
+use super::diagnostics::{Seg, SourceText};
 use super::frames::FramePattern;
-use super::types::{
-    ContactMethod, Direction, MeshSource, ObjectSpec, Region, Scale, SceneDescription, SelfContactDirection,
-    StiffnessPair,
-};
+use super::tracks::{ParamTracks, RawParams, TrackError};
+use super::types::{MeshSource, ObjectSpec, Scale, SceneDescription, SelfContactSpec, VertexData};
 use crate::IoError;
 
 /// Longest accepted shot: beyond this a frame range is surely a typo, and checking every frame
 /// would take noticeable time.
-const MAX_FRAMES: i64 = 1_000_000;
+pub(crate) const MAX_FRAMES: i64 = 1_000_000;
 
 pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(), IoError> {
     let f = &scene.frames;
@@ -32,13 +33,11 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
             format!("end {} is before start {}; frames are inclusive, so end must be ≥ start", f.end, f.start),
         ));
     }
-    if f.end - f.start >= MAX_FRAMES {
+    let count = i128::from(f.end) - i128::from(f.start) + 1;
+    if count > i128::from(MAX_FRAMES) {
         return Err(src.error_at_key(
             &[Seg::Key("frames"), Seg::Key("end")],
-            format!(
-                "{} frames is more than the {MAX_FRAMES} a scene may hold; check start and end",
-                f.end - f.start + 1
-            ),
+            format!("{count} frames is more than the {MAX_FRAMES} a scene may hold; check start and end"),
         ));
     }
     if !(f.fps.is_finite() && f.fps > 0.0) {
@@ -55,14 +54,15 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
     if scene.objects.is_empty() {
         return Err(src.error_at(0, "the scene has no [[objects]]; add at least one with a name and a mesh"));
     }
-    let frames: Vec<f64> = (f.start..=f.end).map(|x| x as f64).collect();
+    let shot = || (f.start..=f.end).map(|x| x as f64);
     let mut names: HashMap<&str, usize> = HashMap::new();
+    let mut rigid = Vec::with_capacity(scene.objects.len());
     for (i, object) in scene.objects.iter().enumerate() {
-        let at = |key: &'static str| [Seg::Key("objects"), Seg::Index(i), Seg::Key(key)];
-        check_name(&object.name).map_err(|m| src.error_at_key(&at("name"), m))?;
+        let err = |key: &str, m: String| src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key(key)], m);
+        check_name(&object.name).map_err(|m| err("name", m))?;
         if let Some(first) = names.insert(&object.name, i) {
-            return Err(src.error_at_key(
-                &at("name"),
+            return Err(err(
+                "name",
                 format!(
                     "the name \"{}\" is already used by object #{}; object names must be unique (they name the output folders)",
                     object.name,
@@ -70,8 +70,10 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
                 ),
             ));
         }
-        validate_object(object, &frames, |key, m| src.error_at_key(&at(key), m))?;
-        validate_self_contact(object, &frames, |k, key, m| {
+        let params: ObjectParams = check_params(&object.params, ObjectSpec::TABLE_KEYS, shot(), err)?;
+        rigid.push(params.rigid);
+        validate_object(object, shot(), err)?;
+        validate_self_contact(object, params.rigid, shot, |k, key, m| {
             let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)];
             src.error_at_key(&path, m)
         })?;
@@ -79,61 +81,110 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
     let mut seen_pairs: HashMap<(usize, usize), usize> = HashMap::new();
     let object_names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
     for (i, pair) in scene.pairs.iter().enumerate() {
-        let at = |key: &'static str| [Seg::Key("pairs"), Seg::Index(i), Seg::Key(key)];
+        let err = |key: &str, m: String| src.error_at_key(&[Seg::Key("pairs"), Seg::Index(i), Seg::Key(key)], m);
         let mut ids = [0usize; 2];
         for (k, name) in pair.objects.iter().enumerate() {
             ids[k] = match names.get(name.as_str()) {
                 Some(&id) => id,
                 None => {
-                    let hint = match did_you_mean(name, &object_names) {
+                    let hint = match squish::params::did_you_mean(name, &object_names) {
                         Some(s) => format!("did you mean \"{s}\"?"),
                         None => format!("the objects are {}", quoted(&object_names)),
                     };
-                    return Err(src.error_at_key(&at("objects"), format!("no object is named \"{name}\" ({hint})")));
+                    return Err(err("objects", format!("no object is named \"{name}\" ({hint})")));
                 }
             };
         }
         let [a, b] = ids;
         let [na, nb] = &pair.objects;
         if a == b {
-            return Err(src.error_at_key(
-                &at("objects"),
-                format!("pairs [\"{na}\", \"{nb}\"] names the same object twice; a pair is two different objects (for an object folding onto itself, use [[objects.self_contact]])"),
+            return Err(err(
+                "objects",
+                format!(
+                    "pairs [\"{na}\", \"{nb}\"] names the same object twice; a pair is two different objects (for an object folding onto itself, use [[objects.self_contact]])"
+                ),
             ));
         }
         if let Some(first) = seen_pairs.insert((a.min(b), a.max(b)), i) {
-            return Err(src.error_at_key(
-                &at("objects"),
+            return Err(err(
+                "objects",
                 format!("the pair \"{na}\" / \"{nb}\" is already listed as pair #{}; list each pair once", first + 1),
             ));
         }
-        let (ra, rb) = (scene.objects[a].rigid, scene.objects[b].rigid);
-        if ra && rb {
-            return Err(src.error_at_key(
-                &at("objects"),
-                format!("both \"{na}\" and \"{nb}\" are rigid, so neither can deform; set rigid = false on one of them or remove the pair"),
+        if rigid[a] && rigid[b] {
+            return Err(err(
+                "objects",
+                format!(
+                    "both \"{na}\" and \"{nb}\" are rigid, so neither can deform; set rigid = false on one of them or remove the pair"
+                ),
             ));
         }
-        check_range(&pair.contact_tau, |_| true, "a finite number")
-            .map_err(|m| src.error_at_key(&at("contact_tau"), m))?;
-        if let Direction::Fixed(d) = &pair.direction {
-            check_frames(d, &frames, |v| v.length() > 1e-12, "a non-zero vector [x, y, z]")
-                .map_err(|m| src.error_at_key(&at("direction"), m))?;
-        }
-        if let ContactMethod::Ball { radius } = &pair.contact_method {
-            check_range(radius, |r| r > 0.0, "greater than 0 (the ball radius r_s, in scene units)")
-                .map_err(|m| src.error_at_key(&at("contact_method"), m))?;
-            if ra == rb {
-                return Err(src.error_at_key(
-                    &at("contact_method"),
-                    format!(
-                        "the ball method (method A) works between a rigid and an elastic object, but \"{na}\" and \"{nb}\" are both elastic; make one rigid or use contact_method = \"geometric\""
-                    ),
-                ));
-            }
+        let params: PairParams = check_params(&pair.params, super::PairSpec::TABLE_KEYS, shot(), err)?;
+        if params.contact_method == squish::params::ContactMethod::Ball && rigid[a] == rigid[b] {
+            return Err(err(
+                "contact_method",
+                format!(
+                    "the ball method (method A) works between a rigid and an elastic object, but \"{na}\" and \"{nb}\" are both elastic; make one rigid or use contact_method = \"geometric\""
+                ),
+            ));
         }
     }
     Ok(())
+}
+
+/// Reads a table's parameters ([`ParamTracks::parse`], per-vertex values checked for their
+/// form only) and checks them at every frame that matters; returns them at the first frame.
+/// `err(key, message)` locates a message at a key of the table.
+fn check_params<P: Params>(
+    raw: &RawParams,
+    table_keys: &[&str],
+    shot: impl Iterator<Item = f64>,
+    err: impl Fn(&str, String) -> IoError,
+) -> Result<P, IoError> {
+    let located = |e: TrackError| err(&e.key, with_former_spelling(&e.key, raw.get(&e.key), e.message));
+    let tracks = ParamTracks::<P>::parse(raw, table_keys, per_vertex_form).map_err(located)?;
+    let frames = tracks.check_frames(shot);
+    let mut first = None;
+    for &frame in &frames {
+        let params = tracks.at(frame).map_err(|e| {
+            let when = if frames.len() > 1 { format!(" at frame {frame}") } else { String::new() };
+            let mut e = TrackError::from(e);
+            e.message.push_str(&when);
+            located(e)
+        })?;
+        first.get_or_insert(params);
+    }
+    Ok(first.unwrap_or_default())
+}
+
+/// A per-vertex parameter's form (`"map.txt"` or `{ file, attribute }`), not its file: that is
+/// read when the scene loads. An empty list stands for the values meanwhile, so that conditions
+/// such as "a mask needs its values" hold.
+fn per_vertex_form(_: &'static ParamInfo, v: &Value) -> Result<Option<ParamValue>, String> {
+    VertexData::from_value(v).map(|_| Some(ParamValue::List(Vec::new())))
+}
+
+/// The fix for a value written in a form this version no longer reads (`region = { distance = … }`,
+/// `profile = [v2, v3, v4]`, `contact_method = { ball = r }`, `anisotropy = { … }`), added to its
+/// message.
+fn with_former_spelling(key: &str, value: Option<&Value>, message: String) -> String {
+    let Some(Value::Table(t)) = value else {
+        if key == "profile" {
+            return format!("{message}; the profile's abscissas are the keys profile_v2, profile_v3 and profile_v4");
+        }
+        return message;
+    };
+    let fix = match key {
+        "region" if t.contains_key("distance") => "write region = \"distance\" and region_distance = …",
+        "region" => "write region = \"mask\" and region_mask = \"file.txt\" or { attribute = \"name\" }",
+        "contact_method" => "write contact_method = \"ball\" and ball_radius = …",
+        "anisotropy" => "write anisotropy = true, anisotropy_exponent = … and anisotropy_offset = …",
+        "profile" => {
+            "write profile_v2 = …, profile_v3 = …, profile_v4 = …, wrinkle_amplitude = …, wrinkle_frequency = …"
+        }
+        _ => return message,
+    };
+    format!("{message}; {fix}")
 }
 
 fn quoted(names: &[&str]) -> String {
@@ -160,68 +211,48 @@ fn check_name(name: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// The object's own keys: its mesh's frame pattern and its transform.
 fn validate_object(
     object: &ObjectSpec,
-    frames: &[f64],
-    err: impl Fn(&'static str, String) -> IoError,
+    shot: impl Iterator<Item = f64>,
+    err: impl Fn(&str, String) -> IoError,
 ) -> Result<(), IoError> {
     if let MeshSource::Sequence { pattern, .. } = &object.mesh {
         let text = pattern.to_string_lossy();
         FramePattern::parse(&text).map_err(|m| err("mesh", m))?;
     }
-    check_range(&object.stiffness, |k| k > 0.0, "greater than 0 (relative stiffness; 1 is the default)")
-        .map_err(|m| err("stiffness", m))?;
-    if let Some(extent) = &object.extent {
-        check_range(extent, |d| d > 0.0, "greater than 0 (a distance in scene units), or removed for automatic")
-            .map_err(|m| err("extent", m))?;
-    }
-    check_range(&object.bulge, |_| true, "a finite number").map_err(|m| err("bulge", m))?;
-    check_range(&object.bulge_height, |_| true, "a finite number").map_err(|m| err("bulge_height", m))?;
-    let p = &object.profile;
-    check_range(&p.wrinkle_frequency, |w| w >= 0.0, "≥ 0")
-        .map_err(|m| err("profile", format!("wrinkle_frequency {m}")))?;
-    // The three abscissas together: in order inside (0.2, 1) at every frame and key.
-    let mut profile_frames: Vec<f64> = frames.to_vec();
-    for k in [&p.v2, &p.v3, &p.v4] {
-        profile_frames.extend_from_slice(k.key_frames());
-    }
-    for &f in &profile_frames {
-        let (a, b, c) = (p.v2.at(f), p.v3.at(f), p.v4.at(f));
-        if !(0.2 < a && a < b && b < c && c < 1.0) {
+    let t = &object.transform;
+    check_scale(&t.scale.0).map_err(|m| err("transform", format!("scale {m}")))?;
+    let rotate = &t.rotate.0;
+    for f in shot.chain(rotate.key_frames().iter().copied()) {
+        let r = rotate.at(f);
+        if !(r.degrees == 0.0 || r.axis.length() > 1e-12) {
             return Err(err(
-                "profile",
+                "transform",
                 format!(
-                    "the abscissas v2, v3, v4 are {a:.4}, {b:.4}, {c:.4} at frame {f}; they must increase strictly within (0.2, 1), e.g. the defaults 0.3333, 0.8333, 0.9167"
+                    "rotate must be about a non-zero axis, got [{}, {}, {}, {}] at frame {f}",
+                    r.axis.x, r.axis.y, r.axis.z, r.degrees
                 ),
             ));
         }
+        if !rotate.is_animated() {
+            break;
+        }
     }
-    let an = &object.anisotropy;
-    check_range(&an.exponent, |w| w > 0.0, "greater than 0 (ω; 2 is the default)")
-        .map_err(|m| err("anisotropy", format!("exponent {m}")))?;
-    check_range(&an.offset, |psi| psi > -1.0, "greater than −1 (ψ; at −1 or less no vertex would bulge)")
-        .map_err(|m| err("anisotropy", format!("offset {m}")))?;
-    if let Region::Distance(d) = &object.region {
-        check_range(d, |d| d > 0.0, "greater than 0 (a distance in scene units)")
-            .map_err(|m| err("region", format!("distance {m}")))?;
-    }
-    let t = &object.transform;
-    check_scale(&t.scale).map_err(|m| err("transform", format!("scale {m}")))?;
-    check_frames(&t.rotate, frames, |r| r.degrees == 0.0 || r.axis.length() > 1e-12, "about a non-zero axis")
-        .map_err(|m| err("transform", format!("rotate {m}")))?;
     Ok(())
 }
 
 /// Checks the `[[objects.self_contact]]` entries of an object; `err(entry, key, message)`
 /// locates a message at a key of an entry.
-fn validate_self_contact(
+fn validate_self_contact<I: Iterator<Item = f64>>(
     object: &ObjectSpec,
-    frames: &[f64],
-    err: impl Fn(usize, &'static str, String) -> IoError,
+    rigid: bool,
+    shot: impl Fn() -> I,
+    err: impl Fn(usize, &str, String) -> IoError,
 ) -> Result<(), IoError> {
     let mut names: HashMap<&str, usize> = HashMap::new();
     for (k, entry) in object.self_contact.iter().enumerate() {
-        let err = |key: &'static str, m: String| err(k, key, m);
+        let err = |key: &str, m: String| err(k, key, m);
         let name = &entry.name;
         if name.trim().is_empty() {
             return Err(err("name", "the name is empty; name each articulation (e.g. \"left knee\")".into()));
@@ -235,7 +266,7 @@ fn validate_self_contact(
                 ),
             ));
         }
-        if object.rigid {
+        if rigid {
             return Err(err(
                 "name",
                 format!(
@@ -244,6 +275,8 @@ fn validate_self_contact(
                 ),
             ));
         }
+        let params: ArticulationParams = check_params(&entry.params, SelfContactSpec::TABLE_KEYS, shot(), err)?;
+        let direction_from_joints = entry.params.get("direction").is_none_or(|d| d.as_str() == Some("joints"));
         match (&entry.joints, &entry.masks) {
             (Some(_), Some(_)) => {
                 return Err(err(
@@ -282,7 +315,7 @@ fn validate_self_contact(
                 }
             }
             (None, Some(_)) => {
-                if entry.min_weight.is_some() {
+                if params.min_weight != ArticulationParams::default().min_weight {
                     return Err(err(
                         "min_weight",
                         format!(
@@ -290,7 +323,7 @@ fn validate_self_contact(
                         ),
                     ));
                 }
-                if entry.direction == SelfContactDirection::Joints {
+                if direction_from_joints {
                     return Err(err(
                         "direction",
                         format!(
@@ -300,94 +333,14 @@ fn validate_self_contact(
                 }
             }
         }
-        if let Some(w) = entry.min_weight
-            && !(w > 0.0 && w <= 1.0)
-        {
-            return Err(err(
-                "min_weight",
-                format!("must lie in (0, 1] (a skinning weight; 0.05 is the default), got {w}"),
-            ));
-        }
-        if let SelfContactDirection::Fixed(d) = &entry.direction {
-            check_frames(
-                d,
-                frames,
-                |v| v.length() > 1e-12,
-                "a non-zero vector [x, y, z] (from region 1 toward region 2)",
-            )
-            .map_err(|m| err("direction", m))?;
-        }
-        check_range(&entry.contact_tau, |_| true, "a finite number").map_err(|m| err("contact_tau", m))?;
-        check_frames(
-            &entry.stiffness,
-            &[],
-            |StiffnessPair(k)| k.iter().all(|&k| k > 0.0),
-            "greater than 0 on both sides (a number, or [k1, k2])",
-        )
-        .map_err(|m| err("stiffness", m))?;
-        if let Some(extent) = &entry.extent {
-            check_range(extent, |d| d > 0.0, "greater than 0 (a distance in scene units), or removed for automatic")
-                .map_err(|m| err("extent", m))?;
-        }
-        check_range(&entry.cut_regional_weight, |w| w >= 0.0, "≥ 0 (1 is the default)")
-            .map_err(|m| err("cut_regional_weight", m))?;
-        check_range(
-            &entry.safeguard_angle,
-            |a| a > 0.0 && a <= 90.0,
-            "an angle in degrees within (0, 90] (80 is the default)",
-        )
-        .map_err(|m| err("safeguard_angle", m))?;
-        if let Some(gap) = &entry.contact_gap {
-            check_range(gap, |g| g >= 0.0, "≥ 0 (a distance in scene units), or removed for automatic")
-                .map_err(|m| err("contact_gap", m))?;
-        }
-    }
-    Ok(())
-}
-
-/// Checks a keyed scalar at its keys (enough for bounds: interpolation stays between keys).
-fn check_range(k: &Keyframed<f64>, ok: impl Fn(f64) -> bool, requirement: &str) -> Result<(), String> {
-    match k {
-        Keyframed::Constant(v) => {
-            if ok(*v) {
-                Ok(())
-            } else {
-                Err(format!("must be {requirement}, got {v}"))
-            }
-        }
-        Keyframed::Keys(track) => {
-            for (f, v) in track.frames().iter().zip(track.values()) {
-                if !ok(*v) {
-                    return Err(format!("must be {requirement}, got {v} at the key on frame {f}"));
-                }
-            }
-            Ok(())
-        }
-    }
-}
-
-/// Checks a keyed value at every given frame and at its keys.
-fn check_frames<T: KeyValue + std::fmt::Debug>(
-    k: &Keyframed<T>,
-    frames: &[f64],
-    ok: impl Fn(T) -> bool,
-    requirement: &str,
-) -> Result<(), String> {
-    if let Keyframed::Constant(v) = k {
-        return if ok(*v) { Ok(()) } else { Err(format!("must be {requirement}, got {}", show(v))) };
-    }
-    for &f in frames.iter().chain(k.key_frames()) {
-        let v = k.at(f);
-        if !ok(v) {
-            return Err(format!("must be {requirement}, got {} at frame {f}", show(&v)));
-        }
     }
     Ok(())
 }
 
 /// A scale must not be zero on any axis at any frame. Linear and smooth curves stay between
 /// their keys, so they cross zero exactly when two consecutive keys differ in sign on an axis.
-fn check_scale(k: &Keyframed<Scale>) -> Result<(), String> {
+fn check_scale(k: &squish::animation::Keyframed<Scale>) -> Result<(), String> {
+    use squish::animation::Keyframed;
     const ZERO: &str = "must be non-zero on every axis (a zero scale flattens the mesh)";
     match k {
         Keyframed::Constant(Scale(s)) => {
@@ -420,10 +373,4 @@ fn check_scale(k: &Keyframed<Scale>) -> Result<(), String> {
             Ok(())
         }
     }
-}
-
-/// A value as written in a scene file: `[x, y, z]` for vectors.
-fn show<T: KeyValue>(v: &T) -> String {
-    let parts: Vec<String> = (0..T::COMPONENTS).map(|i| v.component(i).to_string()).collect();
-    if parts.len() == 1 { parts[0].clone() } else { format!("[{}]", parts.join(", ")) }
 }

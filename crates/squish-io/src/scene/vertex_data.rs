@@ -19,6 +19,32 @@ pub(crate) struct OwnGltf<'a> {
     pub(crate) mesh: usize,
 }
 
+/// Per-vertex values of `data` for a mesh read from `mesh_file` outside a scene (the command
+/// line's `--set a.bulge_map=…`): `count` is the mesh's vertices and `file_to_vertex` the weld
+/// map from the file's vertices, if it was welded. An attribute without a file is read from
+/// `mesh_file`. `what` names the parameter in messages.
+pub fn read_vertex_map(
+    data: &super::VertexData,
+    mesh_file: &Path,
+    count: usize,
+    file_to_vertex: Option<&[u32]>,
+    what: &str,
+) -> Result<Vec<f64>, IoError> {
+    let numbering = VertexNumbering {
+        count,
+        file_count: file_to_vertex.map_or(count, <[u32]>::len),
+        file_to_vertex: file_to_vertex.map(<[u32]>::to_vec),
+    };
+    let object = mesh_file.file_stem().map_or_else(|| "mesh".into(), |s| s.to_string_lossy().into_owned());
+    let (file, attribute) = match data {
+        super::VertexData::Text { file } => (file.as_path(), None),
+        super::VertexData::Attribute { file, attribute } => {
+            (file.as_deref().unwrap_or(mesh_file), Some(attribute.as_str()))
+        }
+    };
+    load_vertex_values(&object, what, file, attribute, &numbering, None)
+}
+
 /// Reads per-vertex values for `object` and maps them to its vertices. `what` names the
 /// parameter ("bulge_map", "region mask").
 pub(crate) fn load_vertex_values(

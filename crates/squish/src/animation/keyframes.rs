@@ -17,21 +17,15 @@
 //! Outside the keyed range the first / last value holds. Vectors interpolate per component (a
 //! keyed direction must be normalized by the caller). Booleans only step.
 //!
-//! Serde reads a constant (`2.0`), a list of `[frame, value]` keys (`[[1, 0.5], [48, 2.0]]`,
-//! linear) or a table (`{ keys = [[1, 0.5], [48, 2.0]], interpolation = "smooth" }`), and
-//! checks the keys as [`Keyframed::keys`] does; it writes a constant as the bare value and keys
-//! as the table form.
+//! How keys are spelled in files is the file layer's business (squish-io's scene files); here
+//! they are checked by [`Keyframed::keys`].
 
 use std::fmt;
 
 use glam::DVec3;
-use serde::Deserialize as _;
-use serde::de::{self, DeserializeOwned, DeserializeSeed, MapAccess, SeqAccess, Visitor};
-use serde::ser::SerializeMap;
 
 /// How values between two keys are computed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum KeyInterpolation {
     /// Straight segments between keys.
     #[default]
@@ -43,13 +37,21 @@ pub enum KeyInterpolation {
 }
 
 impl KeyInterpolation {
-    /// The name used in scene files.
+    /// Every interpolation, in the order of [`KeyInterpolation::name`]'s words.
+    pub const ALL: [Self; 3] = [Self::Linear, Self::Smooth, Self::Step];
+
+    /// Its name: `linear`, `smooth` or `step`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Linear => "linear",
             Self::Smooth => "smooth",
             Self::Step => "step",
         }
+    }
+
+    /// The interpolation of a name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|i| i.name() == name)
     }
 }
 
@@ -102,6 +104,17 @@ impl KeyValue for DVec3 {
     }
     fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
         DVec3::new(f(0), f(1), f(2))
+    }
+}
+
+impl KeyValue for [f64; 2] {
+    const COMPONENTS: usize = 2;
+    const DESCRIPTION: &'static str = "two numbers [a, b]";
+    fn component(&self, i: usize) -> f64 {
+        self[i]
+    }
+    fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
+        [f(0), f(1)]
     }
 }
 
@@ -288,191 +301,6 @@ fn smooth_tangents<T: KeyValue>(frames: &[f64], values: &[T]) -> Vec<f64> {
         }
     }
     tangents
-}
-
-// ---------------------------------------------------------------------------------------------
-// Serde
-
-impl<T: KeyValue + serde::Serialize> serde::Serialize for Keyframed<T> {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        match self {
-            Self::Constant(v) => v.serialize(serializer),
-            Self::Keys(track) => {
-                let keys: Vec<(f64, T)> = track.frames.iter().copied().zip(track.values.iter().copied()).collect();
-                let mut map = serializer.serialize_map(Some(2))?;
-                map.serialize_entry("keys", &keys)?;
-                map.serialize_entry("interpolation", &track.interpolation)?;
-                map.end()
-            }
-        }
-    }
-}
-
-impl<'de, T: KeyValue + DeserializeOwned> serde::Deserialize<'de> for Keyframed<T> {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserializer.deserialize_any(KeyframedVisitor::<T>(std::marker::PhantomData))
-    }
-}
-
-struct KeyframedVisitor<T>(std::marker::PhantomData<T>);
-
-impl<T: KeyValue + DeserializeOwned> KeyframedVisitor<T> {
-    fn constant<E: de::Error>(
-        value: Result<T, de::value::Error>,
-        unexpected: de::Unexpected<'_>,
-    ) -> Result<Keyframed<T>, E> {
-        let value = value.map_err(|_| E::invalid_type(unexpected, &Self(std::marker::PhantomData)))?;
-        finite_constant(value)
-    }
-}
-
-impl<'de, T: KeyValue + DeserializeOwned> Visitor<'de> for KeyframedVisitor<T> {
-    type Value = Keyframed<T>;
-
-    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        write!(
-            f,
-            "{}, a list of [frame, value] keys, or {{ keys = [[frame, value], …], interpolation = \"linear\" | \"smooth\" | \"step\" }}",
-            T::DESCRIPTION
-        )
-    }
-
-    fn visit_bool<E: de::Error>(self, v: bool) -> Result<Self::Value, E> {
-        use de::IntoDeserializer;
-        Self::constant(T::deserialize(v.into_deserializer()), de::Unexpected::Bool(v))
-    }
-
-    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Self::Value, E> {
-        self.visit_f64(v as f64)
-    }
-
-    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Self::Value, E> {
-        self.visit_f64(v as f64)
-    }
-
-    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
-        use de::IntoDeserializer;
-        Self::constant(T::deserialize(v.into_deserializer()), de::Unexpected::Float(v))
-    }
-
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
-        // Either a constant vector ([x, y, z]: numbers) or keys ([[frame, value], …]): the first
-        // element tells which, and every element must agree.
-        let mut numbers = Vec::new();
-        let mut keys = Vec::new();
-        while let Some(item) = seq.next_element_seed(ItemSeed::<T>(std::marker::PhantomData))? {
-            match item {
-                Item::Number(x) if keys.is_empty() => numbers.push(x),
-                Item::Key(frame, value) if numbers.is_empty() => keys.push((frame, value)),
-                _ => {
-                    return Err(de::Error::custom(format!(
-                        "mixes numbers and [frame, value] keys; expected {}",
-                        ExpectingText::<T>::default()
-                    )));
-                }
-            }
-        }
-        if !numbers.is_empty() {
-            use de::IntoDeserializer;
-            let value: Result<T, de::value::Error> = T::deserialize(numbers.into_deserializer());
-            let value = value.map_err(|_| {
-                de::Error::custom(format!(
-                    "a list of numbers is not {}; for keys write [[frame, value], …]",
-                    T::DESCRIPTION
-                ))
-            })?;
-            return finite_constant(value);
-        }
-        Keyframed::keys(keys, T::DEFAULT_INTERPOLATION).map_err(de::Error::custom)
-    }
-
-    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
-        let table = KeyTable::<T>::deserialize(de::value::MapAccessDeserializer::new(map))?;
-        let interpolation = table.interpolation.unwrap_or(T::DEFAULT_INTERPOLATION);
-        let keys = table.keys.into_iter().map(|k| (k.0, k.1)).collect();
-        Keyframed::keys(keys, interpolation).map_err(de::Error::custom)
-    }
-}
-
-/// A constant, checked finite (TOML can spell `inf` and `nan`).
-fn finite_constant<T: KeyValue, E: de::Error>(value: T) -> Result<Keyframed<T>, E> {
-    if (0..T::COMPONENTS).all(|i| value.component(i).is_finite()) {
-        Ok(Keyframed::Constant(value))
-    } else {
-        Err(E::custom(format!("{value:?} is not finite; give {} with finite numbers", T::DESCRIPTION)))
-    }
-}
-
-/// `expecting` text of [`KeyframedVisitor`] as a displayable value.
-struct ExpectingText<T>(std::marker::PhantomData<T>);
-
-impl<T> Default for ExpectingText<T> {
-    fn default() -> Self {
-        Self(std::marker::PhantomData)
-    }
-}
-
-impl<T: KeyValue + DeserializeOwned> fmt::Display for ExpectingText<T> {
-    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        KeyframedVisitor::<T>(std::marker::PhantomData).expecting(f)
-    }
-}
-
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields, bound(deserialize = "T: DeserializeOwned"))]
-struct KeyTable<T> {
-    keys: Vec<KeyPair<T>>,
-    #[serde(default)]
-    interpolation: Option<KeyInterpolation>,
-}
-
-#[derive(serde::Deserialize)]
-#[serde(bound(deserialize = "T: DeserializeOwned"))]
-struct KeyPair<T>(f64, T);
-
-/// An element of a list: a number (of a constant vector) or a `[frame, value]` key.
-enum Item<T> {
-    Number(f64),
-    Key(f64, T),
-}
-
-struct ItemSeed<T>(std::marker::PhantomData<T>);
-
-impl<'de, T: KeyValue + DeserializeOwned> DeserializeSeed<'de> for ItemSeed<T> {
-    type Value = Item<T>;
-    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<Self::Value, D::Error> {
-        deserializer.deserialize_any(self)
-    }
-}
-
-impl<'de, T: KeyValue + DeserializeOwned> Visitor<'de> for ItemSeed<T> {
-    type Value = Item<T>;
-
-    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        write!(f, "a [frame, value] key with {} as the value", T::DESCRIPTION)
-    }
-
-    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Self::Value, E> {
-        Ok(Item::Number(v as f64))
-    }
-
-    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Self::Value, E> {
-        Ok(Item::Number(v as f64))
-    }
-
-    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
-        Ok(Item::Number(v))
-    }
-
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
-        let shape = || de::Error::custom(format!("a key must be [frame, value] with {} as the value", T::DESCRIPTION));
-        let frame: f64 = seq.next_element()?.ok_or_else(shape)?;
-        let value: T = seq.next_element()?.ok_or_else(shape)?;
-        if seq.next_element::<de::IgnoredAny>()?.is_some() {
-            return Err(shape());
-        }
-        Ok(Item::Key(frame, value))
-    }
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use super::test_support::*;
 use super::*;
 use crate::linalg::test_support::Lcg;
 use crate::mesh::{mean_edge_length, shapes};
+use crate::params::PairParams;
 
 fn run(a: &Owned, b: &Owned, params: &PairParams) -> PairContact {
     contact_pair(&a.side(), &b.side(), params).unwrap()
@@ -454,7 +455,9 @@ fn a_user_direction_overrides_the_automatic_one() {
         assert!(s.displacement().cross(result.direction).length() < 1e-9);
     }
     let err = contact_pair(&sphere.side(), &grid.side(), &PairParams::default().with_direction(Some(DVec3::ZERO)));
-    assert!(matches!(err, Err(ContactError::InvalidDirection { .. })));
+    let err = err.unwrap_err();
+    assert!(matches!(err, ContactError::Parameter(_)), "{err}");
+    assert!(err.to_string().starts_with("pair parameter direction = [0, 0, 0]: must be a non-zero vector"), "{err}");
 }
 
 #[test]

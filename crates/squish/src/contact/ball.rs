@@ -311,11 +311,11 @@ pub fn ball_zone(
 ) -> Result<BallZone, ContactError> {
     let r = setup.radius;
     if !(r.is_finite() && r > 0.0) {
-        return Err(ContactError::InvalidParameter {
-            name: "contact_method.Ball.radius",
-            value: r,
-            hint: "the ball radius r_s is a finite positive length in world units",
-        });
+        return Err(ContactError::from(crate::params::ParamError::new(
+            "ball_radius",
+            Some(crate::params::number(r)),
+            "the ball radius r_s is a finite positive length in scene units",
+        )));
     }
     let r2 = r * r;
     let (mesh, topology) = (side.mesh, side.topology);
@@ -589,13 +589,14 @@ pub(crate) fn ball_zones(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::super::test_support::{Owned, sphere_center, sphere_in_grid};
-    use super::super::{ContactMethod, PairContact, PairParams, Stiffness, contact_pair};
+    use super::super::{PairContact, Stiffness, contact_pair};
     use super::*;
     use crate::mesh::{TriMesh, shapes};
+    use crate::params::PairParams;
     use std::time::Instant;
 
     fn ball(r: f64) -> PairParams {
-        PairParams::default().with_contact_method(ContactMethod::Ball { radius: r })
+        PairParams::default().with_ball(r)
     }
 
     fn run(a: &Owned, b: &Owned, params: &PairParams) -> PairContact {
@@ -736,7 +737,10 @@ mod tests {
         let err = contact_pair(&sphere.side(), &grid.side(), &ball(0.5)).unwrap_err();
         assert!(matches!(err, ContactError::BallTestingNeedsOneRigid), "{err}");
         let message = err.to_string();
-        assert!(message.contains("one rigid object") && message.contains("geometric criterion"), "{message}");
+        assert!(
+            message.contains("one rigid object") && message.contains("contact_method = \"geometric\""),
+            "{message}"
+        );
         let rigid = sphere.clone_with(Stiffness::Rigid);
         let both = grid.clone_with(Stiffness::Rigid);
         assert!(matches!(contact_pair(&rigid.side(), &both.side(), &ball(0.5)), Err(ContactError::BothRigid)));

@@ -15,12 +15,14 @@ pub enum ContactError {
     IntersectionReachesBorder { object: String, vertex: u32 },
     #[error("both objects are rigid: nothing can deform; give at least one of them a finite stiffness")]
     BothRigid,
-    #[error("object '{object}' has stiffness {value}; use a finite positive number, or Stiffness::Rigid")]
+    #[error("object '{object}' has stiffness {value}; use a finite positive number, or make it rigid")]
     InvalidStiffness { object: String, value: f64 },
-    #[error("the mapping direction {direction:?} is zero or not finite; give a non-zero direction or None (automatic)")]
+    #[error(
+        "the mapping direction {direction:?} is zero or not finite; give a non-zero direction, or leave it automatic"
+    )]
     InvalidDirection { direction: [f64; 3] },
-    #[error("parameter {name} = {value} is invalid: {hint}")]
-    InvalidParameter { name: &'static str, value: f64, hint: &'static str },
+    #[error("pair parameter {0}")]
+    Parameter(Box<crate::params::ParamError>),
     #[error(
         "object '{object}': {what} has {got} entries but the working region needs {expected}; build it from the same \
          working-region mesh"
@@ -28,21 +30,27 @@ pub enum ContactError {
     InputMismatch { object: String, what: &'static str, expected: usize, got: usize },
     #[error(
         "the automatic mapping direction is undefined: the normals over the intersection regions cancel out \
-         (Eq. 4.1); give a direction in PairParams::direction"
+         (Eq. 4.1); give the pair's mapping direction (its `direction` parameter, e.g. [0, 0, 1])"
     )]
     DirectionUndefined,
     #[error(
-        "ball testing needs one rigid object (thesis §4.4.1): use the geometric criterion (ContactMethod::Geometric) \
+        "ball testing needs one rigid object (thesis §4.4.1): use contact_method = \"geometric\" \
          or make one object rigid"
     )]
     BallTestingNeedsOneRigid,
     #[error(
         "object '{object}' has no UVs, but the shared-parametrization mapping (thesis §4.2.1) matches the meshes in UV \
-         space: give both sides per-vertex UVs (ContactSide::with_uvs) or use MappingMethod::UniqueDirection"
+         space: give both meshes UVs or use mapping = \"unique_direction\""
     )]
     MissingUvs { object: String },
     #[error("object '{object}': the shared-parametrization mapping failed: {reason}")]
     UvMapping { object: String, reason: String },
     #[error(transparent)]
     Spatial(#[from] SpatialError),
+}
+
+impl From<crate::params::ParamError> for ContactError {
+    fn from(e: crate::params::ParamError) -> Self {
+        Self::Parameter(Box::new(e))
+    }
 }

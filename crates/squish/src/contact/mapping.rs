@@ -599,7 +599,8 @@ mod tests {
     /// those of the lower ball alone.
     #[test]
     fn layers_hidden_from_the_other_object_leave_the_mapping_region() {
-        use crate::contact::{PairParams, contact_pair};
+        use crate::contact::contact_pair;
+        use crate::params::PairParams;
         let h = 0.3;
         let lower = shapes::icosphere(1.0, 3);
         let mut stacked = lower.clone();

@@ -21,7 +21,8 @@
 //! - [`export`]: per-vertex labels and boundary points for debugging.
 //!
 //! ```
-//! use squish::contact::{contact_pair, ContactSide, PairParams, Stiffness};
+//! use squish::contact::{contact_pair, ContactSide, Stiffness};
+//! use squish::PairParams;
 //! use squish::mesh::{shapes, vertex_normals, Topology};
 //! use squish::spatial::TriangleBvh;
 //! use squish::DVec3;
@@ -53,7 +54,7 @@ pub mod uv_mapping;
 pub mod zone;
 
 mod error;
-mod params;
+mod stiffness;
 
 #[cfg(test)]
 mod acceptance;
@@ -68,8 +69,8 @@ pub use mapping::{MappingStats, Match, MatchKind, SideMapping};
 pub use pair::{
     ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings, contact_pair,
 };
-pub use params::{ContactMethod, MappingMethod, PairParams, Stiffness, relative_stiffness};
 pub use region::{EdgeRegion, Sample};
+pub use stiffness::{Stiffness, relative_stiffness};
 pub use surface::{SideSurface, SurfaceSample};
 pub use zone::CriterionStats;
 

@@ -26,11 +26,12 @@ use glam::{DVec2, DVec3};
 use super::direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
 use super::intersect::{IntersectionPoint, IntersectionStats, intersect};
 use super::mapping::{MappingStats, SideMapping, map_regions};
-use super::params::{ContactMethod, MappingMethod, PairParams, Stiffness, relative_stiffness};
+use super::stiffness::{Stiffness, relative_stiffness};
 use super::surface::{SideSurface, side_surface};
 use super::zone::{CriterionStats, ZoneSetup, criterion, extract_zone};
 use super::{ContactError, ContactZone, EdgeRegion};
 use crate::mesh::{Topology, TriMesh};
+use crate::params::{MappingMethod, PairParams, Params};
 use crate::spatial::TriangleBvh;
 
 /// One side of a pair: a working region and what the contact definition needs about it.
@@ -301,12 +302,13 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let b = if b.name.is_empty() { b.with_name("b") } else { *b };
     a.validate()?;
     b.validate()?;
-    let user_direction = params.validate()?;
+    params.validate()?;
+    let user_direction = params.direction.map(|d| d.normalize());
     let [ka, kb] = relative_stiffness(a.stiffness, b.stiffness, [a.name, b.name])?;
     // Method A's choices are checked before any work (§4.4.1: one rigid side; §4.2.1: UVs).
-    let ball = match params.contact_method {
-        ContactMethod::Ball { radius } => Some((super::ball::elastic_side(&a, &b)?, radius)),
-        ContactMethod::Geometric => None,
+    let ball = match params.ball() {
+        Some(radius) => Some((super::ball::elastic_side(&a, &b)?, radius)),
+        None => None,
     };
     if params.mapping == MappingMethod::SharedParametrization {
         super::uv_mapping::check_uvs([&a, &b])?;

@@ -596,9 +596,10 @@ pub(crate) fn rematch_zone(
 mod tests {
     use super::super::intersect::intersect;
     use super::super::test_support::{Owned, distance_to};
-    use super::super::{ContactMethod, MappingMethod, PairContact, PairParams, Stiffness, contact_pair};
+    use super::super::{PairContact, Stiffness, contact_pair};
     use super::*;
     use crate::mesh::shapes;
+    use crate::params::{MappingMethod, PairParams};
 
     /// A working region with per-vertex UVs.
     struct WithUvs {
@@ -792,7 +793,7 @@ mod tests {
     fn contact_with_the_shared_parametrization_is_consistent_and_deterministic() {
         let (tip, plane) = (tip(|q| DVec2::new(2.0 * q.x + 0.1, 2.0 * q.y)), plane());
         let shared = PairParams::default().with_mapping(MappingMethod::SharedParametrization);
-        for params in [shared, shared.with_contact_method(ContactMethod::Ball { radius: 0.3 })] {
+        for params in [shared, shared.with_ball(0.3)] {
             let first = run(&tip, &plane, &params);
             let zone = &first.sides[1].zone;
             assert!(!zone.is_empty(), "{params:?}");

@@ -40,10 +40,10 @@ use glam::DVec3;
 
 use super::contact_set::ContactSet;
 use super::parametrize::Parametrization;
-use super::params::DirectionFieldMethod;
 use super::{DeformError, RegionSolver};
 use crate::linalg::RightHandSide;
 use crate::mesh::TriMesh;
+use crate::params::DirectionFieldMethod;
 
 /// Below this length the diffused field is not stretched to unit length (see the module doc).
 pub const MIN_DIFFUSED_LENGTH: f64 = 1e-6;

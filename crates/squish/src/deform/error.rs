@@ -7,9 +7,11 @@ use crate::linalg::SolveError;
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DeformError {
     #[error(
-        "the deformation extent is {extent}; it is the geodesic distance φ_max from the contact boundary at which the deformation stops (a world-space length): set DeformParams::extent to a finite positive value, e.g. a few times the contact radius"
+        "the deformation extent is {extent}; it is the geodesic distance φ_max from the contact boundary at which the deformation stops (a world-space length): give the object an extent > 0 or leave it automatic, e.g. a few times the contact radius"
     )]
     InvalidExtent { extent: f64 },
+    #[error("object parameter {0}")]
+    Parameter(Box<crate::params::ParamError>),
     #[error("parameter `{name}` is {value}: {hint}")]
     InvalidParameter { name: &'static str, value: f64, hint: &'static str },
     #[error(
@@ -63,5 +65,11 @@ impl DeformError {
     /// Checks that `what` has `expected` entries.
     pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<(), Self> {
         if expected == actual { Ok(()) } else { Err(Self::LengthMismatch { what, expected, actual }) }
+    }
+}
+
+impl From<crate::params::ParamError> for DeformError {
+    fn from(e: crate::params::ParamError) -> Self {
+        Self::Parameter(Box::new(e))
     }
 }

@@ -339,9 +339,9 @@ mod tests {
     use crate::contact::ContactZone;
     use crate::deform::direction_field::{DirectionParams, direction_field};
     use crate::deform::parametrize::{ParametrizeParams, parametrize};
-    use crate::deform::params::DirectionFieldMethod;
     use crate::deform::test_support::plane_zone;
     use crate::mesh::{shapes, vertex_normals};
+    use crate::params::DirectionFieldMethod;
 
     fn run(mesh: &TriMesh, zones: &[ContactZone], extent: f64) -> (ContactSet, Parametrization, GuideFields) {
         let topology = Topology::new(mesh);

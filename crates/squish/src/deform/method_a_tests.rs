@@ -16,9 +16,11 @@ use glam::{DQuat, DVec3};
 use super::direction_field::blend_weight;
 use super::parametrize::{ParametrizeParams, parametrize};
 use super::transport::transport_field;
-use super::{ContactSet, DeformParams, DirectionFieldMethod, RegionDeformation, RegionSolver, deform_region};
-use crate::contact::{ContactMethod, ContactSide, ContactZone, PairContact, PairParams, Stiffness, contact_pair};
+use super::{ContactSet, DeformParams, RegionDeformation, RegionSolver, deform_region};
+use crate::contact::{ContactSide, ContactZone, PairContact, Stiffness, contact_pair};
 use crate::mesh::{Topology, TriMesh, face_normal_unnormalized, shapes, vertex_normals};
+use crate::params::DirectionFieldMethod;
+use crate::params::PairParams;
 use crate::pipeline::{automatic_extent, object_size};
 use crate::spatial::TriangleBvh;
 
@@ -69,7 +71,7 @@ fn contact(a: &Object, b: &Object, params: &PairParams) -> PairContact {
 
 fn deform(object: &Object, zones: &[ContactZone], extent: f64, method: DirectionFieldMethod) -> RegionDeformation {
     let mut solver = RegionSolver::new(&object.mesh, &object.topology).unwrap();
-    let params = DeformParams::new(extent).with_direction_method(method);
+    let params = DeformParams::new(extent).with_direction_field(method);
     deform_region(&object.mesh, &object.topology, &mut solver, zones, &params).unwrap()
 }
 
@@ -110,10 +112,7 @@ fn methods_a_and_b_agree_where_both_apply() {
     let target_area = b.contact_area;
     // Ball-rolling area 2πh/(1 + r) (see the ball tests) gives the first guess; a few secant
     // steps match the measured areas.
-    let area_of = |r: f64| {
-        contact(&sphere, &slab, &PairParams::default().with_contact_method(ContactMethod::Ball { radius: r }))
-            .contact_area
-    };
+    let area_of = |r: f64| contact(&sphere, &slab, &PairParams::default().with_ball(r)).contact_area;
     // Fig. 4.10 on the closed slab: larger balls, smaller zones, as the ball-rolling area
     // 2πh/(1 + r_s) (the block is wide and deep enough for these balls).
     let radii = [0.05, 0.2, 0.4, 0.8, 1.2];
@@ -138,7 +137,7 @@ fn methods_a_and_b_agree_where_both_apply() {
         previous = (r, area);
         r = (r - (area - target_area) / slope).clamp(0.01, 1.5);
     }
-    let params_a = PairParams::default().with_contact_method(ContactMethod::Ball { radius: r });
+    let params_a = PairParams::default().with_ball(r);
     let a = contact(&sphere, &slab, &params_a);
     let extent = automatic_extent(object_size(&slab.mesh), object_size(&sphere.mesh), target_area);
     let zones = |c: &PairContact| vec![c.sides[1].zone.clone()];
@@ -261,7 +260,7 @@ fn direction_field_timings_on_a_ten_thousand_vertex_region() {
     let extent = 1.5;
     for method in [DirectionFieldMethod::Blended, DirectionFieldMethod::ParallelTransport] {
         let mut solver = RegionSolver::new(&elastic.mesh, &elastic.topology).unwrap();
-        let params = DeformParams::new(extent).with_direction_method(method);
+        let params = DeformParams::new(extent).with_direction_field(method);
         let mut best = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
         let mut last = None;
         for _ in 0..4 {
@@ -292,11 +291,12 @@ fn direction_field_timings_on_a_ten_thousand_vertex_region() {
 /// (the direction field is not selectable there yet): a rigid ball in the procedural ground.
 #[test]
 fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
-    use crate::pipeline::{Deformer, ObjectParams, scenes};
+    use crate::ObjectParams;
+    use crate::pipeline::{Deformer, scenes};
     let mut scene = scenes::ball_on_ground(0.15, 4, 48);
     scene.objects[0].params = ObjectParams::rigid();
     // The ground slab is 0.5 thick: the ball (r_s = 0.1) must fit inside it (§4.4.1).
-    scene.pairs[0].params = PairParams::default().with_contact_method(ContactMethod::Ball { radius: 0.1 });
+    scene.pairs[0].params = PairParams::default().with_ball(0.1);
     let result = Deformer::new().deform(&scene.frame()).unwrap();
     let ground = &scene.objects[1];
     let stats = &result.stats.objects[1];

@@ -49,12 +49,13 @@ use rayon::prelude::*;
 
 pub use contact_set::ContactSet;
 pub use error::DeformError;
-pub use params::{DEFAULT_DOMAIN_FACTOR, DeformParams, DirectionFieldMethod};
+pub use params::DeformParams;
 pub use profile::{ProfileShape, Wrinkles};
 pub use solver::RegionSolver;
 
 use crate::contact::ContactZone;
 use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
+use crate::params::DirectionFieldMethod;
 use bulge::{AnisotropyParams, bulge_map};
 use direction_field::{DirectionParams, direction_field};
 use guide::{GuideParams, guide_fields};
@@ -230,11 +231,11 @@ pub fn deform_region_with(
         let solution = solve_bulge_height(&cubic, params.extent);
         (solution.height, solution.exact, solution.residual)
     } else {
-        (params.bulge_height, false, cubic.eval(params.bulge_height))
+        (params.object.bulge_height, false, cubic.eval(params.object.bulge_height))
     };
     // `finish` adds its own time to the deformation stage: only the height solve is added here.
     let height_time = stage.elapsed();
-    let mut deformation = plan.finish(mesh, bulge_height, params.bulge * bulge_height);
+    let mut deformation = plan.finish(mesh, bulge_height, params.object.bulge * bulge_height);
     let stats = &mut deformation.stats;
     stats.volume_exact = volume_exact;
     stats.volume_residual = volume_residual;
@@ -384,13 +385,13 @@ pub fn plan_region(
     let parametrize_params = ParametrizeParams {
         extent: params.extent,
         domain_radius: params.domain_radius(),
-        heat_time_factor: params.heat_time_factor,
+        heat_time_factor: params.object.heat_time_factor,
         constraint_weight_factor: params.constraint_weight_factor,
         edge_length: params.edge_length,
     };
     // The blended field diffuses the zones' directions unless the caller gives d̄.
     let diffuse_directions =
-        params.direction_method == DirectionFieldMethod::Blended && overrides.mapping_field.is_none();
+        params.object.direction_field == DirectionFieldMethod::Blended && overrides.mapping_field.is_none();
     let parametrization =
         parametrize_and_diffuse(mesh, topology, solver, &contact, &parametrize_params, diffuse_directions)?;
     timings.parametrization = stage.elapsed();
@@ -406,8 +407,8 @@ pub fn plan_region(
         }
     };
     let direction_params = DirectionParams {
-        method: params.direction_method,
-        normalize_diffused: params.normalize_diffused,
+        method: params.object.direction_field,
+        normalize_diffused: params.object.normalize_diffused_direction,
         mapping_field: overrides.mapping_field,
     };
     let field = direction_field(mesh, solver, &contact, &parametrization, normals, &direction_params)?;
@@ -430,9 +431,10 @@ pub fn plan_region(
 
     // §5.4–5.5: bulge map and profiles.
     let stage = Instant::now();
-    let anisotropy = params
-        .anisotropic_bulge
-        .then_some(AnisotropyParams { exponent: params.anisotropy_exponent, offset: params.anisotropy_offset });
+    let anisotropy = params.object.anisotropy.then_some(AnisotropyParams {
+        exponent: params.object.anisotropy_exponent,
+        offset: params.object.anisotropy_offset,
+    });
     let eta = bulge_map(
         mesh,
         zones,
@@ -449,13 +451,13 @@ pub fn plan_region(
     let mut bulge_weights = vec![0.0; n];
     // The profile samples (an inversion of f₁ per vertex of 𝒟, the costliest part of this stage)
     // are independent: computed in parallel, used in vertex order.
-    let sampler = profile::ProfileSampler::new(&params.profile);
+    let sampler = profile::ProfileSampler::new(&params.profile());
     let samples: Vec<Option<profile::ProfileSample>> = (0..n)
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
             (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v])
-                .then(|| sampler.sample(&params.wrinkles, guide.amplitude[v], guide.slope[v], parametrization.u[v]))
+                .then(|| sampler.sample(&params.wrinkles(), guide.amplitude[v], guide.slope[v], parametrization.u[v]))
         })
         .collect();
     for v in 0..n {

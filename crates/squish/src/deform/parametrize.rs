@@ -82,7 +82,7 @@ impl ParametrizeParams {
     pub fn new(extent: f64) -> Self {
         Self {
             extent,
-            domain_radius: super::DEFAULT_DOMAIN_FACTOR * extent,
+            domain_radius: crate::ObjectParams::default().domain_factor * extent,
             heat_time_factor: 10.0,
             constraint_weight_factor: crate::linalg::DEFAULT_CONSTRAINT_WEIGHT_FACTOR,
             edge_length: None,
@@ -440,7 +440,7 @@ mod tests {
             let params = ParametrizeParams { domain_radius, ..params(extent) };
             parametrize(&mesh, &topology, solver, &contact, &params).unwrap()
         };
-        let factor = crate::deform::DEFAULT_DOMAIN_FACTOR;
+        let factor = crate::ObjectParams::default().domain_factor;
         let local = solve(&mut solver, factor * extent);
         let whole = solve(&mut solver, f64::INFINITY);
         let (mut worst, mut beyond, mut edge_changes) = (0.0f64, 0, 0);

@@ -38,7 +38,7 @@ use super::DeformError;
 const KNOTS: [f64; 10] = [0.0, 0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0, 1.0];
 
 /// Largest abscissa of `v1` (reached when the slope vanishes): `x2` must exceed it.
-pub const MAX_SECOND_ABSCISSA: f64 = 0.2;
+pub const MAX_SECOND_ABSCISSA: f64 = crate::params::MIN_PROFILE_ABSCISSA;
 
 /// Tolerance of the inversion of `f₁`.
 const INVERSION_TOLERANCE: f64 = 1e-14;
@@ -56,8 +56,10 @@ pub struct ProfileShape {
 }
 
 impl Default for ProfileShape {
+    /// The object parameters' defaults ([`crate::ObjectParams::profile_v2`] …).
     fn default() -> Self {
-        Self { x2: 1.0 / 3.0, x3: 5.0 / 6.0, x4: 11.0 / 12.0 }
+        let [x2, x3, x4] = crate::ObjectParams::default().profile();
+        Self { x2, x3, x4 }
     }
 }
 

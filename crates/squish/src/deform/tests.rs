@@ -619,7 +619,7 @@ fn timing_of_a_ten_thousand_vertex_sphere() {
             ("uniform bulge", DeformParams::new(0.6)),
             ("anisotropic bulge", DeformParams::new(0.6).with_anisotropic_bulge(true)),
         ] {
-            if level < 5 && params.anisotropic_bulge {
+            if level < 5 && params.object.anisotropy {
                 continue;
             }
             // The fastest of several frames (the first one also allocates the factors).

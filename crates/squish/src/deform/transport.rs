@@ -2,7 +2,7 @@
 //! "Direction field computation ▷ §2.1"), selected with
 //! [`DirectionFieldMethod::ParallelTransport`](super::DirectionFieldMethod::ParallelTransport). A
 //! drop-in replacement for the blended field of [`mod@super::direction_field`]: same inputs, same
-//! [`DirectionField`] output.
+//! [`DirectionFieldMethod`] output.
 //!
 //! Every unit direction d_i is stored as its tangent part in a frame B_i = [t_i b_i] of the vertex's
 //! tangent plane, d̄_i = B_iᵀ d_i, and d_i = B_i d̄_i + √(1 − ‖d̄_i‖²) n_i (Eq. 5.2). Tangent vectors
@@ -271,7 +271,7 @@ impl TransportField {
         fp.decode(z)
     }
 
-    /// The [`DirectionField`] the rest of the deformation stage consumes.
+    /// The [`DirectionFieldMethod`] the rest of the deformation stage consumes.
     pub fn into_direction_field(self) -> DirectionField {
         DirectionField {
             mapping: self.tangents,
@@ -527,8 +527,9 @@ mod tests {
     use crate::contact::ContactZone;
     use crate::deform::parametrize::{ParametrizeParams, parametrize};
     use crate::deform::test_support::{plane_zone, region_zone};
-    use crate::deform::{DeformParams, DirectionFieldMethod, deform_region};
+    use crate::deform::{DeformParams, deform_region};
     use crate::mesh::{shapes, vertex_normals};
+    use crate::params::DirectionFieldMethod;
 
     fn field_for(
         mesh: &TriMesh,
@@ -682,7 +683,7 @@ mod tests {
         let mesh = shapes::icosphere(1.0, 4);
         let topology = Topology::new(&mesh);
         let zone = plane_zone(&mesh, &topology, DVec3::new(0.2, 0.1, 1.0), -0.75);
-        let params = DeformParams::new(0.9).with_direction_method(DirectionFieldMethod::ParallelTransport);
+        let params = DeformParams::new(0.9).with_direction_field(DirectionFieldMethod::ParallelTransport);
         let mut reused = RegionSolver::new(&mesh, &topology).unwrap();
         let first = deform_region(&mesh, &topology, &mut reused, std::slice::from_ref(&zone), &params).unwrap();
         assert_eq!(first.stats.numeric_factorizations, 5, "heat, Poisson, transport, u′, guide");

@@ -16,10 +16,10 @@
 
 use glam::{DQuat, DVec3};
 
+use super::FramePair;
 use super::scenes::{ProceduralScene, SceneObject};
-use super::{FramePair, ObjectParams, WorkingRegion};
-use crate::contact::PairParams;
 use crate::mesh::{SubMesh, TriMesh, shapes};
+use crate::params::{ObjectParams, PairParams, RegionChoice};
 
 /// Full thesis-size scenes, or smaller ones for a quick smoke run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -482,19 +482,19 @@ pub fn stress_100k(size: BenchSize) -> BenchScene {
 /// times larger of ≈ 100k vertices (≈ 25k in quick mode), a small contact on a large mesh; both
 /// processed whole.
 pub fn press_100k(size: BenchSize) -> BenchScene {
-    press_on_a_big_sphere(size, WorkingRegion::Whole).finish("press-100k", None)
+    press_on_a_big_sphere(size, RegionChoice::Whole).finish("press-100k", None)
 }
 
-/// [`press_100k`] with automatic working regions ([`WorkingRegion::Distance`]): each object is
+/// [`press_100k`] with automatic working regions (`region = "distance"`): each object is
 /// processed on a band around its contact, with the same result up to round-off (the
 /// parametrization domain lies inside the band). The ratio of the two rows is the automatic
 /// region's speed-up (about 1 since the whole object's linear systems leave out the rows
 /// outside the parametrization domain).
 pub fn press_100k_automatic(size: BenchSize) -> BenchScene {
-    press_on_a_big_sphere(size, WorkingRegion::Distance(0.0)).finish("press-100k-automatic", None)
+    press_on_a_big_sphere(size, RegionChoice::Distance).finish("press-100k-automatic", None)
 }
 
-fn press_on_a_big_sphere(size: BenchSize, region: WorkingRegion) -> Builder {
+fn press_on_a_big_sphere(size: BenchSize, region: RegionChoice) -> Builder {
     let mut b = Builder::new("press 100k");
     let (segments, rings) = size.pick((316, 316), (158, 158));
     let (ball_segments, ball_rings) = size.pick((72, 72), (36, 36));

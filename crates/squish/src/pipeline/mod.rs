@@ -3,7 +3,7 @@
 //!
 //! A [`Frame`] lists objects (meshes with [`ObjectParams`]) and the pairs of objects that may
 //! touch (with [`PairParams`]). Every object is divided into **working regions** 𝒲
-//! ([`ObjectParams::region`], [`WorkingRegion`]; default: the whole object — see
+//! ([`ObjectParams::region`], [`RegionChoice`]; default: the whole object — see
 //! [`regions`] for the choices, the automatic rule and the cost trade-off of §7.5).
 //! [`Deformer::deform`] then
 //! 1. expands every [`FramePair`] into the pairs of its objects' regions whose boxes overlap
@@ -27,7 +27,6 @@
 //! a reused deformer, whatever the thread count.
 
 pub mod bench_scenes;
-mod params;
 pub mod regions;
 pub mod scenes;
 mod self_contact;
@@ -38,14 +37,15 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-pub use params::ObjectParams;
-pub use regions::WorkingRegion;
 pub use self_contact::SelfContactResult;
 
-use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
-use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, deform_region_with};
+use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, Stiffness, contact_pair};
+use crate::deform::{
+    DeformError, DeformParams, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, deform_region_with,
+};
 use crate::linalg::FillOrder;
 use crate::mesh::{Aabb3, MeshError, Topology, TriMesh, signed_volume, signed_volume_of, vertex_areas, vertex_normals};
+use crate::params::{ObjectParams, PairParams, Params, RegionChoice};
 use crate::spatial::{SpatialError, TriangleBvh};
 use regions::{ComponentFigures, Components, Partner, RegionCache, Selection};
 
@@ -67,9 +67,10 @@ pub struct FrameObject<'a> {
 pub struct FramePair {
     /// Indices of the two objects in [`Frame::objects`]. The mapping direction is oriented along
     /// the second object's normals. Both indices may be the same object when it has several
-    /// explicit regions ([`WorkingRegion::allows_self_contact`]): its distinct regions are paired.
+    /// explicit regions ([`RegionChoice::allows_self_contact`]): its distinct regions are paired.
     pub objects: [usize; 2],
-    /// Contact parameters (τ, direction, safeguard angle), shared by its region pairs.
+    /// Contact parameters (τ, direction, safeguard angle), shared by its region pairs. A pair
+    /// with `enabled = false` is left out of the frame (its objects are still processed).
     pub params: PairParams,
 }
 
@@ -98,8 +99,8 @@ pub enum PipelineError {
          (region = components, a mask or masks)"
     )]
     SelfPair { pair: usize, object: String },
-    #[error("object \"{object}\": {what} must be finite and positive (got {value})")]
-    InvalidParameter { object: String, what: &'static str, value: f64 },
+    #[error("object \"{object}\": {source}")]
+    Parameter { object: String, source: crate::params::ParamError },
     #[error("object \"{object}\": working region: {reason}")]
     InvalidRegion { object: String, reason: String },
     #[error(
@@ -400,7 +401,7 @@ impl ObjectCache {
             Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
                 .with_border((sub.border_count > 0).then_some(sub.border.as_slice())),
         };
-        Some(side.with_name(name).with_stiffness(object.params.contact_stiffness()).with_uvs(uvs))
+        Some(side.with_name(name).with_stiffness(Stiffness::of(object.params)).with_uvs(uvs))
     }
 
     /// For a cut region `r` and a partner region that is a whole closed object: the first vertex
@@ -516,6 +517,10 @@ impl Deformer {
     /// Deforms one frame. See the module doc.
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
+        if frame.pairs.iter().any(|p| !p.params.enabled) {
+            let pairs = frame.pairs.iter().filter(|p| p.params.enabled).copied().collect();
+            return self.deform(&Frame { objects: frame.objects.clone(), pairs });
+        }
         if frame.objects.iter().all(|o| o.params.self_contact.is_empty()) {
             self.self_contact.clear();
             return self.deform_pairs(frame, start);
@@ -582,17 +587,8 @@ impl Deformer {
         }
         for object in &frame.objects {
             let params = object.params;
-            let checks = [("stiffness", Some(params.stiffness)), ("extent", params.extent)];
-            for (what, value) in checks {
-                if let Some(value) = value
-                    && !(value.is_finite() && value > 0.0)
-                {
-                    return Err(PipelineError::InvalidParameter { object: object.name.to_string(), what, value });
-                }
-            }
-            params
-                .region
-                .validate(object.mesh.num_vertices())
+            params.validate().map_err(|source| PipelineError::Parameter { object: object.name.to_string(), source })?;
+            regions::validate_region(params, object.mesh.num_vertices())
                 .map_err(|reason| regions::invalid(object.name, reason))?;
             if let Some(uvs) = &params.uvs
                 && uvs.len() != object.mesh.num_vertices()
@@ -608,7 +604,7 @@ impl Deformer {
         // The whole-object tree is needed by `Whole` regions and by the partners of automatic ones.
         let needs_tree: Vec<bool> = (0..count)
             .map(|i| {
-                matches!(frame.objects[i].params.region, WorkingRegion::Whole)
+                frame.objects[i].params.region == RegionChoice::Whole
                     || partners[i].iter().any(|&j| frame.objects[j].params.region.is_automatic())
             })
             .collect();
@@ -676,7 +672,7 @@ impl Deformer {
         self.caches.par_iter_mut().zip(selections).zip(&frame.objects).zip(&needs_tree).try_for_each(
             |(((cache, selection), object), &refitted)| -> Result<(), PipelineError> {
                 let Some(cache) = cache.as_mut() else { return Ok(()) };
-                // A selection may be the whole object without `WorkingRegion::Whole`.
+                // A selection may be the whole object without `region = "whole"`.
                 if matches!(selection, Selection::Whole) && !refitted {
                     cache
                         .bvh
@@ -1054,15 +1050,20 @@ fn deform_one(
     let Some(solver) = region.solver.as_mut() else {
         return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
     };
-    let mut params = object.params.deform_params(extent, closed);
-    if let Some(sub) = region.sub.as_deref()
-        && let Some(map) = params.bulge_map.as_ref()
-    {
-        if map.len() != object.mesh.num_vertices() {
-            return Err(err(DeformError::BulgeMapLength { expected: object.mesh.num_vertices(), actual: map.len() }));
-        }
-        let gathered = sub.sub.gather(map);
-        params.bulge_map = Some(gathered);
+    let mut params = DeformParams::of(object.params, extent, object.params.preserve_volume.unwrap_or(closed));
+    if let Some(map) = object.params.bulge_map.as_ref() {
+        params.bulge_map = Some(match region.sub.as_deref() {
+            None => map.clone(),
+            Some(sub) => {
+                if map.len() != object.mesh.num_vertices() {
+                    return Err(err(DeformError::BulgeMapLength {
+                        expected: object.mesh.num_vertices(),
+                        actual: map.len(),
+                    }));
+                }
+                sub.sub.gather(map)
+            }
+        });
     }
     if object_edge_length > 0.0 {
         // The length scale h (heat time, slope confidence) is the object's (of the components

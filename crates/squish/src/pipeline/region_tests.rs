@@ -10,6 +10,7 @@ use super::scenes::{self, ProceduralScene};
 use super::tests::{deepest_penetration, deformed};
 use super::*;
 use crate::mesh::{face_normal_unnormalized, shapes};
+use crate::params::RegionChoice;
 use crate::spatial::{penetration_depths, self_intersections, test_meshes};
 
 fn bits(positions: &[DVec3]) -> Vec<u64> {
@@ -200,16 +201,16 @@ fn regions_holding_the_deformation_match_the_whole_object() {
     for extent in [Some(0.8), Some(0.5)] {
         let mut scene = scenes::ball_on_ground(0.2, 4, 48);
         scene.objects[1].params.extent = extent;
-        let run = |region: WorkingRegion| {
+        let run = |region: &dyn Fn(ObjectParams) -> ObjectParams| {
             let mut scene = scene.clone();
-            scene.objects[1].params.region = region;
+            scene.objects[1].params = region(scene.objects[1].params.clone());
             Deformer::new().deform(&scene.frame()).unwrap()
         };
-        let whole = run(WorkingRegion::Whole);
+        let whole = run(&|p| p);
         let ground = &scene.objects[1].mesh;
 
         // A mask selecting every vertex is the whole object: bit-identical.
-        let all = run(WorkingRegion::Mask(vec![true; ground.num_vertices()]));
+        let all = run(&|p| p.with_region_masks(&[vec![true; ground.num_vertices()]]));
         assert!(all.regions.iter().all(|r| r.whole));
         for (a, b) in whole.positions.iter().zip(&all.positions) {
             assert_eq!(bits(a), bits(b));
@@ -230,10 +231,12 @@ fn regions_holding_the_deformation_match_the_whole_object() {
                 }
             }
         }
-        let runs = [
-            ("mask of 𝒫 and its neighbours", WorkingRegion::Mask(grown), false),
-            ("distance band", WorkingRegion::Distance(0.0), false),
-            ("mask of u ≤ 1.25", WorkingRegion::Mask(deformation.u.iter().map(|&u| u <= 1.25).collect()), true),
+        let inner: Vec<bool> = deformation.u.iter().map(|&u| u <= 1.25).collect();
+        type Choose<'a> = &'a dyn Fn(ObjectParams) -> ObjectParams;
+        let runs: [(&str, Choose, bool); 3] = [
+            ("mask of 𝒫 and its neighbours", &|p| p.with_region_masks(std::slice::from_ref(&grown)), false),
+            ("distance band", &|p| p.with_region_distance(0.0), false),
+            ("mask of u ≤ 1.25", &|p| p.with_region_masks(std::slice::from_ref(&inner)), true),
         ];
         for (name, region, cut) in runs {
             let result = run(region);
@@ -279,7 +282,7 @@ fn a_region_too_small_for_the_extent_clamps_it() {
     let mut scene = scenes::ball_on_ground(0.2, 4, 48);
     let whole = Deformer::new().deform(&scene.frame()).unwrap();
     let mask = top_disk(&scene.objects[1].mesh, 1.6);
-    scene.objects[1].params.region = WorkingRegion::Mask(mask.clone());
+    scene.objects[1].params = scene.objects[1].params.clone().with_region_masks(std::slice::from_ref(&mask));
     let result = Deformer::new().deform(&scene.frame()).unwrap();
     let region = &result.stats.regions[1];
     let automatic = whole.stats.objects[1].extent;
@@ -312,12 +315,12 @@ fn a_region_too_small_for_the_extent_clamps_it() {
     // A region cutting through the intersection, and a region lying wholly inside the ball, are
     // errors naming the object.
     let half: Vec<bool> = top_disk(ground, 1.6).iter().zip(&ground.positions).map(|(&m, p)| m && p.x < 0.0).collect();
-    scene.objects[1].params.region = WorkingRegion::Mask(half);
+    scene.objects[1].params = scene.objects[1].params.clone().with_region_masks(&[half]);
     let err = Deformer::new().deform(&scene.frame()).unwrap_err();
     println!("{err}");
     assert!(matches!(err, PipelineError::Contact { source: ContactError::IntersectionReachesBorder { .. }, .. }));
     assert!(err.to_string().contains("ground (region 0)"), "{err}");
-    scene.objects[1].params.region = WorkingRegion::Mask(top_disk(ground, 0.3));
+    scene.objects[1].params = scene.objects[1].params.clone().with_region_masks(&[top_disk(ground, 0.3)]);
     let err = Deformer::new().deform(&scene.frame()).unwrap_err();
     println!("{err}");
     assert!(matches!(err, PipelineError::RegionTooSmall { region: 0, .. }), "{err}");
@@ -328,19 +331,24 @@ fn a_region_too_small_for_the_extent_clamps_it() {
 fn invalid_regions_are_errors_naming_the_object() {
     let scene = scenes::ball_on_ground(0.1, 2, 4);
     let n = scene.objects[1].mesh.num_vertices();
-    let fails = |region: WorkingRegion, expected: &str| {
+    let fails = |params: ObjectParams, expected: &str| {
         let mut scene = scene.clone();
-        scene.objects[1].params.region = region;
+        scene.objects[1].params = params;
         let err = Deformer::new().deform(&scene.frame()).unwrap_err().to_string();
         assert!(err.contains("\"ground\"") && err.contains(expected), "{err}");
     };
-    fails(WorkingRegion::Mask(vec![true; n - 1]), "one flag per vertex");
-    fails(WorkingRegion::Masks(vec![vec![true; n], vec![true; n]]), "must not overlap");
-    fails(WorkingRegion::Distance(f64::NAN), "finite");
+    let ground = ObjectParams::default();
+    fails(ground.clone().with_region_masks(&[vec![true; n - 1]]), "one value per vertex");
+    let mut overlapping = ground.clone().with_region_masks(&[vec![true; n]]);
+    // Labels give each vertex one mask, so masks cannot overlap; a value that is not a number
+    // is an error naming the key, as is a NaN distance.
+    overlapping.region_mask = Some(vec![f64::NAN; n]);
+    fails(overlapping, "region_mask");
+    fails(ground.clone().with_region_distance(f64::NAN), "region_distance = NaN");
     // Self-contact needs explicit regions.
-    for region in [WorkingRegion::Whole, WorkingRegion::Distance(0.1)] {
+    for region in [ground.clone(), ground.clone().with_region_distance(0.1)] {
         let mut scene = scene.clone();
-        scene.objects[1].params.region = region;
+        scene.objects[1].params = region;
         scene.pairs.push(FramePair { objects: [1, 1], params: PairParams::default() });
         let err = Deformer::new().deform(&scene.frame()).unwrap_err();
         assert!(matches!(err, PipelineError::SelfPair { .. }), "{err}");
@@ -350,14 +358,14 @@ fn invalid_regions_are_errors_naming_the_object() {
 #[test]
 fn regions_are_serde_ready_with_a_whole_default() {
     let params: ObjectParams = serde_json::from_str(r#"{ "stiffness": 2 }"#).unwrap();
-    assert_eq!(params.region, WorkingRegion::Whole);
-    let params: ObjectParams = serde_json::from_str(r#"{ "region": { "distance": 0.25 } }"#).unwrap();
-    assert_eq!(params.region, WorkingRegion::Distance(0.25));
+    assert_eq!(params.region, RegionChoice::Whole);
+    let params: ObjectParams = serde_json::from_str(r#"{ "region": "distance", "region_distance": 0.25 }"#).unwrap();
+    assert_eq!((params.region, params.region_distance), (RegionChoice::Distance, 0.25));
     let params: ObjectParams = serde_json::from_str(r#"{ "region": "components" }"#).unwrap();
-    assert_eq!(params.region, WorkingRegion::Components);
-    let masks = ObjectParams::default().with_region(WorkingRegion::Masks(vec![vec![true, false], vec![false, true]]));
+    assert_eq!(params.region, RegionChoice::Components);
+    let masks = ObjectParams::default().with_region_masks(&[vec![true, false], vec![false, true]]);
     let json = serde_json::to_string(&masks).unwrap();
-    assert!(json.contains(r#""region":{"masks":[[true,false],[false,true]]}"#), "{json}");
+    assert!(json.contains(r#""region":"mask""#) && json.contains(r#""region_mask":[1.0,2.0]"#), "{json}");
     assert_eq!(serde_json::from_str::<ObjectParams>(&json).unwrap(), masks);
 }
 
@@ -377,7 +385,7 @@ fn automatic_regions_follow_a_sliding_ball_continuously() {
         let mut scene = scenes::ball_on_ground(0.15, 4, 32);
         let shift = DVec3::new(step * k as f64 - 0.2, 0.0, 0.0);
         scene.objects[0].mesh.map_positions(|p| p + shift);
-        scene.objects[1].params.region = WorkingRegion::Distance(0.0);
+        scene.objects[1].params = scene.objects[1].params.clone().with_region_distance(0.0);
         // A fixed extent: the automatic one (≈ 2.2) makes the band the whole ground.
         scene.objects[1].params.extent = Some(0.8);
         let result = deformer.deform(&scene.frame()).unwrap();
@@ -470,7 +478,7 @@ fn fingers_pressing_their_own_palm_are_regions_of_one_object() {
 /// The scanned hand (y up, fingers' pads toward +z) and a soft ball of radius 0.4 in front of
 /// its index, middle and ring fingers, pushed toward the hand until the deepest overlap is 0.03
 /// (index 0.016, middle 0.03, ring 0.0095). `None` if the mesh is absent.
-fn scanned_hand_scene(hand_region: WorkingRegion, hand_extent: Option<f64>) -> Option<ProceduralScene> {
+fn scanned_hand_scene(hand_region: RegionChoice, hand_extent: Option<f64>) -> Option<ProceduralScene> {
     let hand = test_meshes::shared_mesh("hand_7993.obj")?;
     let (radius, depth) = (0.4, 0.03);
     let overlap = |z: f64| {
@@ -488,7 +496,7 @@ fn scanned_hand_scene(hand_region: WorkingRegion, hand_extent: Option<f64>) -> O
     let mut params = ObjectParams::default().with_region(hand_region);
     params.extent = hand_extent;
     scene.objects.push(scenes::SceneObject { name: "hand".into(), mesh: hand, params });
-    let ball_params = ObjectParams::default().with_region(WorkingRegion::Distance(0.0));
+    let ball_params = ObjectParams::default().with_region_distance(0.0);
     scene.objects.push(scenes::SceneObject { name: "ball".into(), mesh: ball, params: ball_params });
     scene.pairs.push(FramePair { objects: [0, 1], params: PairParams::default() });
     Some(scene)
@@ -502,14 +510,14 @@ fn a_scanned_hand_with_automatic_regions_pressing_a_ball() {
     // inside the ball (29% of the depth left, as with whole objects); τ = −1 lowers ε_c to take
     // it in. The residual left (2.3% of the depth, at contact-zone vertices of the finger pads, of
     // radius ≈ 0.04 for edges of 0.011) is the discretization of 𝒮, so the bound here is 3%.
-    let Some(mut scene) = scanned_hand_scene(WorkingRegion::Distance(0.0), None) else { return };
+    let Some(mut scene) = scanned_hand_scene(RegionChoice::Distance, None) else { return };
     scene.pairs[0].params.contact_tau = -1.0;
     let checked = check_regions(&scene, 0.03);
     assert_eq!(checked.contacts, 1);
     // The same as processing the whole objects, up to the cut's boundary condition.
     let mut whole = scene.clone();
     for object in &mut whole.objects {
-        object.params.region = WorkingRegion::Whole;
+        object.params.region = RegionChoice::Whole;
     }
     let reference = Deformer::new().deform(&whole.frame()).unwrap();
     let (worst, moved) = difference(&reference, &checked.result, &scene);
@@ -529,7 +537,7 @@ fn whole_round_objects_take_the_nested_dissection_and_automatic_regions_keep_amd
         assert!(region.deformed && region.whole, "{}", region.name);
         assert!(region.nested_dissection, "whole ball {} should keep the dissection", region.name);
     }
-    scene.objects[1].params.region = WorkingRegion::Distance(0.0);
+    scene.objects[1].params = scene.objects[1].params.clone().with_region_distance(0.0);
     scene.objects[1].params.extent = Some(1.2);
     let automatic = Deformer::new().deform(&scene.frame()).unwrap();
     let big: Vec<_> = automatic.stats.regions.iter().filter(|r| r.object == 1).collect();

@@ -5,28 +5,28 @@
 //! (ch. 4) runs on pairs of regions, deformation (ch. 5) on each region with all its contact zones;
 //! results are written back into the object's positions, and vertices outside every region are
 //! returned bit for bit. Each object chooses its regions with [`ObjectParams::region`]
-//! ([`WorkingRegion`]):
-//! - `Whole` (default): the object is one region, exactly as without regions;
-//! - `Components`: every connected component is its own region — several meshes merged into one
+//! ([`RegionChoice`]):
+//! - `whole` (default): the object is one region, exactly as without regions;
+//! - `components`: every connected component is its own region — several meshes merged into one
 //!   file (finger tips of a hand, Fig. 7.5–7.6), each moving its own way, each with its own
 //!   mapping direction d̂ (§4.5: "they must be considered as several independent working
 //!   regions");
-//! - `Mask(m)`: the faces whose three vertices are selected by the per-vertex mask `m` (painted,
-//!   or from a file / glTF attribute); every connected piece of the selection is its own region;
-//! - `Masks(list)`: several masks, each as `Mask` (so two masks may be adjacent — a palm and its
-//!   fingers); they must not share a face;
-//! - `Distance(d)`: automatic, "determined as a distance to the intersection region" (§4): the
+//! - `mask`: the faces whose three vertices are selected by the per-vertex map
+//!   [`ObjectParams::region_mask`] (painted, or from a file / glTF attribute); a vertex whose value
+//!   rounds to k ≥ 1 is in mask k, every connected piece of a mask is its own region, and two masks
+//!   may be adjacent (a palm and its fingers) but must not share a face;
+//! - `distance` (with [`ObjectParams::region_distance`] `d`): automatic, "determined as a distance to the intersection region" (§4): the
 //!   faces within an edge-path distance `g` of the object's intersection with the objects it is
 //!   paired with, every connected piece its own region (so each finger of one hand mesh pressing
 //!   a ball gets its own region as long as the bands around the tips stay apart).
 //!
 //! Every region pair gets one contact: its own d̂ and ε_c (§4.5, §7.1.2). When the bands around
 //! several contacts of one mesh merge (fingers touching each other, a large extent), they share a
-//! region, hence one d̂ and one ε_c per partner region; give such objects `Components` or `Masks`
+//! region, hence one d̂ and one ε_c per partner region; give such objects `components` or `mask`
 //! to keep one region per finger, as the thesis does (Fig. 7.5–7.6: "each finger produces an
 //! independent working region"; the ball or the palm is one region holding all the zones).
 //!
-//! # The automatic rule (`Distance`)
+//! # The automatic rule (`distance`)
 //! 1. **Core**: the vertices of the faces that intersect a partner's faces (exact
 //!    triangle–triangle tests) and the vertices inside a partner (exact winding number for a
 //!    closed partner, fast generalized winding number ≥ ½ for an open one). Partners are the other
@@ -93,70 +93,35 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::{ObjectParams, PipelineError, automatic_extent, size_from_areas};
+use super::{PipelineError, automatic_extent, size_from_areas};
 use crate::deform::RegionSolver;
 use crate::mesh::{
     Aabb3, SubMesh, Topology, TriMesh, close_pinches, cut_border, edge_path_distances, face_set_pieces,
     region_vertex_normals, vertex_areas,
 };
+use crate::params::{ObjectParams, RegionChoice};
 use crate::spatial::{FastWinding, TriangleBvh, triangles_intersect};
 
-/// How an object is divided into working regions; see the module doc. Serde: `"whole"`,
-/// `"components"`, `{ "mask": [..] }`, `{ "masks": [[..], ..] }`, `{ "distance": d }`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum WorkingRegion {
-    /// The whole object is one region (the default).
-    #[default]
-    Whole,
-    /// Every connected component of the mesh is its own region.
-    Components,
-    /// The faces whose three vertices are selected (one flag per vertex); each connected piece is
-    /// a region.
-    Mask(Vec<bool>),
-    /// Several masks, each as [`WorkingRegion::Mask`]; no face may be in two of them.
-    Masks(Vec<Vec<bool>>),
-    /// Automatic: the faces within this edge-path distance (world units, widened to the
-    /// parametrization domain's radius, `domain_factor` × the extent) of the intersection with the paired objects; each connected piece is a region.
-    Distance(f64),
-}
-
-impl WorkingRegion {
-    /// Checks the choice against the object's vertex count.
-    pub fn validate(&self, vertices: usize) -> Result<(), String> {
-        match self {
-            Self::Whole | Self::Components => Ok(()),
-            Self::Mask(mask) => check_mask(mask, vertices, None),
-            Self::Masks(masks) => masks.iter().enumerate().try_for_each(|(k, m)| check_mask(m, vertices, Some(k))),
-            Self::Distance(d) => {
-                if d.is_finite() && *d >= 0.0 {
-                    Ok(())
-                } else {
-                    Err(format!("the distance of an automatic working region must be finite and ≥ 0 (got {d})"))
-                }
-            }
-        }
-    }
-
-    /// True for the automatic choice, which needs other objects.
-    pub fn is_automatic(&self) -> bool {
-        matches!(self, Self::Distance(_))
-    }
-
-    /// True when the object may hold several regions that can touch each other (self-contact).
-    pub fn allows_self_contact(&self) -> bool {
-        matches!(self, Self::Components | Self::Mask(_) | Self::Masks(_))
+/// Checks an object's region parameters against its vertex count: a mask needs one value per
+/// vertex.
+pub fn validate_region(params: &ObjectParams, vertices: usize) -> Result<(), String> {
+    match (params.region, &params.region_mask) {
+        (RegionChoice::Mask, Some(mask)) if mask.len() != vertices => Err(format!(
+            "the region mask has {} values but the mesh has {vertices} vertices: give one value per vertex",
+            mask.len()
+        )),
+        (RegionChoice::Mask, None) => Err("region = \"mask\" needs region_mask".to_string()),
+        _ => Ok(()),
     }
 }
 
-fn check_mask(mask: &[bool], vertices: usize, index: Option<usize>) -> Result<(), String> {
-    if mask.len() == vertices {
-        return Ok(());
-    }
-    let which = index.map_or("the region mask".to_string(), |k| format!("region mask {k}"));
-    Err(format!("{which} has {} values but the mesh has {vertices} vertices: give one flag per vertex", mask.len()))
+/// The masks of a label map (see [`ObjectParams::region_mask`]): mask k holds the vertices whose
+/// value rounds to k, for k = 1 … the largest label.
+fn masks_of_labels(labels: &[f64]) -> Vec<Vec<bool>> {
+    let label = |v: f64| if v.is_finite() && v >= 0.5 { v.round() as usize } else { 0 };
+    let count = labels.iter().map(|&v| label(v)).max().unwrap_or(0);
+    (1..=count).map(|k| labels.iter().map(|&v| label(v) == k).collect()).collect()
 }
 
 /// The connected components of an object (connectivity only).
@@ -300,17 +265,17 @@ pub(super) fn select(
     partners: &[Partner],
 ) -> Result<Selection, String> {
     let nf = mesh.num_triangles();
-    let pieces = match &params.region {
-        WorkingRegion::Whole => return Ok(Selection::Whole),
-        WorkingRegion::Components => {
+    let pieces = match params.region {
+        RegionChoice::Whole => return Ok(Selection::Whole),
+        RegionChoice::Components => {
             let mut pieces = vec![Vec::new(); components.count];
             for (f, &c) in components.face.iter().enumerate() {
                 pieces[c as usize].push(f as u32);
             }
             pieces
         }
-        WorkingRegion::Mask(mask) => mask_pieces(mesh, topology, mask),
-        WorkingRegion::Masks(masks) => {
+        RegionChoice::Mask => {
+            let masks = masks_of_labels(params.region_mask.as_deref().unwrap_or_default());
             let mut owner = vec![u32::MAX; nf];
             let mut pieces = Vec::new();
             for (k, mask) in masks.iter().enumerate() {
@@ -319,8 +284,10 @@ pub(super) fn select(
                         let other = owner[f as usize];
                         if other != u32::MAX {
                             return Err(format!(
-                                "region masks {other} and {k} both hold face {f} (after closing pinches); \
-                                 working regions of one object must not overlap"
+                                "region masks {} and {} both hold face {f} (after closing pinches); \
+                                 working regions of one object must not overlap",
+                                other + 1,
+                                k + 1
                             ));
                         }
                         owner[f as usize] = k as u32;
@@ -330,7 +297,9 @@ pub(super) fn select(
             }
             pieces
         }
-        &WorkingRegion::Distance(d) => distance_pieces(mesh, topology, components, figures, params, d, partners),
+        RegionChoice::Distance => {
+            distance_pieces(mesh, topology, components, figures, params, params.region_distance, partners)
+        }
     };
     if pieces.len() == 1 && pieces[0].len() == nf {
         return Ok(Selection::Whole);

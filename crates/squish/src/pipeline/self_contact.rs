@@ -17,6 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{Frame, ObjectParams, PipelineError};
+use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, vertex_normals};
 use crate::skinning::{
     ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, plan_articulation,
@@ -117,7 +118,9 @@ fn resolve_object(
     cache.setups.truncate(articulations.len());
     let normals = vertex_normals(mesh);
     // Any extent here is replaced by the articulation's own.
-    let deform_params = params.deform_params(1.0, closed);
+    let mut deform_params = DeformParams::of(params, 1.0, params.preserve_volume.unwrap_or(closed));
+    // One value per object vertex: each articulation gathers its regions' values.
+    deform_params.bulge_map = params.bulge_map.clone();
     let plans: Vec<ArticulationPlan> = cache
         .setups
         .par_iter_mut()

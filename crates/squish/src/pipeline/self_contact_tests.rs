@@ -38,7 +38,7 @@ fn a_folded_arm_pressed_by_a_ball_is_clean_at_the_elbow_and_at_the_hand_with_its
             FrameObject { name: "arm", mesh: &arm, params: &arm_params },
             FrameObject { name: "ball", mesh: &ball, params: &ball_params },
         ],
-        pairs: vec![FramePair { objects: [0, 1], params: crate::contact::PairParams::default() }],
+        pairs: vec![FramePair { objects: [0, 1], params: crate::params::PairParams::default() }],
     };
     let before = deepest_penetration(&arm, &ball);
     assert!(before > 0.1);

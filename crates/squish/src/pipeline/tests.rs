@@ -8,9 +8,9 @@ use glam::DVec3;
 
 use super::scenes::{self, ProceduralScene};
 use super::*;
-use crate::contact::{ContactMethod, MappingMethod};
-use crate::deform::DirectionFieldMethod;
 use crate::mesh::{face_normal_unnormalized, shapes};
+use crate::params::DirectionFieldMethod;
+use crate::params::MappingMethod;
 use crate::spatial::{penetration_depths, test_meshes};
 
 fn run(scene: &ProceduralScene) -> FrameResult {
@@ -369,10 +369,8 @@ fn method_a_runs_through_the_deformer() {
         object.params.uvs = Some(object.mesh.positions.iter().map(|p| p.truncate()).collect());
     }
     method_a.objects[1].params.direction_field = DirectionFieldMethod::ParallelTransport;
-    method_a.pairs[0].params = method_a.pairs[0]
-        .params
-        .with_mapping(MappingMethod::SharedParametrization)
-        .with_contact_method(ContactMethod::Ball { radius: 0.15 });
+    method_a.pairs[0].params =
+        method_a.pairs[0].params.with_mapping(MappingMethod::SharedParametrization).with_ball(0.15);
     let (volume, penetration) = check_scene(&method_a);
     println!("method A: volume change {volume:.2e}, residual penetration {:.2}%", 100.0 * penetration);
     assert!(volume < 1e-9, "volume change {volume}");

@@ -13,7 +13,7 @@
 //! tilt toward the longer bone. Oriented this way d̂ points from the parent side's inner skin to
 //! the child side's across the fold (bend a forearm up from a horizontal upper arm: d̂ points up),
 //! i.e. along 𝒲₁'s normals inside the fold. For a pair of non-adjacent bones that move together
-//! (lips) the direction is given ([`ArticulationDirection::Fixed`]), with the same orientation:
+//! (lips) the direction is given ([`crate::params::ArticulationParams::direction`]), with the same orientation:
 //! from 𝒲₁ toward 𝒲₂.
 //!
 //! **Regions from skinning weights.** For a parent joint P and a child joint C (C's bone is the
@@ -23,26 +23,9 @@
 //! collapses the skin and the crease forms — roughly symmetric about it, as §6.1.1 asks.
 
 use glam::DVec3;
-use serde::{Deserialize, Serialize};
 
 use super::SkinWeights;
-
-/// How d̂ is obtained at a frame (§6.1.2; see the module doc for the orientation).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ArticulationDirection {
-    /// From the world positions of three consecutive joints `[q₀, q₁, q₂]` at this frame: start of
-    /// the parent bone, the articulation, end of the child bone.
-    Joints([DVec3; 3]),
-    /// Given (a keyframed value evaluated at this frame, e.g. for lips), from 𝒲₁ toward 𝒲₂.
-    Fixed(DVec3),
-}
-
-impl Default for ArticulationDirection {
-    fn default() -> Self {
-        Self::Fixed(DVec3::ZERO)
-    }
-}
+use crate::params::Articulation;
 
 /// Why an articulation cannot be processed. Every variant says what to change.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -66,14 +49,35 @@ pub enum ArticulationError {
     NotConsecutive { parent: usize, child: usize },
     #[error("{stage}: {message}")]
     Numerical { stage: &'static str, message: String },
-    #[error("{name} = {value}: {hint}")]
-    InvalidParameter { name: &'static str, value: f64, hint: &'static str },
+    #[error(
+        "the direction comes from the joints (direction = \"joints\"), but no joint positions were given; give the articulation's joints or a direction [x, y, z]"
+    )]
+    MissingJoints,
+    #[error("articulation parameter {0}")]
+    Parameter(Box<crate::params::ParamError>),
 }
 
-/// The unit direction d̂ for this frame (see the module doc).
-pub fn articulation_direction(direction: &ArticulationDirection) -> Result<DVec3, ArticulationError> {
-    match *direction {
-        ArticulationDirection::Joints(q) => {
+impl From<crate::params::ParamError> for ArticulationError {
+    fn from(e: crate::params::ParamError) -> Self {
+        Self::Parameter(Box::new(e))
+    }
+}
+
+/// The unit direction d̂ of an articulation at its frame (see the module doc): the given direction,
+/// or the one of its joints' positions.
+pub fn articulation_direction(articulation: &Articulation) -> Result<DVec3, ArticulationError> {
+    match (articulation.params.direction, articulation.joints) {
+        (Some(d), _) => fixed_direction(d),
+        (None, Some(q)) => joints_direction(q),
+        (None, None) => Err(ArticulationError::MissingJoints),
+    }
+}
+
+/// d̂ from the world positions of three consecutive joints `[q₀, q₁, q₂]`: start of the parent
+/// bone, the articulation, end of the child bone.
+pub fn joints_direction(q: [DVec3; 3]) -> Result<DVec3, ArticulationError> {
+    {
+        {
             let degenerate = || ArticulationError::DegenerateJoints { joints: q.map(|p| p.to_array()) };
             let (b1, b2) = (q[1] - q[0], q[2] - q[1]);
             if !(b1.is_finite() && b2.is_finite()) {
@@ -90,96 +94,16 @@ pub fn articulation_direction(direction: &ArticulationDirection) -> Result<DVec3
             }
             Ok(sum.normalize())
         }
-        ArticulationDirection::Fixed(d) => {
-            if d.is_finite() && d.length() > 0.0 {
-                Ok(d.normalize())
-            } else {
-                Err(ArticulationError::InvalidDirection { direction: d.to_array() })
-            }
-        }
     }
 }
 
-/// Parameters of one articulation (thesis ch. 6, with §7.1.3's values as defaults where it gives
-/// them). The deformation's own parameters (profile, bulge map, γ …) are the object's.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ArticulationParams {
-    /// τ of the contact criterion ε_c = m + τσ (§4.4.2). The thesis uses −1 for skinning
-    /// (Figs. 7.7, 7.8): a larger zone, so that the whole fold is in contact. Default −1.
-    pub contact_tau: f64,
-    /// Pseudo-stiffnesses of the two sides, k₁ and k₂ (§4.3); equal by default (k̄ = 0.5, as in
-    /// the thesis' figures).
-    pub stiffness: [f64; 2],
-    /// φ_max in world units. `None`: automatic (see [`super::self_contact`]).
-    pub extent: Option<f64>,
-    /// Weight of the regional term β in the crease cut's energy (Eq. 6.1 has 1).
-    pub cut_regional_weight: f64,
-    /// Angle beyond which a point cannot be in contact (§4.4.2). Default 80°.
-    pub safeguard_angle_degrees: f64,
-    /// Distance left between the two sides where they touch (world units). `None`: automatic,
-    /// half the mean edge length (see [`super::self_contact::GAP_FRACTION`]).
-    pub contact_gap: Option<f64>,
-}
-
-impl Default for ArticulationParams {
-    fn default() -> Self {
-        Self {
-            contact_tau: -1.0,
-            stiffness: [1.0, 1.0],
-            extent: None,
-            cut_regional_weight: 1.0,
-            safeguard_angle_degrees: 80.0,
-            contact_gap: None,
-        }
+/// A given direction, normalized.
+fn fixed_direction(d: DVec3) -> Result<DVec3, ArticulationError> {
+    if d.is_finite() && d.length() > 0.0 {
+        Ok(d.normalize())
+    } else {
+        Err(ArticulationError::InvalidDirection { direction: d.to_array() })
     }
-}
-
-impl ArticulationParams {
-    /// Checks every value.
-    pub fn validate(&self) -> Result<(), ArticulationError> {
-        let invalid = |name, value, hint| Err(ArticulationError::InvalidParameter { name, value, hint });
-        if !self.contact_tau.is_finite() {
-            return invalid("contact_tau", self.contact_tau, "τ must be finite");
-        }
-        for k in self.stiffness {
-            if !(k.is_finite() && k > 0.0) {
-                return invalid("stiffness", k, "both stiffnesses must be finite and positive");
-            }
-        }
-        if let Some(e) = self.extent
-            && !(e.is_finite() && e > 0.0)
-        {
-            return invalid("extent", e, "the extent is a finite, positive distance");
-        }
-        if let Some(g) = self.contact_gap
-            && !(g.is_finite() && g >= 0.0)
-        {
-            return invalid("contact_gap", g, "the gap is a finite distance ≥ 0");
-        }
-        if !(self.cut_regional_weight.is_finite() && self.cut_regional_weight >= 0.0) {
-            return invalid("cut_regional_weight", self.cut_regional_weight, "the weight must be finite and ≥ 0");
-        }
-        let a = self.safeguard_angle_degrees;
-        if !(a.is_finite() && a > 0.0 && a <= 90.0) {
-            return invalid("safeguard_angle_degrees", a, "the angle must lie in (0°, 90°]");
-        }
-        Ok(())
-    }
-}
-
-/// One articulation of an object: its two overlapping working regions (object vertex ids), its
-/// direction at this frame and its parameters.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Articulation {
-    /// Name used in messages and reports ("left knee").
-    pub name: String,
-    /// 𝒲₁ (parent side) and 𝒲₂ (child side) as object vertex ids; they must overlap (ℛ).
-    pub regions: [Vec<u32>; 2],
-    /// d̂ at this frame.
-    pub direction: ArticulationDirection,
-    pub params: ArticulationParams,
 }
 
 /// 𝒲₁ and 𝒲₂ from skinning weights (see the module doc): `parents[j]` is the parent of skin
@@ -203,11 +127,11 @@ pub fn regions_from_skin_weights(
         return Err(ArticulationError::NotConsecutive { parent, child });
     }
     if !(min_weight.is_finite() && min_weight > 0.0 && min_weight <= 1.0) {
-        return Err(ArticulationError::InvalidParameter {
-            name: "min_weight",
-            value: min_weight,
-            hint: "the smallest influence that puts a vertex in a region lies in (0, 1]",
-        });
+        return Err(ArticulationError::from(crate::params::ParamError::new(
+            "min_weight",
+            Some(crate::params::number(min_weight)),
+            "the smallest influence that puts a vertex in a region lies in (0, 1]",
+        )));
     }
     // Joints carried by the child bone: its subtree in the skin's hierarchy.
     let mut carried = vec![false; count];
@@ -269,7 +193,7 @@ mod tests {
         // Upper arm along +x, forearm bent up by 150° from straight.
         let bend = 150f64.to_radians();
         let q = [DVec3::new(-2.0, 0.0, 0.0), DVec3::ZERO, DVec3::new(bend.cos(), bend.sin(), 0.0) * 0.5];
-        let d = articulation_direction(&ArticulationDirection::Joints(q)).unwrap();
+        let d = joints_direction(q).unwrap();
         let (b1, b2) = ((q[1] - q[0]).normalize(), (q[2] - q[1]).normalize());
         let bisector = b2 - b1;
         assert!(d.dot(bisector).abs() < 1e-12, "orthogonal to the bisector");
@@ -277,28 +201,33 @@ mod tests {
         assert!(d.y > 0.9, "points from the upper arm toward the forearm: {d}");
         // Bone lengths do not tilt it (the thesis' formula would with lengths 2 and 0.5).
         let long = [q[0] * 3.0, q[1], q[2]];
-        let d_long = articulation_direction(&ArticulationDirection::Joints(long)).unwrap();
+        let d_long = joints_direction(long).unwrap();
         assert!((d - d_long).length() < 1e-12);
         // For equal lengths it is the thesis' formula.
         let equal = [DVec3::new(-1.0, 0.0, 0.0), DVec3::ZERO, DVec3::new(bend.cos(), bend.sin(), 0.0)];
         let thesis = ((equal[1] - equal[0]) + (equal[2] - equal[1])).normalize();
-        let ours = articulation_direction(&ArticulationDirection::Joints(equal)).unwrap();
+        let ours = joints_direction(equal).unwrap();
         assert!((thesis - ours).length() < 1e-12);
     }
 
     #[test]
     fn degenerate_directions_are_errors() {
         let folded = [DVec3::X, DVec3::ZERO, DVec3::X];
-        assert!(matches!(
-            articulation_direction(&ArticulationDirection::Joints(folded)),
-            Err(ArticulationError::DegenerateJoints { .. })
-        ));
+        assert!(matches!(joints_direction(folded), Err(ArticulationError::DegenerateJoints { .. })));
         let coincident = [DVec3::ZERO, DVec3::ZERO, DVec3::X];
-        assert!(articulation_direction(&ArticulationDirection::Joints(coincident)).is_err());
-        assert!(articulation_direction(&ArticulationDirection::Fixed(DVec3::ZERO)).is_err());
-        assert!(articulation_direction(&ArticulationDirection::Fixed(DVec3::new(f64::NAN, 0.0, 1.0))).is_err());
-        let d = articulation_direction(&ArticulationDirection::Fixed(DVec3::new(0.0, -3.0, 0.0))).unwrap();
+        assert!(joints_direction(coincident).is_err());
+        assert!(fixed_direction(DVec3::ZERO).is_err());
+        assert!(fixed_direction(DVec3::new(f64::NAN, 0.0, 1.0)).is_err());
+        let d = fixed_direction(DVec3::new(0.0, -3.0, 0.0)).unwrap();
         assert_eq!(d, DVec3::new(0.0, -1.0, 0.0));
+        // An articulation takes its given direction first, then its joints'.
+        let mut a = Articulation { joints: Some([DVec3::X, DVec3::ZERO, DVec3::Y]), ..Articulation::default() };
+        assert!((articulation_direction(&a).unwrap() - DVec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-15);
+        a.params.direction = Some(DVec3::Z * 2.0);
+        assert_eq!(articulation_direction(&a).unwrap(), DVec3::Z);
+        a.params.direction = None;
+        a.joints = None;
+        assert!(matches!(articulation_direction(&a), Err(ArticulationError::MissingJoints)));
     }
 
     #[test]
@@ -333,13 +262,14 @@ mod tests {
 
     #[test]
     fn parameters_are_checked() {
+        use crate::params::{ArticulationParams, Params};
         assert!(ArticulationParams::default().validate().is_ok());
         let bad = [
             ArticulationParams { contact_tau: f64::NAN, ..Default::default() },
             ArticulationParams { stiffness: [1.0, 0.0], ..Default::default() },
             ArticulationParams { extent: Some(-1.0), ..Default::default() },
             ArticulationParams { cut_regional_weight: -1.0, ..Default::default() },
-            ArticulationParams { safeguard_angle_degrees: 95.0, ..Default::default() },
+            ArticulationParams { safeguard_angle: 95.0, ..Default::default() },
         ];
         for p in bad {
             assert!(p.validate().is_err(), "{p:?}");

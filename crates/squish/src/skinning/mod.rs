@@ -9,10 +9,7 @@ pub mod lbs;
 pub mod partition;
 pub mod self_contact;
 
-pub use articulation::{
-    Articulation, ArticulationDirection, ArticulationError, ArticulationParams, articulation_direction,
-    regions_from_skin_weights,
-};
+pub use articulation::{ArticulationError, articulation_direction, joints_direction, regions_from_skin_weights};
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
 pub use partition::{Seed, SharedRegion};
 pub use self_contact::{

@@ -55,13 +55,14 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::partition::SharedRegion;
-use super::{Articulation, ArticulationError, articulation_direction};
-use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, PairParams, Stiffness, contact_pair};
+use super::{ArticulationError, articulation_direction};
+use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, Stiffness, contact_pair};
 use crate::deform::{
     AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic, plan_region,
     solve_bulge_height,
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
+use crate::params::{Articulation, PairParams, Params};
 use crate::spatial::{SpatialError, TriangleBvh};
 
 /// The automatic extent of an articulation is the pipeline's rule scaled by this factor; see the
@@ -475,9 +476,9 @@ pub fn plan_articulation(
     params: &DeformParams,
 ) -> Result<ArticulationPlan, SelfContactError> {
     let start = Instant::now();
-    articulation.params.validate()?;
+    articulation.params.validate().map_err(ArticulationError::from)?;
     let n = mesh.num_vertices();
-    let d = articulation_direction(&articulation.direction)?;
+    let d = articulation_direction(articulation)?;
     let shared = &setup.shared;
     let mut stats = ArticulationStats {
         name: articulation.name.clone(),
@@ -523,7 +524,7 @@ pub fn plan_articulation(
     let pair_params = PairParams {
         contact_tau: articulation.params.contact_tau,
         direction: Some(d),
-        safeguard_angle_degrees: articulation.params.safeguard_angle_degrees,
+        safeguard_angle: articulation.params.safeguard_angle,
         max_contact_threshold: Some(0.0),
         contact_threshold_floor: Some(CONTACT_THRESHOLD_FLOOR),
         ..PairParams::default()

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::mesh::{face_normals, shapes};
-use crate::skinning::{ArticulationDirection, ArticulationParams};
+use crate::params::{Articulation, ArticulationParams};
 
 /// A capsule along z (radius 0.5, from z = −3.5 to 3.5) skinned on two bones meeting at the
 /// origin: the child bone bends toward +y by `angle` (radians) about the x axis. Weights blend
@@ -72,7 +72,7 @@ impl BentCapsule {
         Articulation {
             name: "elbow".into(),
             regions: [first, second],
-            direction: ArticulationDirection::Joints(Self::joints(angle)),
+            joints: Some(Self::joints(angle)),
             params: ArticulationParams::default(),
         }
     }
@@ -90,7 +90,7 @@ fn run(
     // Without the anisotropic bulge (Eq. 5.6) the two sides' bulges rise into the fold's gap
     // and meet there at the deepest bends (150°: 41 self-intersecting faces instead of 13 with
     // the former gap of 0.05 edge).
-    params.anisotropic_bulge = true;
+    params = params.with_anisotropic_bulge(true);
     let plan = plan_articulation(mesh, &capsule.topology, &normals, setup, articulation, &params).unwrap();
     let applied = apply_articulations(mesh, std::slice::from_ref(&plan), true, 0.0, 1.0).unwrap();
     (applied.positions.clone(), plan, applied)
@@ -222,7 +222,7 @@ fn rigid_motion_of_the_input_moves_the_result_rigidly() {
     let moved =
         TriMesh { positions: mesh.positions.iter().map(|&p| motion(p)).collect(), triangles: mesh.triangles.clone() };
     let mut articulation = capsule.articulation(angle);
-    articulation.direction = ArticulationDirection::Joints(BentCapsule::joints(angle).map(motion));
+    articulation.joints = Some(BentCapsule::joints(angle).map(motion));
     let (moved_out, moved_plan, _) = run(&capsule, &mut setup, &moved, &articulation);
     assert_eq!(plan.labels, moved_plan.labels, "the crease cut moves with the input");
     let error = out.iter().zip(&moved_out).map(|(&p, &q)| (motion(p) - q).length()).fold(0.0, f64::max);
