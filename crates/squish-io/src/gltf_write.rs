@@ -308,7 +308,7 @@ fn finish(path: &Path, builder: Builder, extra: Value, binary: bool) -> Result<(
 
 /// GLB: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with zeros (glTF 2.0
 /// §4.4: chunks are 4-byte aligned).
-fn write_glb_container(w: &mut dyn Write, json: &[u8], bin: &[u8]) -> std::io::Result<()> {
+pub(crate) fn write_glb_container(w: &mut dyn Write, json: &[u8], bin: &[u8]) -> std::io::Result<()> {
     let json_padded = json.len().div_ceil(4) * 4;
     let bin_padded = bin.len().div_ceil(4) * 4;
     let total = 12 + 8 + json_padded + if bin.is_empty() { 0 } else { 8 + bin_padded };
