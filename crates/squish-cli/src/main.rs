@@ -19,8 +19,10 @@ mod params;
 mod preview;
 mod quality;
 mod report;
+mod report_parts;
 mod scene_shot;
 mod shot;
+mod shot_outputs;
 
 use std::process::ExitCode;
 
