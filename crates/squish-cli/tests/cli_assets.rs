@@ -80,6 +80,8 @@ fn deform_keeps_uvs_materials_and_groups_and_draws_a_preview() {
     assert!(stdout.contains("preview.png"), "{stdout}");
     let written = out.join("ball.obj");
     assert_eq!(lines_without_positions(&written), lines_without_positions(&a));
+    // The material library comes along.
+    assert_eq!(std::fs::read(out.join("ball.mtl")).unwrap(), std::fs::read(dir.path().join("ball.mtl")).unwrap());
     let (before, after) = (squish_io::read_mesh(&a).unwrap(), squish_io::read_mesh(&written).unwrap());
     assert_eq!(before.triangles, after.triangles);
     assert!(before.positions.iter().zip(&after.positions).any(|(p, q)| (*p - *q).length() > 1e-3), "the ball deformed");

@@ -222,7 +222,7 @@ impl GltfDocument {
                 ),
             ));
         }
-        if let Some(k) = times.windows(2).position(|w| !(w[1] > w[0])) {
+        if let Some(k) = times.windows(2).position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) {
             return Err(IoError::invalid_input(
                 path,
                 format!(
@@ -280,7 +280,7 @@ impl GltfDocument {
         let json_mesh_value = &mut edit.json["meshes"][json_mesh];
         json_mesh_value["weights"] = json!(weights.iter().map(|&w| w as f32).collect::<Vec<_>>());
         let mut target_names: Vec<String> = mesh.target_names.clone();
-        target_names.resize_with(existing, || String::new());
+        target_names.resize_with(existing, String::new);
         for (t, name) in target_names.iter_mut().enumerate() {
             if name.is_empty() {
                 *name = format!("target_{t}");

@@ -251,21 +251,33 @@ impl GltfScene {
         let (mesh, n) = self.node_mesh(node)?;
         let weights = self.morph_weights(node, animation, time)?;
         let positions = mesh.morphed_positions(&weights);
-        let element = || format!("node {node} '{}'", n.name);
-        let positions = match (n.skin, &mesh.skin_weights) {
-            (Some(s), Some(skin_weights)) => {
-                let skin = &self
-                    .skins
-                    .get(s)
-                    .ok_or_else(|| IoError::element(&self.path, element(), format!("skin {s} does not exist")))?
-                    .skin;
-                let skin_error = |source| IoError::Skin { path: self.path.clone(), element: element(), source };
-                let matrices = joint_matrices(skin, world).map_err(skin_error)?;
-                linear_blend_skinning(&positions, skin_weights, &matrices).map_err(skin_error)?
-            }
-            _ => positions.iter().map(|p| world[node].transform_point3(*p)).collect(),
+        let positions = match self.skinning(node, world)? {
+            Some((skin_weights, matrices)) => linear_blend_skinning(&positions, skin_weights, &matrices)
+                .map_err(|source| self.skin_error(node, source))?,
+            None => positions.iter().map(|p| world[node].transform_point3(*p)).collect(),
         };
         TriMesh::new(positions, mesh.triangles.clone()).map_err(|e| IoError::mesh(&self.path, e))
+    }
+
+    /// The skin weights of `node`'s mesh and its joint matrices for the world transforms
+    /// `world`, if the node is skinned.
+    fn skinning(&self, node: usize, world: &[DMat4]) -> Result<Option<(&SkinWeights, Vec<DMat4>)>, IoError> {
+        let (mesh, n) = self.node_mesh(node)?;
+        let (Some(s), Some(skin_weights)) = (n.skin, &mesh.skin_weights) else { return Ok(None) };
+        let skin = &self
+            .skins
+            .get(s)
+            .ok_or_else(|| {
+                IoError::element(&self.path, format!("node {node} '{}'", n.name), format!("skin {s} does not exist"))
+            })?
+            .skin;
+        let matrices = joint_matrices(skin, world).map_err(|source| self.skin_error(node, source))?;
+        Ok(Some((skin_weights, matrices)))
+    }
+
+    fn skin_error(&self, node: usize, source: squish::skinning::SkinError) -> IoError {
+        let name = self.nodes.get(node).map_or("", |n| n.name.as_str());
+        IoError::Skin { path: self.path.clone(), element: format!("node {node} '{name}'"), source }
     }
 
     /// The morph-target weights of `node`'s mesh: animated by `animation` at `time` if it
@@ -288,18 +300,11 @@ impl GltfScene {
     /// transform. This is what un-posing inverts ([`InstancePose::unpose`]).
     pub fn instance_pose(&self, node: usize, animation: Option<usize>, time: f64) -> Result<InstancePose, IoError> {
         let world = self.world_transforms(animation, time)?;
-        let (mesh, n) = self.node_mesh(node)?;
+        let (mesh, _) = self.node_mesh(node)?;
         let weights = self.morph_weights(node, animation, time)?;
-        let element = || format!("node {node} '{}'", n.name);
-        let matrices = match (n.skin, &mesh.skin_weights) {
-            (Some(s), Some(skin_weights)) => {
-                let skin = &self
-                    .skins
-                    .get(s)
-                    .ok_or_else(|| IoError::element(&self.path, element(), format!("skin {s} does not exist")))?
-                    .skin;
-                let skin_error = |source| IoError::Skin { path: self.path.clone(), element: element(), source };
-                let joints = joint_matrices(skin, &world).map_err(skin_error)?;
+        let skin_error = |source| self.skin_error(node, source);
+        let matrices = match self.skinning(node, &world)? {
+            Some((skin_weights, joints)) => {
                 let mut matrices = Vec::with_capacity(skin_weights.len());
                 for (v, (js, ws)) in skin_weights.joints().iter().zip(skin_weights.weights()).enumerate() {
                     let mut m = DMat4::ZERO;

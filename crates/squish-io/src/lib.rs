@@ -167,7 +167,10 @@ impl MeshDocument {
     pub fn write_with_positions(&self, path: &Path, positions: &[DVec3]) -> Result<(), IoError> {
         if self.passes_through_to(path) {
             return match self {
-                Self::Obj(d) => d.write_with_positions(path, positions),
+                Self::Obj(d) => {
+                    d.write_with_positions(path, positions)?;
+                    d.copy_material_libraries(path).map(|_| ())
+                }
                 Self::Ply(d) => d.write_with_positions(path, positions),
                 Self::Gltf(d) => d.write_with_positions(path, positions),
             };

@@ -247,6 +247,32 @@ impl ObjDocument {
         })
     }
 
+    /// Copies the material libraries the file names (`mtllib`, relative paths) from the input's
+    /// folder next to `output` when they are not there yet, so that the written OBJ finds its
+    /// materials; returns the files copied. Texture maps named inside them are not copied.
+    pub fn copy_material_libraries(&self, output: &Path) -> Result<Vec<PathBuf>, IoError> {
+        let from = self.path.parent().unwrap_or(Path::new("."));
+        let to = output.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let mut copied = Vec::new();
+        for name in self.attribute_counts().material_libraries {
+            let relative = Path::new(&name);
+            if relative.is_absolute() || relative.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
+                continue;
+            }
+            let (source, target) = (from.join(relative), to.join(relative));
+            if target.exists() || !source.is_file() {
+                continue;
+            }
+            let bytes = std::fs::read(&source).map_err(|e| IoError::io(&source, "read the material library", e))?;
+            if let Some(dir) = target.parent() {
+                std::fs::create_dir_all(dir).map_err(|e| IoError::io(dir, "create the folder of", e))?;
+            }
+            write_atomically(&target, |w| w.write_all(&bytes))?;
+            copied.push(target);
+        }
+        Ok(copied)
+    }
+
     /// Parses OBJ text; `path` only names the file in errors.
     pub fn parse(path: &Path, bytes: &[u8]) -> Result<Self, IoError> {
         let mut positions: Vec<DVec3> = Vec::new();

@@ -178,12 +178,12 @@ fn rich_ply(format: &str) -> Vec<u8> {
             }
         }
     }
-    for (a, b, c) in [(0, 1, 7u8), (2, 3, 9)] {
+    for (a, b, c) in [(0i32, 1i32, 7u8), (2, 3, 9)] {
         if format == "ascii" {
             out.extend(format!("{a} {b} {c}\n").bytes());
         } else {
-            put(&mut out, (a as i32).to_le_bytes().to_vec());
-            put(&mut out, (b as i32).to_le_bytes().to_vec());
+            put(&mut out, a.to_le_bytes().to_vec());
+            put(&mut out, b.to_le_bytes().to_vec());
             out.push(c);
         }
     }
@@ -420,6 +420,19 @@ fn gltf_attribute_counts_that_differ_are_located_errors() {
     assert!(err.contains("one element per vertex"), "{err}");
 }
 
+/// A glTF of one mesh with positions, normals and triangles.
+fn mesh_with_normals(positions: &[DVec3], normals: &[DVec3], triangles: &[[u32; 3]]) -> Fixture {
+    let mut f = Fixture::new();
+    let pos = f.accessor(F32, "VEC3", &positions.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
+    let nrm = f.accessor(F32, "VEC3", &normals.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
+    let idx = f.accessor(U32, "SCALAR", &triangles.iter().flatten().map(|&i| i as f64).collect::<Vec<_>>());
+    f.root = json!({
+        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": pos, "NORMAL": nrm }, "indices": idx }] }],
+    });
+    f
+}
+
 /// Seam copies (one position, equal input normals) get one normal; hard-edge copies (one
 /// position, different input normals) keep one normal per side.
 #[test]
@@ -443,14 +456,7 @@ fn gltf_normals_keep_the_input_splits() {
         }
     }
     let normals: Vec<DVec3> = positions.iter().map(|p| p.normalize()).collect();
-    let mut f = Fixture::new();
-    let pos = f.accessor(F32, "VEC3", &positions.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
-    let nrm = f.accessor(F32, "VEC3", &normals.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
-    let idx = f.accessor(U32, "SCALAR", &triangles.iter().flatten().map(|&i| i as f64).collect::<Vec<_>>());
-    f.root = json!({
-        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
-        "meshes": [{ "primitives": [{ "attributes": { "POSITION": pos, "NORMAL": nrm }, "indices": idx }] }],
-    });
+    let f = mesh_with_normals(&positions, &normals, &triangles);
     let dir = tempfile::tempdir().unwrap();
     let input = f.write_glb(dir.path(), "seams");
     let doc = GltfDocument::read(&input).unwrap();
@@ -488,14 +494,7 @@ fn gltf_normals_keep_the_input_splits() {
         let k = positions.len() as u32;
         triangles.push([k - 3, k - 2, k - 1]);
     }
-    let mut f = Fixture::new();
-    let pos = f.accessor(F32, "VEC3", &positions.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
-    let nrm = f.accessor(F32, "VEC3", &normals.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
-    let idx = f.accessor(U32, "SCALAR", &triangles.iter().flatten().map(|&i| i as f64).collect::<Vec<_>>());
-    f.root = json!({
-        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
-        "meshes": [{ "primitives": [{ "attributes": { "POSITION": pos, "NORMAL": nrm }, "indices": idx }] }],
-    });
+    let f = mesh_with_normals(&positions, &normals, &triangles);
     let input = f.write_glb(dir.path(), "cube");
     let doc = GltfDocument::read(&input).unwrap();
     let moved: Vec<DVec3> = doc.mesh().unwrap().positions.iter().map(|p| *p * DVec3::new(1.0, 2.0, 3.0)).collect();
