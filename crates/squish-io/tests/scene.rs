@@ -173,7 +173,7 @@ fn frames_and_output_are_checked() {
     let toml = format!("output = {{ dir = \"out\", format = \"fbx\" }}\n{HEADER}");
     let err = shot.error(&toml);
     assert!(err.contains("scene.toml:1:"), "{err}");
-    assert!(err.contains("unknown value \"fbx\"; use \"obj\", \"ply\" or \"glb\""), "{err}");
+    assert!(err.contains("unknown value \"fbx\"; use \"obj\", \"ply\", \"glb\", \"gltf\" or \"pc2\""), "{err}");
     let err = shot.error(&format!("output = {{ format = \"plY\" }}\n{HEADER}"));
     assert!(err.contains("did you mean \"ply\"?"), "{err}");
 
