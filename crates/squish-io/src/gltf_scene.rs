@@ -248,7 +248,7 @@ impl GltfScene {
         time: f64,
         world: &[DMat4],
     ) -> Result<TriMesh, IoError> {
-        let (mesh, n) = self.node_mesh(node)?;
+        let (mesh, _) = self.node_mesh(node)?;
         let weights = self.morph_weights(node, animation, time)?;
         let positions = mesh.morphed_positions(&weights);
         let positions = match self.skinning(node, world)? {
