@@ -16,6 +16,8 @@ use crate::console::say;
 use crate::error::CliError;
 use crate::input::{InputMesh, WeldChoice, create_dir, output_stems, write_text};
 use crate::params::pair_settings;
+use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
+use crate::shot::PreviewFrame;
 
 #[derive(Args, Debug)]
 pub struct ContactArgs {
@@ -35,6 +37,11 @@ pub struct ContactArgs {
     /// Weld duplicate vertices before processing (outputs keep the file's vertices).
     #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
     pub weld: WeldChoice,
+    /// Write DIR/preview.png: the overlaps (input) and the contact zones, whole and cut.
+    #[arg(long)]
+    pub preview: bool,
+    #[command(flatten)]
+    pub pictures: PictureArgs,
 }
 
 #[derive(Serialize)]
@@ -184,6 +191,28 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     };
     let json_path = args.output.join("contact.json");
     write_text(&json_path, &serde_json::to_string_pretty(&summary)?)?;
+    let picture = if args.preview {
+        // No deformation: both sides show the input, the output side with its contact zones.
+        let meshes: Vec<squish::TriMesh> = inputs.iter().map(|i| i.mesh.clone()).collect();
+        let flags = |at_least: u8| -> Vec<Vec<bool>> {
+            debug.iter().map(|d| d.labels.iter().map(|&k| k >= at_least).collect()).collect()
+        };
+        let zones: Vec<Vec<bool>> = debug.iter().map(|d| d.labels.iter().map(|&k| k == 3).collect()).collect();
+        let frame = PreviewFrame {
+            inputs: meshes.clone(),
+            outputs: meshes,
+            contact: zones.into_iter().map(Some).collect(),
+            deformable: vec![None, None],
+            u: vec![None, None],
+            intersection: flags(1),
+        };
+        let any_gltf =
+            inputs.iter().any(|i| matches!(i.format, squish_io::MeshFormat::Gltf | squish_io::MeshFormat::Glb));
+        let settings = args.pictures.settings(ColorMode::Contact, &SceneDefaults::default(), any_gltf);
+        Some(write_frame_preview(&args.output.join("preview.png"), &frame, &settings)?)
+    } else {
+        None
+    };
     if result.is_empty() {
         say!("the meshes do not intersect (no contact zone)");
     } else {
@@ -211,6 +240,9 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     }
     say!("boundary points: {} ({} points)", points_path.display(), points.len());
     say!("summary: {}", json_path.display());
+    if let Some(picture) = picture {
+        say!("preview: {}", picture.display());
+    }
     Ok(())
 }
 

@@ -6,12 +6,15 @@ use clap::Args;
 use serde::Serialize;
 use squish::pipeline::{Deformer, Frame, FrameObject, FramePair};
 use squish::spatial;
+use squish_io::MeshFormat;
 
 use crate::console::say;
 use crate::error::CliError;
 use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
 use crate::params::{PairSettings, pair_settings};
+use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::report::FrameReport;
+use crate::shot::{PreviewFrame, ShotFrame, ShotObject};
 
 #[derive(Args, Debug)]
 pub struct DeformArgs {
@@ -19,7 +22,9 @@ pub struct DeformArgs {
     pub a: PathBuf,
     /// The second mesh (d̂ is oriented along its normals).
     pub b: PathBuf,
-    /// Output directory: DIR/<stem of A>.<ext>, DIR/<stem of B>.<ext>, DIR/report.json.
+    /// Output directory: DIR/<stem of A>.<ext>, DIR/<stem of B>.<ext>, DIR/report.json. Written
+    /// in the input's format, each output is a copy of its input with the deformed positions and
+    /// normals (UVs, materials, skins, extra properties kept).
     #[arg(short, long, default_value = "squish-out")]
     pub output: PathBuf,
     /// Parameters file (TOML with tables [a], [b], [pair]).
@@ -34,6 +39,14 @@ pub struct DeformArgs {
     /// Weld duplicate vertices before processing (outputs keep the file's vertices).
     #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
     pub weld: WeldChoice,
+    /// Write DIR/preview.png: input | output, whole and cut through the contact.
+    #[arg(long)]
+    pub preview: bool,
+    /// Colouring of the output in the picture.
+    #[arg(long, value_enum, default_value_t = ColorMode::Deformable)]
+    pub color: ColorMode,
+    #[command(flatten)]
+    pub pictures: PictureArgs,
 }
 
 #[derive(Serialize)]
@@ -81,8 +94,7 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     for (i, input) in inputs.iter().enumerate() {
         let ext = args.format.map_or(FormatChoice::extension_of(input.format), FormatChoice::extension);
         let path = args.output.join(format!("{}.{ext}", stems[i]));
-        let mesh = input.file_mesh_with(&result.positions[i]);
-        squish_io::write_mesh(&path, &mesh)?;
+        input.write_result(&path, &result.positions[i])?;
         outputs[i] = path.display().to_string();
         deformed.push(result.mesh(&frame, i));
     }
@@ -96,6 +108,26 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     };
     let report_path = args.output.join("report.json");
     write_text(&report_path, &serde_json::to_string_pretty(&report)?)?;
+    let picture = if args.preview {
+        let shot = ShotFrame {
+            objects: inputs
+                .iter()
+                .zip(names)
+                .zip([&settings.a, &settings.b])
+                .map(|((input, name), params)| ShotObject {
+                    name: name.to_string(),
+                    mesh: input.mesh.clone(),
+                    params: params.clone(),
+                })
+                .collect(),
+            pairs: frame.pairs.clone(),
+        };
+        let any_gltf = inputs.iter().any(|i| matches!(i.format, MeshFormat::Gltf | MeshFormat::Glb));
+        let settings = args.pictures.settings(args.color, &SceneDefaults::default(), any_gltf);
+        Some(write_frame_preview(&args.output.join("preview.png"), &PreviewFrame::new(&shot, &result), &settings)?)
+    } else {
+        None
+    };
 
     let pair = &result.stats.pairs[0];
     if pair.in_contact {
@@ -129,5 +161,8 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
         say!("deepest penetration {before:.4e} → {after:.4e}");
     }
     say!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
+    if let Some(picture) = picture {
+        say!("preview: {}", picture.display());
+    }
     Ok(())
 }

@@ -348,7 +348,7 @@ fn run_scene(
         "objects": first.objects.iter().map(|o| output.object_dir(&o.name).join("{frame:04}.obj").display().to_string()).collect::<Vec<_>>(),
         "previews": previews.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     });
-    let summary = write_report(&dir, &description, &outputs, &outcome)?;
+    let summary = write_report(&dir, "report.json", &description, &outputs, &outcome)?;
     if let Some(failure) = outcome.failure {
         return Err(failure.error);
     }

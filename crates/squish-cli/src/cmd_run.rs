@@ -3,9 +3,11 @@
 //! optional previews.
 //!
 //! Frames are independent, so a shot can be split over machines with `--frames A:B`: the files
-//! of a frame are the same bit for bit whatever the split and the thread count. Ctrl-C stops
-//! cleanly (see `interrupt`): frames in progress finish, the report covers the frames done and
-//! lists the missing ones for a re-run.
+//! of a frame are the same bit for bit whatever the split and the thread count, each part
+//! writes its report as `report.A-B.json` and `report.json` merges the parts present
+//! (`report_parts`). Results are written into copies of the source files where the formats
+//! match (`shot_outputs`). Ctrl-C stops cleanly (see `interrupt`): frames in progress finish,
+//! the report covers the frames done and lists the missing ones for a re-run.
 
 use std::path::PathBuf;
 
@@ -18,10 +20,12 @@ use crate::console::say;
 use crate::error::CliError;
 use crate::input::create_dir;
 use crate::interrupt;
-use crate::preview::{ColorMode, PictureSettings, UpAxis, preview_frames, write_previews};
+use crate::preview::{CameraPlacement, ColorMode, PictureArgs, SceneDefaults, UpAxis, preview_frames, write_previews};
 use crate::quality::write_report;
+use crate::report_parts::{merge_reports, part_file_name};
 use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
-use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot::{ShotFrame, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot_outputs::ShotOutputs;
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -43,16 +47,67 @@ pub struct RunArgs {
     /// Colouring of the previews' output meshes.
     #[arg(long, value_enum, default_value_t = ColorMode::Deformable)]
     pub color: ColorMode,
-    /// The scene's up axis, for the previews' camera.
-    #[arg(long, value_enum, default_value_t = UpAxis::Z)]
-    pub up: UpAxis,
+    #[command(flatten)]
+    pub pictures: PictureArgs,
+    /// Output format, instead of the scene's `output.format`: obj or ply (a file per frame),
+    /// glb or gltf (one animated file per object), pc2 (one point cache per object).
+    #[arg(long, value_enum)]
+    pub format: Option<RunFormat>,
     /// Check the scene and list objects, pairs, frames, outputs and missing sequence files,
     /// without computing anything.
     #[arg(long)]
     pub dry_run: bool,
 }
 
+/// `--format` of `squish run`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RunFormat {
+    Obj,
+    Ply,
+    Glb,
+    Gltf,
+    Pc2,
+}
+
+impl From<RunFormat> for OutputFormat {
+    fn from(f: RunFormat) -> Self {
+        match f {
+            RunFormat::Obj => Self::Obj,
+            RunFormat::Ply => Self::Ply,
+            RunFormat::Glb => Self::Glb,
+            RunFormat::Gltf => Self::Gltf,
+            RunFormat::Pc2 => Self::Pc2,
+        }
+    }
+}
+
+/// A clear error for a mesh given where a scene file is expected (a common first try).
+fn check_is_scene_file(path: &std::path::Path) -> Result<(), CliError> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let gltf = ext == "glb"
+        || ext == "gltf"
+        || std::fs::File::open(path).ok().and_then(|mut f| {
+            let mut magic = [0u8; 4];
+            std::io::Read::read_exact(&mut f, &mut magic).ok().map(|_| &magic == b"glTF")
+        }) == Some(true);
+    if gltf {
+        return Err(CliError::input(format!(
+            "{} is a glTF file, not a scene file: use `squish deform A B` for one frame, or write a scene file (docs/scene-format.md) whose object reads it with mesh = {{ file = \"{}\" }}",
+            path.display(),
+            path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+        )));
+    }
+    if matches!(ext.as_str(), "obj" | "ply") {
+        return Err(CliError::input(format!(
+            "{} is a mesh, not a scene file: use `squish deform A B` for one frame, or write a scene file (docs/scene-format.md)",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    check_is_scene_file(&args.scene)?;
     let scene = Scene::load(&args.scene)?;
     let frames = match &args.frames {
         Some(text) => squish_io::parse_frame_selection(text, &scene.frame_range())
@@ -63,6 +118,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let mut output = scene.output().clone();
     if let Some(dir) = &args.output {
         output.dir = std::path::absolute(dir).unwrap_or_else(|_| dir.clone());
+    }
+    if let Some(format) = args.format {
+        output.format = format.into();
     }
     let missing = scene.missing_files(frames.clone());
     if !args.dry_run && !missing.is_empty() {
@@ -96,28 +154,33 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         keep_outputs: !output.format.per_frame(),
         label: "squish run".into(),
     };
-    let write = |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| -> Result<(), CliError> {
-        if !output.format.per_frame() {
-            return Ok(());
-        }
-        for ((object, p), n) in shot.objects.iter().zip(positions).zip(&numbering) {
-            squish_io::write_mesh(&output.path_for(&object.name, frame), &n.file_mesh(p))?;
-        }
-        Ok(())
-    };
+    let part = args.frames.as_ref().map(|_| (*frames.start(), *frames.end()));
+    let writers = ShotOutputs::new(&scene, &output, &numbering, part)?;
+    let write =
+        |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| writers.write_frame(frame, shot, positions);
     let interrupt = interrupt::install();
     let outcome = run_shot(&source, &settings, &pool, interrupt, &write)?;
 
     let mut animated = Vec::new();
+    let mut animated_error = None;
     if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
-        animated = write_animated(&scene, &output, &first, &numbering, &outcome)?;
+        // The report is written even when these files cannot be: the frames are done.
+        match writers.write_shot(&first, &outcome) {
+            Ok(written) => animated = written,
+            Err(e) => animated_error = Some(e),
+        }
     }
-    let pictures = PictureSettings { color: args.color, up: args.up, ..PictureSettings::default() };
+    let pictures = args.pictures.settings(args.color, &scene_defaults(&scene), any_gltf(&scene));
     let (previews, _) = pool.install(|| write_previews(&output.dir.join("preview"), &outcome, &pictures))?;
     let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;
-    let outputs = outputs_json(&output, &first, &numbering, &animated, &previews);
-    let summary = write_report(&output.dir, &scene_json, &outputs, &outcome)?;
-    let report = output.dir.join("report.json");
+    let outputs = outputs_json(&output, &writers, &first, &numbering, &animated, &previews);
+    let part_name = part_file_name(*frames.start(), *frames.end());
+    let summary = write_report(&output.dir, &part_name, &scene_json, &outputs, &outcome)?;
+    let range = scene.frame_range();
+    let report = merge_reports(&output.dir, range.start, range.end)?;
+    if let Some(error) = animated_error {
+        return Err(error);
+    }
 
     if let Some(failure) = outcome.failure {
         for articulation in &summary.articulations {
@@ -137,7 +200,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         let glb = if output.format.per_frame() {
             ""
         } else {
-            "; the animated .glb files need every frame and were not written"
+            "; the files holding every frame need every frame and were not written"
         };
         return Err(CliError::interrupted(format!(
             "interrupted: {} of {} frames done (report: {}){glb}; to finish, run the missing frames: {}",
@@ -178,27 +241,33 @@ fn missing_error(scene: &std::path::Path, missing: &[(String, i64, PathBuf)]) ->
     ))
 }
 
-/// Writes one animated `.glb` per object from the kept frames (in frame order).
-fn write_animated(
-    scene: &Scene,
-    output: &OutputSpec,
-    first: &ShotFrame,
-    numbering: &[FileNumbering],
-    outcome: &ShotOutcome,
-) -> Result<Vec<PathBuf>, CliError> {
-    let mut written = Vec::new();
-    for (i, (object, n)) in first.objects.iter().zip(numbering).enumerate() {
-        let frames: Vec<Vec<glam::DVec3>> = outcome.kept.values().map(|positions| n.positions(&positions[i])).collect();
-        let path = output.animated_path(&object.name);
-        squish_io::write_animated_glb(&path, &object.name, &n.triangles, &frames, scene.frame_range().fps)?;
-        written.push(path);
+/// Picture defaults from the scene's `preview` key.
+fn scene_defaults(scene: &Scene) -> SceneDefaults {
+    let Some(spec) = &scene.description().preview else { return SceneDefaults::default() };
+    SceneDefaults {
+        up: spec.up.map(|u| match u {
+            squish_io::scene::UpAxisName::Y => UpAxis::Y,
+            squish_io::scene::UpAxisName::Z => UpAxis::Z,
+        }),
+        size: spec.size.map(|[w, h]| (w, h)),
+        camera: spec.camera.map(|c| CameraPlacement {
+            eye: glam::DVec3::from_array(c.eye),
+            target: glam::DVec3::from_array(c.target),
+            up: c.up.map(glam::DVec3::from_array),
+            fov_deg: c.fov,
+        }),
     }
-    Ok(written)
+}
+
+/// True if an object of the scene is read from glTF (y-up by definition).
+fn any_gltf(scene: &Scene) -> bool {
+    scene.description().objects.iter().any(|o| matches!(o.mesh, MeshSource::Gltf(_)))
 }
 
 /// The `outputs` section of the report.
 fn outputs_json(
     output: &OutputSpec,
+    writers: &ShotOutputs,
     first: &ShotFrame,
     numbering: &[FileNumbering],
     animated: &[PathBuf],
@@ -212,7 +281,7 @@ fn outputs_json(
             let files = if output.format.per_frame() {
                 output.object_dir(&o.name).join(format!("{{frame:04}}.{}", output.format.extension()))
             } else {
-                output.animated_path(&o.name)
+                writers.shot_path(&o.name)
             };
             json!({
                 "name": o.name,
@@ -298,7 +367,9 @@ fn print_dry_run(
     }
     let ext = output.format.extension();
     match output.format {
-        OutputFormat::Glb => say!("outputs: {}/<object>.glb (one animated file per object)", output.dir.display()),
+        OutputFormat::Glb | OutputFormat::Gltf | OutputFormat::Pc2 => {
+            say!("outputs: {}/<object>.{ext} (one file per object holding every frame)", output.dir.display())
+        }
         _ => say!(
             "outputs: {} to {} per object, e.g. {}",
             squish_io::scene::format_frame(*frames.start(), 4) + "." + ext,

@@ -1,12 +1,14 @@
 //! Meshes read from files for the two-object commands, with the bookkeeping that keeps outputs
 //! in the file's own vertex order: glTF files duplicate vertices along UV seams, so they are
 //! welded (exact duplicates) for processing and the results are mapped back to every file vertex.
+//! Each input is kept whole ([`MeshDocument`]), so that results written in the input's format
+//! keep everything else the file holds (UVs, materials, skins, extra properties).
 
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use squish::TriMesh;
-use squish_io::{MeshFormat, WeldMode, Welded, weld_positions};
+use squish_io::{MeshDocument, MeshFormat, WeldMode, Welded, weld_positions};
 
 use crate::error::CliError;
 
@@ -26,6 +28,8 @@ pub enum WeldChoice {
 pub struct InputMesh {
     pub path: PathBuf,
     pub format: MeshFormat,
+    /// The whole file, for writing results back into it.
+    pub document: MeshDocument,
     /// The file's mesh, vertices in file order.
     pub file: TriMesh,
     /// The mesh the deformer works on (welded, or the file's mesh).
@@ -38,7 +42,8 @@ impl InputMesh {
     /// Reads `path` and welds it according to `weld`.
     pub fn read(path: &Path, weld: WeldChoice) -> Result<Self, CliError> {
         let format = MeshFormat::from_path(path)?;
-        let file = squish_io::read_mesh(path)?;
+        let document = MeshDocument::read(path)?;
+        let file = document.mesh()?;
         let do_weld = match weld {
             WeldChoice::Auto => matches!(format, MeshFormat::Gltf | MeshFormat::Glb),
             WeldChoice::Always => true,
@@ -57,7 +62,7 @@ impl InputMesh {
         } else {
             (file.clone(), None)
         };
-        Ok(Self { path: path.to_path_buf(), format, file, mesh, welded })
+        Ok(Self { path: path.to_path_buf(), format, document, file, mesh, welded })
     }
 
     /// File vertex → processed vertex, when the file was welded.
@@ -86,9 +91,11 @@ impl InputMesh {
         }
     }
 
-    /// The file's mesh with new positions for the processed vertices.
-    pub fn file_mesh_with(&self, positions: &[DVec3]) -> TriMesh {
-        TriMesh { positions: self.to_file_positions(positions), triangles: self.file.triangles.clone() }
+    /// Writes processed positions to `path`: into a copy of the input when the formats match
+    /// (everything but positions and normals kept), else as a plain mesh.
+    pub fn write_result(&self, path: &Path, positions: &[DVec3]) -> Result<(), CliError> {
+        self.document.write_with_positions(path, &self.to_file_positions(positions))?;
+        Ok(())
     }
 }
 

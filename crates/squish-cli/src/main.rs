@@ -20,10 +20,12 @@ mod params;
 mod preview;
 mod quality;
 mod report;
+mod report_parts;
 mod scene_shot;
 #[cfg(test)]
 mod schema_tests;
 mod shot;
+mod shot_outputs;
 
 use std::process::ExitCode;
 

@@ -47,6 +47,60 @@ pub enum UpAxis {
     Y,
 }
 
+/// The `--up` choice: an axis, or `auto` — y for glTF inputs (y-up by definition), z for OBJ
+/// and PLY (unless a scene's `preview.up` says otherwise).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum UpChoice {
+    #[default]
+    Auto,
+    Y,
+    Z,
+}
+
+impl UpChoice {
+    /// The axis: the choice, else `declared` (a scene's `preview.up`), else y when any input is
+    /// glTF, else z.
+    pub fn resolve(self, declared: Option<UpAxis>, any_gltf: bool) -> UpAxis {
+        match self {
+            Self::Y => UpAxis::Y,
+            Self::Z => UpAxis::Z,
+            Self::Auto => declared.unwrap_or(if any_gltf { UpAxis::Y } else { UpAxis::Z }),
+        }
+    }
+}
+
+/// What the default camera frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Framing {
+    /// The contact regions and what deforms around them (everything when nothing touches).
+    #[default]
+    Contact,
+    /// Every object, whole.
+    All,
+}
+
+/// A camera given by the user (a scene's `preview.camera`): where it is, what it looks at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPlacement {
+    pub eye: DVec3,
+    pub target: DVec3,
+    /// Default: the world's up axis.
+    pub up: Option<DVec3>,
+    /// Vertical field of view in degrees. Default 35.
+    pub fov_deg: Option<f64>,
+}
+
+/// Parses `--size WxH` (each side 16 to 8192 pixels).
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) =
+        text.split_once(['x', 'X']).ok_or_else(|| format!("'{text}': give the size as WIDTHxHEIGHT, e.g. 1280x720"))?;
+    let side = |s: &str| -> Result<u32, String> {
+        let v: u32 = s.trim().parse().map_err(|_| format!("'{text}': '{s}' is not a whole number of pixels"))?;
+        if (16..=8192).contains(&v) { Ok(v) } else { Err(format!("'{text}': each side must be 16 to 8192 pixels")) }
+    };
+    Ok((side(w)?, side(h)?))
+}
+
 impl UpAxis {
     /// A z-up direction expressed in this world (a rotation taking +z to the up axis).
     fn rotated_from_z_up(self, v: DVec3) -> DVec3 {
@@ -67,13 +121,26 @@ pub struct PictureSettings {
     /// Orbit angles of the camera in degrees (see `squish_render::orbit_direction`).
     pub azimuth: f64,
     pub elevation: f64,
+    /// What the default camera frames.
+    pub framing: Framing,
+    /// A camera given by the user, used instead of the framed one.
+    pub camera: Option<CameraPlacement>,
 }
 
 impl Default for PictureSettings {
     fn default() -> Self {
         // Slightly above and to the side: contacts between stacked objects stay visible at the
         // silhouette, and the bulge shows against the background.
-        Self { width: 640, height: 480, color: ColorMode::default(), up: UpAxis::Z, azimuth: 30.0, elevation: 12.0 }
+        Self {
+            width: 640,
+            height: 480,
+            color: ColorMode::default(),
+            up: UpAxis::Z,
+            azimuth: 30.0,
+            elevation: 12.0,
+            framing: Framing::All,
+            camera: None,
+        }
     }
 }
 
@@ -96,13 +163,22 @@ pub struct ShotView {
 }
 
 /// The view of a shot: a camera framing every object over the whole shot (the extreme vertices
-/// of every computed frame, and all vertices of the previewed frames, inputs and outputs), and a
-/// vertical section plane facing the camera through the contacts.
+/// of every computed frame, and all vertices of the previewed frames, inputs and outputs) — or,
+/// with [`Framing::Contact`], the neighbourhood of the previewed frames' contacts — unless the
+/// settings give one, and a vertical section plane facing the camera through the contacts.
 pub fn shot_view(outcome: &ShotOutcome, settings: &PictureSettings) -> ShotView {
-    let mut points: Vec<DVec3> = outcome.records.iter().flat_map(|r| r.support.iter().copied()).collect();
+    let support: Vec<DVec3> = outcome.records.iter().flat_map(|r| r.support.iter().copied()).collect();
+    let previews: Vec<&PreviewFrame> = outcome.previews.values().collect();
+    view_of(&previews, support, settings)
+}
+
+/// The view of some previewed frames (see [`shot_view`]); `points` are more points to frame.
+pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &PictureSettings) -> ShotView {
     let mut contact_sum = DVec3::ZERO;
     let mut contact_count = 0usize;
-    for p in outcome.previews.values() {
+    // Vertices of the contacts, of what deforms around them and of the input's overlaps.
+    let mut near_contact: Vec<DVec3> = Vec::new();
+    for p in previews {
         for mesh in p.inputs.iter().chain(&p.outputs) {
             points.extend_from_slice(&mesh.positions);
         }
@@ -112,17 +188,60 @@ pub fn shot_view(outcome: &ShotOutcome, settings: &PictureSettings) -> ShotView 
                 contact_count += 1;
             }
         }
+        for (i, mesh) in p.outputs.iter().enumerate() {
+            let flags = [p.contact[i].as_deref(), p.deformable[i].as_deref(), Some(p.intersection[i].as_slice())];
+            for (v, q) in mesh.positions.iter().enumerate() {
+                if flags.iter().flatten().any(|f| f.get(v).copied().unwrap_or(false)) {
+                    near_contact.push(*q);
+                }
+            }
+        }
     }
     let view = settings.up.rotated_from_z_up(orbit_direction(settings.azimuth, settings.elevation));
     let up = settings.up.rotated_from_z_up(DVec3::Z);
-    let mut camera =
-        Camera::framing_points(&points, view, up, FOV_DEG, f64::from(settings.width) / f64::from(settings.height));
-    // A wider lens than the fit leaves a margin for the caption and the legend.
-    camera.fov_y_deg *= 1.12;
+    let aspect = f64::from(settings.width) / f64::from(settings.height);
+    let framed = match settings.framing {
+        Framing::Contact if !near_contact.is_empty() => contact_neighbourhood(&near_contact, &points),
+        _ => points,
+    };
+    let mut camera = match settings.camera {
+        Some(c) => Camera::look_at(c.eye, c.target, c.up.unwrap_or(up), c.fov_deg.unwrap_or(FOV_DEG), aspect),
+        None => {
+            let mut camera = Camera::framing_points(&framed, view, up, FOV_DEG, aspect);
+            // A wider lens than the fit leaves a margin for the caption and the legend.
+            camera.fov_y_deg *= 1.12;
+            camera
+        }
+    };
+    if settings.camera.is_some() {
+        camera.aspect = aspect;
+    }
+    let view = (camera.target - camera.eye).normalize_or_zero();
     let horizontal = (view - up * view.dot(up)).normalize_or_zero();
     let normal = if horizontal == DVec3::ZERO { view } else { horizontal };
     let point = if contact_count > 0 { contact_sum / contact_count as f64 } else { camera.target };
     ShotView { camera, section: (point, normal) }
+}
+
+/// The points to frame around a contact: the box of the contact's points, grown about its
+/// centre to at least a third of the whole scene's size (so that the objects stay recognizable),
+/// as its eight corners.
+fn contact_neighbourhood(contact: &[DVec3], all: &[DVec3]) -> Vec<DVec3> {
+    let whole = squish::mesh::Aabb3::from_points(all.iter().copied());
+    let region = squish::mesh::Aabb3::from_points(contact.iter().copied());
+    let least = whole.extent() / 3.0;
+    let half = (0.5 * region.extent() * 1.3).max(0.5 * least.min(DVec3::splat(least.max_element())));
+    let centre = region.center();
+    (0..8)
+        .map(|i| {
+            let sign = DVec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            centre + sign * half
+        })
+        .collect()
 }
 
 /// Which meshes of a frame.
@@ -366,17 +485,20 @@ pub struct FramePictures {
     pub compare: Image,
 }
 
-/// Renders the pictures of one previewed frame.
+/// Renders the pictures of one previewed frame (`frame`: the shot's frame number, for the
+/// captions; `None` for a single frame).
 pub fn frame_pictures(
-    frame: i64,
+    frame: Option<i64>,
     p: &PreviewFrame,
     view: &ShotView,
     settings: &PictureSettings,
 ) -> Result<FramePictures, CliError> {
-    let input = render_frame(frame, p, Side::Input, false, view, settings, &format!("frame {frame}: input"))?;
-    let output = render_frame(frame, p, Side::Output, false, view, settings, &format!("frame {frame}: output"))?;
+    let title = frame.map_or_else(String::new, |f| format!("frame {f}: "));
+    let frame = frame.unwrap_or(0);
+    let input = render_frame(frame, p, Side::Input, false, view, settings, &format!("{title}input"))?;
+    let output = render_frame(frame, p, Side::Output, false, view, settings, &format!("{title}output"))?;
     let input_section = render_frame(frame, p, Side::Input, true, view, settings, "section: input")?;
-    let section = render_frame(frame, p, Side::Output, true, view, settings, &format!("frame {frame}: section"))?;
+    let section = render_frame(frame, p, Side::Output, true, view, settings, &format!("{title}section"))?;
     let compare = grid(&[&input, &output, &input_section, &section], 2, 4, [255, 255, 255, 255]);
     Ok(FramePictures { output, section, compare })
 }
@@ -429,7 +551,7 @@ pub fn write_previews(
         .par_iter()
         .map(|(&frame, p)| {
             let name = squish_io::scene::format_frame(frame, 4);
-            let pictures = frame_pictures(frame, p, &view, settings)?;
+            let pictures = frame_pictures(Some(frame), p, &view, settings)?;
             let files = [
                 write_png(&dir.join(format!("{name}.png")), &pictures.output)?,
                 write_png(&dir.join(format!("{name}_compare.png")), &pictures.compare)?,
@@ -443,6 +565,54 @@ pub fn write_previews(
         outputs.insert(frame, pictures);
     }
     Ok((written, outputs))
+}
+
+/// The picture options shared by `deform`, `contact` and `run`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct PictureArgs {
+    /// Up axis of the pictures: auto (y for glTF inputs, which are y-up; z for OBJ and PLY), y or z.
+    #[arg(long, value_enum, default_value_t = UpChoice::Auto)]
+    pub up: UpChoice,
+    /// Picture size, WIDTHxHEIGHT (default 640x480, or a scene's `preview.size`).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// What the camera frames: the contact and its surroundings, or every object whole.
+    #[arg(long, value_enum, default_value_t = Framing::Contact)]
+    pub framing: Framing,
+}
+
+/// What a scene file says about its pictures (`preview = { camera, size, up }`); the
+/// command-line options win over it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneDefaults {
+    pub up: Option<UpAxis>,
+    pub size: Option<(u32, u32)>,
+    pub camera: Option<CameraPlacement>,
+}
+
+impl PictureArgs {
+    /// Picture settings for these options over a scene's defaults; `any_gltf`: whether an input
+    /// is glTF (for `--up auto`).
+    pub fn settings(&self, color: ColorMode, defaults: &SceneDefaults, any_gltf: bool) -> PictureSettings {
+        let (width, height) = self.size.or(defaults.size).unwrap_or((640, 480));
+        PictureSettings {
+            width,
+            height,
+            color,
+            up: self.up.resolve(defaults.up, any_gltf),
+            framing: self.framing,
+            camera: defaults.camera,
+            ..PictureSettings::default()
+        }
+    }
+}
+
+/// Writes the "input | output" picture of a single frame (whole, and cut through the contact)
+/// to `path`.
+pub fn write_frame_preview(path: &Path, p: &PreviewFrame, settings: &PictureSettings) -> Result<PathBuf, CliError> {
+    let view = view_of(&[p], Vec::new(), settings);
+    let pictures = frame_pictures(None, p, &view, settings)?;
+    write_png(path, &pictures.compare)
 }
 
 /// Half-size thumbnails of the frames: the outputs in the top row, their sections below.

@@ -636,9 +636,11 @@ struct FramesInfo {
     computed: usize,
 }
 
-/// Writes `dir/report.json`, `dir/quality.svg` and `dir/quality.png`; returns the summary.
+/// Writes `dir/<report_name>` (the JSON report), `dir/quality.svg` and `dir/quality.png`;
+/// returns the summary.
 pub fn write_report<S: Serialize>(
     dir: &Path,
+    report_name: &str,
     scene: &S,
     outputs: &serde_json::Value,
     outcome: &ShotOutcome,
@@ -675,7 +677,7 @@ pub fn write_report<S: Serialize>(
         summary: summary.clone(),
         per_frame,
     };
-    write_text(&dir.join("report.json"), &serde_json::to_string_pretty(&report)?)?;
+    write_text(&dir.join(report_name), &serde_json::to_string_pretty(&report)?)?;
     if !outcome.records.is_empty() {
         let plots = quality_plots(&outcome.records);
         write_text(&dir.join("quality.svg"), &stacked_svg(&plots, 2))?;

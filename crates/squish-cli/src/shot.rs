@@ -99,9 +99,24 @@ pub struct PreviewFrame {
 }
 
 impl PreviewFrame {
-    fn new(shot: &ShotFrame, result: &FrameResult) -> Self {
+    /// The pictures' data of a computed frame. Objects with self-contact articulations also
+    /// get their self-intersecting input faces marked as overlaps (drawn red on the input).
+    pub fn new(shot: &ShotFrame, result: &FrameResult) -> Self {
         let mut intersection: Vec<Vec<bool>> =
             shot.objects.iter().map(|o| vec![false; o.mesh.num_vertices()]).collect();
+        for (object, flags) in shot.objects.iter().zip(&mut intersection) {
+            if object.params.self_contact.is_empty() {
+                continue;
+            }
+            // A picture is not worth failing a frame over: an unusable mesh shows no overlap.
+            if let Ok(found) = squish::spatial::self_intersections(&object.mesh) {
+                for &f in &found.faces {
+                    for &v in &object.mesh.triangles[f as usize] {
+                        flags[v as usize] = true;
+                    }
+                }
+            }
+        }
         for (pair, contact) in shot.pairs.iter().zip(&result.contacts) {
             let Some(contact) = contact else { continue };
             for (side, &object) in pair.objects.iter().enumerate() {

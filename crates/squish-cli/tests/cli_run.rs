@@ -118,9 +118,15 @@ fn frames_are_bit_identical_whatever_the_threads_and_the_split() {
     let ball_in = squish_io::read_mesh(&dir.path().join("ball.obj")).unwrap();
     let ball_out = squish_io::read_mesh(&parallel.join("ball/0048.ply")).unwrap();
     assert_eq!(ball_out.triangles, ball_in.triangles);
-    // The split run's report covers its last job, as documented.
+    // Each part keeps its own report, and report.json merges them: every frame, none missing.
+    for part in ["report.1-20.json", "report.21-48.json"] {
+        assert!(split.join(part).is_file(), "{part}");
+    }
     let report = read_report(&split);
-    assert_eq!((report["frames"]["start"].as_i64(), report["frames"]["end"].as_i64()), (Some(21), Some(48)));
+    assert_eq!((report["frames"]["start"].as_i64(), report["frames"]["end"].as_i64()), (Some(1), Some(48)));
+    assert_eq!(report["per_frame"].as_array().unwrap().len(), 48);
+    assert_eq!(report["missing_frames"], serde_json::json!([]));
+    assert_eq!(report["summary"]["frames_computed"], 48);
 }
 
 #[test]

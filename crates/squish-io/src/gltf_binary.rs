@@ -153,7 +153,7 @@ fn load_uri(path: &Path, element: &str, uri: &str) -> Result<Vec<u8>, IoError> {
 }
 
 /// Decodes `%XX` escapes (URIs in glTF are percent-encoded, e.g. spaces as `%20`).
-fn percent_decode(uri: &str) -> String {
+pub(crate) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

@@ -13,8 +13,9 @@
 //!   A mesh's primitives are concatenated in order, so its vertex order and count are the file's;
 //! - positions (float or quantized), indices (u8/u16/u32, or none), skin attributes
 //!   (`JOINTS_n` u8/u16, `WEIGHTS_n` float or normalized u8/u16; with more than one set, the
-//!   four largest influences are kept), morph-target position displacements. Normals,
-//!   tangents, texture coordinates and colours are ignored;
+//!   four largest influences are kept), morph-target position displacements, normals and
+//!   tangents (for writing back, [`crate::GltfDocument`]). Texture coordinates and colours are
+//!   left in the file (checked to hold one element per vertex, like every attribute);
 //! - nodes (names, hierarchy, TRS or matrix), skins (joints as node ids, inverse bind matrices,
 //!   identity when absent, skeleton root), animations (translation / rotation / scale channels
 //!   as [`AnimationClip`]s, morph-target weight channels as [`MorphWeightsTrack`]s).
@@ -57,13 +58,27 @@ impl GltfReadOptions {
 
 /// Reads a `.gltf` or `.glb` file (recognized by content: GLB starts with `glTF`).
 pub fn read_gltf(path: &Path, options: &GltfReadOptions) -> Result<GltfScene, IoError> {
+    Ok(read_gltf_file(path, options)?.scene)
+}
+
+/// A glTF file as read: the document model, and the raw JSON and buffers it came from (what
+/// [`crate::GltfDocument`] writes back).
+pub(crate) struct GltfFile {
+    pub(crate) scene: GltfScene,
+    pub(crate) json: Vec<u8>,
+    pub(crate) buffers: Vec<Vec<u8>>,
+}
+
+pub(crate) fn read_gltf_file(path: &Path, options: &GltfReadOptions) -> Result<GltfFile, IoError> {
     let bytes = std::fs::read(path).map_err(|e| IoError::io(path, "open", e))?;
-    let (json, bin) = if bytes.starts_with(b"glTF") { split_glb(path, &bytes)? } else { (&bytes[..], None) };
+    let glb = bytes.starts_with(b"glTF");
+    let (json, bin) = if glb { split_glb(path, &bytes)? } else { (&bytes[..], None) };
     let document = parse_document(path, json)?;
     let buffers = load_buffers(path, &document, bin)?;
     let reader =
         Reader { path, document: &document, data: BufferData { path, document: &document, buffers: &buffers } };
-    reader.scene(options)
+    let scene = reader.scene(options)?;
+    Ok(GltfFile { scene, json: json.to_vec(), buffers })
 }
 
 /// Extensions that change how geometry is stored, which this reader cannot decode.
@@ -238,6 +253,8 @@ impl<'a> Reader<'a> {
         let mut skinned: Option<bool> = None;
         let mut morph_targets: Vec<Vec<DVec3>> = Vec::new();
         let mut primitive_vertices = Vec::new();
+        let mut normals: Vec<DVec3> = Vec::new();
+        let mut tangents: Vec<[f64; 4]> = Vec::new();
         for primitive in mesh.primitives() {
             let element = format!("mesh {} '{name}' primitive {}", mesh.index(), primitive.index());
             let mode = primitive.mode();
@@ -254,6 +271,21 @@ impl<'a> Reader<'a> {
                 return Err(self.err(element, "has no POSITION attribute"));
             };
             let what = format!("POSITION of {element}");
+            // Every attribute holds one element per vertex; a mismatch means a broken export
+            // (and would misalign UVs, normals or weights when the file is written back).
+            for (semantic, accessor) in primitive.attributes() {
+                if accessor.count() != pos_acc.count() {
+                    return Err(self.err(
+                        format!("accessor {} ({} of {element})", accessor.index(), semantic.to_string()),
+                        format!(
+                            "has {} elements but POSITION (accessor {}) has {}; every attribute of a primitive needs one element per vertex (export the mesh again)",
+                            accessor.count(),
+                            pos_acc.index(),
+                            pos_acc.count()
+                        ),
+                    ));
+                }
+            }
             let data = self.data.accessor_with(pos_acc.index(), &what, 3, "VEC3")?;
             let offset = positions.len();
             for (v, p) in data.rows::<3>().enumerate() {
@@ -318,6 +350,21 @@ impl<'a> Reader<'a> {
                     }
                     triangles.extend(indices.chunks_exact(3).map(|c| [c[0] + o, c[1] + o, c[2] + o]));
                 }
+            }
+
+            // Normals and tangents: kept so that writing back can recompute them per the file's
+            // splits (zeros for a primitive without them, which then gets none written).
+            if let Some(acc) = primitive.get(&gltf::Semantic::Normals) {
+                let what = format!("NORMAL of {element}");
+                let d = self.data.accessor_with(acc.index(), &what, 3, "VEC3")?;
+                normals.resize(offset, DVec3::ZERO);
+                normals.extend(d.rows::<3>().map(DVec3::from_array));
+            }
+            if let Some(acc) = primitive.get(&gltf::Semantic::Tangents) {
+                let what = format!("TANGENT of {element}");
+                let d = self.data.accessor_with(acc.index(), &what, 4, "VEC4")?;
+                tangents.resize(offset, [0.0; 4]);
+                tangents.extend(d.rows::<4>());
             }
 
             // Skin attributes: every set JOINTS_k/WEIGHTS_k, the four largest influences kept.
@@ -413,7 +460,17 @@ impl<'a> Reader<'a> {
             mesh.weights().map(|w| w.iter().map(|&x| x as f64).collect()).unwrap_or_default();
         let target_names = target_names(mesh);
         let file_vertex_count = positions.len();
+        let normals = (!normals.is_empty()).then(|| {
+            normals.resize(file_vertex_count, DVec3::ZERO);
+            normals
+        });
+        let tangents = (!tangents.is_empty()).then(|| {
+            tangents.resize(file_vertex_count, [0.0; 4]);
+            tangents
+        });
         let mut out = GltfMesh {
+            normals,
+            tangents,
             name,
             positions,
             triangles,
@@ -440,6 +497,12 @@ impl<'a> Reader<'a> {
             for target in &mut out.morph_targets {
                 *target = average_rows(target, &welded.vertex_map, kept);
             }
+            if let Some(normals) = &mut out.normals {
+                *normals =
+                    average_rows(normals, &welded.vertex_map, kept).iter().map(|n| n.normalize_or_zero()).collect();
+            }
+            // Tangents follow the UV layout, which welding across seams does not keep.
+            out.tangents = None;
             out.positions = welded.positions;
             out.triangles = welded.triangles;
             out.vertex_map = Some(welded.vertex_map);

@@ -55,6 +55,12 @@ pub struct GltfMesh {
     pub positions: Vec<DVec3>,
     /// Counter-clockwise triangles.
     pub triangles: Vec<[u32; 3]>,
+    /// Vertex normals (`NORMAL`), when a primitive has them (zero for the vertices of
+    /// primitives without); averaged and normalized over welded vertices.
+    pub normals: Option<Vec<DVec3>>,
+    /// Tangents (`TANGENT`, xyz and the handedness w), when a primitive has them (zero
+    /// elsewhere); dropped by welding.
+    pub tangents: Option<Vec<[f64; 4]>>,
     /// Skin weights, when the primitives have `JOINTS_0` / `WEIGHTS_0`.
     pub skin_weights: Option<SkinWeights>,
     /// Position displacements of each morph target (one per vertex).
@@ -242,30 +248,88 @@ impl GltfScene {
         time: f64,
         world: &[DMat4],
     ) -> Result<TriMesh, IoError> {
+        let (mesh, _) = self.node_mesh(node)?;
+        let weights = self.morph_weights(node, animation, time)?;
+        let positions = mesh.morphed_positions(&weights);
+        let positions = match self.skinning(node, world)? {
+            Some((skin_weights, matrices)) => linear_blend_skinning(&positions, skin_weights, &matrices)
+                .map_err(|source| self.skin_error(node, source))?,
+            None => positions.iter().map(|p| world[node].transform_point3(*p)).collect(),
+        };
+        TriMesh::new(positions, mesh.triangles.clone()).map_err(|e| IoError::mesh(&self.path, e))
+    }
+
+    /// The skin weights of `node`'s mesh and its joint matrices for the world transforms
+    /// `world`, if the node is skinned.
+    fn skinning(&self, node: usize, world: &[DMat4]) -> Result<Option<(&SkinWeights, Vec<DMat4>)>, IoError> {
         let (mesh, n) = self.node_mesh(node)?;
-        let animated_weights = match animation {
+        let (Some(s), Some(skin_weights)) = (n.skin, &mesh.skin_weights) else { return Ok(None) };
+        let skin = &self
+            .skins
+            .get(s)
+            .ok_or_else(|| {
+                IoError::element(&self.path, format!("node {node} '{}'", n.name), format!("skin {s} does not exist"))
+            })?
+            .skin;
+        let matrices = joint_matrices(skin, world).map_err(|source| self.skin_error(node, source))?;
+        Ok(Some((skin_weights, matrices)))
+    }
+
+    fn skin_error(&self, node: usize, source: squish::skinning::SkinError) -> IoError {
+        let name = self.nodes.get(node).map_or("", |n| n.name.as_str());
+        IoError::Skin { path: self.path.clone(), element: format!("node {node} '{name}'"), source }
+    }
+
+    /// The morph-target weights of `node`'s mesh: animated by `animation` at `time` if it
+    /// animates them, else the node's, else the mesh's defaults.
+    pub fn morph_weights(&self, node: usize, animation: Option<usize>, time: f64) -> Result<Vec<f64>, IoError> {
+        let (mesh, n) = self.node_mesh(node)?;
+        let animated = match animation {
             Some(a) => {
                 self.animation(a)?.morph_weights.iter().rev().find(|t| t.node == node).map(|t| t.weights_at(time))
             }
             None => None,
         };
-        let weights = animated_weights.or_else(|| n.weights.clone()).unwrap_or_else(|| mesh.default_weights.clone());
-        let positions = mesh.morphed_positions(&weights);
-        let element = || format!("node {node} '{}'", n.name);
-        let positions = match (n.skin, &mesh.skin_weights) {
-            (Some(s), Some(skin_weights)) => {
-                let skin = &self
-                    .skins
-                    .get(s)
-                    .ok_or_else(|| IoError::element(&self.path, element(), format!("skin {s} does not exist")))?
-                    .skin;
-                let skin_error = |source| IoError::Skin { path: self.path.clone(), element: element(), source };
-                let matrices = joint_matrices(skin, world).map_err(skin_error)?;
-                linear_blend_skinning(&positions, skin_weights, &matrices).map_err(skin_error)?
+        Ok(animated.or_else(|| n.weights.clone()).unwrap_or_else(|| mesh.default_weights.clone()))
+    }
+
+    /// The pose of `node`'s mesh at `time` as affine maps, one per vertex, and morph weights:
+    /// vertex `v` lands at `matrices[v] · (positions[v] + Σₜ weights[t] · targets[t][v])`. For a
+    /// skinned mesh `matrices[v]` blends the joint matrices by the vertex's (normalized) weights,
+    /// which is linear blend skinning written as one matrix; otherwise it is the node's world
+    /// transform. This is what un-posing inverts ([`InstancePose::unpose`]).
+    pub fn instance_pose(&self, node: usize, animation: Option<usize>, time: f64) -> Result<InstancePose, IoError> {
+        let world = self.world_transforms(animation, time)?;
+        let (mesh, _) = self.node_mesh(node)?;
+        let weights = self.morph_weights(node, animation, time)?;
+        let skin_error = |source| self.skin_error(node, source);
+        let matrices = match self.skinning(node, &world)? {
+            Some((skin_weights, joints)) => {
+                let mut matrices = Vec::with_capacity(skin_weights.len());
+                for (v, (js, ws)) in skin_weights.joints().iter().zip(skin_weights.weights()).enumerate() {
+                    let mut m = DMat4::ZERO;
+                    let mut any = false;
+                    for (&j, &w) in js.iter().zip(ws) {
+                        if w != 0.0 {
+                            let joint = joints.get(j as usize).ok_or_else(|| {
+                                skin_error(squish::skinning::SkinError::JointOutOfRange {
+                                    vertex: v,
+                                    joint: j,
+                                    joints: joints.len(),
+                                })
+                            })?;
+                            m += *joint * w;
+                            any = true;
+                        }
+                    }
+                    // Linear blend skinning leaves a vertex without weights where it is.
+                    matrices.push(if any { m } else { DMat4::IDENTITY });
+                }
+                matrices
             }
-            _ => positions.iter().map(|p| world[node].transform_point3(*p)).collect(),
+            _ => vec![world[node]; mesh.positions.len()],
         };
-        TriMesh::new(positions, mesh.triangles.clone()).map_err(|e| IoError::mesh(&self.path, e))
+        Ok(InstancePose { node, matrices, weights })
     }
 
     /// All instances posed at rest and concatenated in node order; a file with meshes but no
@@ -285,5 +349,56 @@ impl GltfScene {
         }
         merged.check_structure().map_err(|e| IoError::mesh(&self.path, e))?;
         Ok(merged)
+    }
+}
+
+/// The pose of one mesh instance at one time (see [`GltfScene::instance_pose`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstancePose {
+    pub node: usize,
+    /// One affine map per vertex of the mesh.
+    pub matrices: Vec<DMat4>,
+    /// The morph-target weights.
+    pub weights: Vec<f64>,
+}
+
+impl InstancePose {
+    /// The mesh-space positions (before morph targets) that this pose takes to `posed`: the
+    /// inverse of posing, vertex by vertex. Errors name the first vertex whose map cannot be
+    /// inverted (a zero scale, or skin weights on joints that collapse it).
+    pub fn unpose(&self, scene: &GltfScene, posed: &[DVec3]) -> Result<Vec<DVec3>, IoError> {
+        let (mesh, n) = scene.node_mesh(self.node)?;
+        if posed.len() != self.matrices.len() {
+            return Err(IoError::invalid_input(
+                &scene.path,
+                format!(
+                    "{} positions for the {} vertices of node {} '{}'",
+                    posed.len(),
+                    self.matrices.len(),
+                    self.node,
+                    n.name
+                ),
+            ));
+        }
+        let morph = mesh.morphed_positions(&self.weights);
+        posed
+            .iter()
+            .zip(&self.matrices)
+            .enumerate()
+            .map(|(v, (p, m))| {
+                let determinant = m.determinant();
+                if !(determinant.is_finite() && determinant.abs() > 1e-300) {
+                    return Err(IoError::element(
+                        &scene.path,
+                        format!("node {} '{}'", self.node, n.name),
+                        format!(
+                            "vertex {v} is posed by a singular transform (determinant {determinant:e}): its deformed position cannot be written back into the mesh's own space"
+                        ),
+                    ));
+                }
+                // Un-pose, then take away what the morph targets add at this pose.
+                Ok(m.inverse().transform_point3(*p) - (morph[v] - mesh.positions[v]))
+            })
+            .collect()
     }
 }

@@ -192,8 +192,9 @@ pub fn write_gltf_meshes(path: &Path, meshes: &[NamedMesh], options: &GltfWriteO
     finish(path, builder, extra, binary)
 }
 
-/// Writes an animated mesh: `frames[k]` are the positions at time `k / fps`, on the topology of
-/// `triangles` (the same for every frame, as the deformer never changes connectivity).
+/// Writes an animated mesh as `.glb` or `.gltf`: `frames[k]` are the positions at time `k / fps`,
+/// on the topology of `triangles` (the same for every frame, as the deformer never changes
+/// connectivity). For a glTF source, [`crate::GltfDocument::write_animated`] keeps the asset.
 ///
 /// Encoding: one mesh whose base positions are frame 0, one morph target per further frame
 /// (target `k − 1` holds `frames[k] − frames[0]`), and a STEP animation of the morph weights
@@ -219,9 +220,7 @@ pub fn write_animated_glb(
     frames: &[Vec<DVec3>],
     fps: f64,
 ) -> Result<(), IoError> {
-    if !is_glb(path)? {
-        return Err(IoError::invalid_input(path, "animated meshes are written as .glb; change the extension"));
-    }
+    let binary = is_glb(path)?;
     let Some(first) = frames.first() else {
         return Err(IoError::invalid_input(path, "no frame to write"));
     };
@@ -277,7 +276,7 @@ pub fn write_animated_glb(
     }
     mesh["primitives"] = json!([primitive]);
     extra["meshes"] = json!([mesh]);
-    finish(path, builder, extra, true)
+    finish(path, builder, extra, binary)
 }
 
 fn is_glb(path: &Path) -> Result<bool, IoError> {
@@ -308,7 +307,7 @@ fn finish(path: &Path, builder: Builder, extra: Value, binary: bool) -> Result<(
 
 /// GLB: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with zeros (glTF 2.0
 /// §4.4: chunks are 4-byte aligned).
-fn write_glb_container(w: &mut dyn Write, json: &[u8], bin: &[u8]) -> std::io::Result<()> {
+pub(crate) fn write_glb_container(w: &mut dyn Write, json: &[u8], bin: &[u8]) -> std::io::Result<()> {
     let json_padded = json.len().div_ceil(4) * 4;
     let bin_padded = bin.len().div_ceil(4) * 4;
     let total = 12 + 8 + json_padded + if bin.is_empty() { 0 } else { 8 + bin_padded };

@@ -20,27 +20,34 @@
 mod atomic;
 mod error;
 mod gltf_binary;
+mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
 mod gltf_write;
 mod obj;
+mod pc2;
 mod ply;
 pub mod scene;
 mod weld;
 
 use std::path::Path;
 
+use glam::DVec3;
 use squish::TriMesh;
 
 pub use atomic::write_atomically;
 pub use error::IoError;
+pub use gltf_document::{GltfAttributeCounts, GltfDocument, MorphAnimation};
 pub use gltf_read::{GltfReadOptions, read_gltf};
-pub use gltf_scene::{GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, MeshInstance, MorphWeightsTrack};
+pub use gltf_scene::{
+    GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
+};
 pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
-pub use obj::{parse_obj, read_obj, write_obj};
+pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj};
+pub use pc2::{PointCache, read_pc2, write_pc2};
 pub use ply::{
-    PlyData, PlyFormat, PlyWriteOptions, ScalarType, VertexProperty, read_ply, read_ply_data, write_ply,
-    write_ply_with, write_point_cloud_ply,
+    PlyColumn, PlyData, PlyDocument, PlyElement, PlyFormat, PlyProperty, PlyWriteOptions, ScalarType, VertexProperty,
+    read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply,
 };
 pub use scene::{FrameSpec, Scene, SceneDescription, parse_frame_selection};
 pub use weld::{WeldMode, Welded, weld_positions};
@@ -100,5 +107,86 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
         MeshFormat::Obj => write_obj(path, mesh),
         MeshFormat::Ply => write_ply(path, mesh, &PlyWriteOptions::default()),
         MeshFormat::Gltf | MeshFormat::Glb => write_gltf(path, mesh, &GltfWriteOptions::default()),
+    }
+}
+
+/// A mesh file kept whole, of any format, for writing results back into it: "the input
+/// document + new positions → the output document". Deformation changes positions (and the
+/// normals that follow from them); everything else the file holds comes out unchanged (see
+/// [`ObjDocument`], [`PlyDocument`], [`GltfDocument`]).
+#[derive(Clone, Debug)]
+pub enum MeshDocument {
+    Obj(ObjDocument),
+    Ply(PlyDocument),
+    Gltf(Box<GltfDocument>),
+}
+
+impl MeshDocument {
+    /// Reads `.obj`, `.ply`, `.gltf` or `.glb` (by extension), keeping the whole file.
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        Ok(match MeshFormat::from_path(path)? {
+            MeshFormat::Obj => Self::Obj(ObjDocument::read(path)?),
+            MeshFormat::Ply => Self::Ply(PlyDocument::read(path)?),
+            MeshFormat::Gltf | MeshFormat::Glb => Self::Gltf(Box::new(GltfDocument::read(path)?)),
+        })
+    }
+
+    /// The file read.
+    pub fn path(&self) -> &Path {
+        match self {
+            Self::Obj(d) => d.path(),
+            Self::Ply(d) => d.path(),
+            Self::Gltf(d) => d.path(),
+        }
+    }
+
+    /// The mesh of the file, vertices in file order: what [`read_mesh`] returns, and the
+    /// vertices [`Self::write_with_positions`] takes positions for.
+    pub fn mesh(&self) -> Result<TriMesh, IoError> {
+        match self {
+            Self::Obj(d) => Ok(d.mesh().clone()),
+            Self::Ply(d) => d.mesh(),
+            Self::Gltf(d) => d.mesh(),
+        }
+    }
+
+    /// True if writing to `path` keeps the file's other contents: the output's format is the
+    /// document's (glTF and GLB count as one). Otherwise positions and faces alone are written.
+    pub fn passes_through_to(&self, path: &Path) -> bool {
+        matches!(
+            (self, MeshFormat::from_path(path)),
+            (Self::Obj(_), Ok(MeshFormat::Obj))
+                | (Self::Ply(_), Ok(MeshFormat::Ply))
+                | (Self::Gltf(_), Ok(MeshFormat::Gltf | MeshFormat::Glb))
+        )
+    }
+
+    /// Writes `positions` (one per vertex of [`Self::mesh`]) to `path`, atomically: into a copy
+    /// of the document when [`Self::passes_through_to`] holds, else as a plain mesh of the
+    /// output's format (positions and faces).
+    pub fn write_with_positions(&self, path: &Path, positions: &[DVec3]) -> Result<(), IoError> {
+        if self.passes_through_to(path) {
+            return match self {
+                Self::Obj(d) => {
+                    d.write_with_positions(path, positions)?;
+                    d.copy_material_libraries(path).map(|_| ())
+                }
+                Self::Ply(d) => d.write_with_positions(path, positions),
+                Self::Gltf(d) => d.write_with_positions(path, positions),
+            };
+        }
+        let mesh = self.mesh()?;
+        if positions.len() != mesh.num_vertices() {
+            return Err(IoError::invalid_input(
+                path,
+                format!(
+                    "{} positions for the {} vertices of {}",
+                    positions.len(),
+                    mesh.num_vertices(),
+                    self.path().display()
+                ),
+            ));
+        }
+        write_mesh(path, &TriMesh { positions: positions.to_vec(), triangles: mesh.triangles })
     }
 }

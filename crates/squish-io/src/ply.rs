@@ -12,7 +12,7 @@
 //! and point clouds (no `face` element) serve the contact debug exports.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use squish::TriMesh;
@@ -516,7 +516,275 @@ impl<'a> Body<'a> {
     }
 }
 
+/// Every element of a PLY file, column by column, with the header kept verbatim: what
+/// [`PlyDocument::write_with_positions`] writes back with new positions.
+///
+/// Values are held as `f64`, which represents every PLY scalar type exactly, so a file written
+/// back holds the same values in the same types, encoding and order (ASCII numbers are written
+/// in their shortest round-trip form, which may differ in spelling from the input's, e.g. `0.50`
+/// becomes `0.5`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlyDocument {
+    path: PathBuf,
+    /// The header bytes, from `ply` to the end of the `end_header` line.
+    header: Vec<u8>,
+    format: PlyFormat,
+    /// Every element, in file order.
+    pub elements: Vec<PlyElement>,
+}
+
+/// An element of a PLY file (`vertex`, `face`, `edge`, `material` …) and its values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlyElement {
+    pub name: String,
+    pub count: usize,
+    pub properties: Vec<PlyProperty>,
+}
+
+/// A property and its values, one per record.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlyProperty {
+    pub name: String,
+    pub values: PlyColumn,
+}
+
+/// A property's values.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PlyColumn {
+    /// One scalar per record.
+    Scalar { ty: ScalarType, values: Vec<f64> },
+    /// One list per record: record `r` holds `items[offsets[r]..offsets[r + 1]]`.
+    List { count_ty: ScalarType, item_ty: ScalarType, offsets: Vec<usize>, items: Vec<f64> },
+}
+
+impl PlyColumn {
+    /// The scalar values, if this is a scalar property.
+    pub fn scalars(&self) -> Option<&[f64]> {
+        match self {
+            Self::Scalar { values, .. } => Some(values),
+            Self::List { .. } => None,
+        }
+    }
+
+    /// The list of record `r`, if this is a list property.
+    pub fn list(&self, r: usize) -> Option<&[f64]> {
+        match self {
+            Self::List { offsets, items, .. } => Some(&items[*offsets.get(r)?..*offsets.get(r + 1)?]),
+            Self::Scalar { .. } => None,
+        }
+    }
+}
+
+impl PlyElement {
+    /// The property with this name.
+    pub fn property(&self, name: &str) -> Option<&PlyProperty> {
+        self.properties.iter().find(|p| p.name == name)
+    }
+}
+
+/// The vertex properties that deformation recomputes; every other value is written back as read.
+const POSITION_NAMES: [&str; 3] = ["x", "y", "z"];
+const NORMAL_NAMES: [&str; 3] = ["nx", "ny", "nz"];
+
+impl PlyDocument {
+    /// Reads a PLY file (see the module documentation for what a mesh needs).
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        let bytes = std::fs::read(path).map_err(|e| IoError::io(path, "open", e))?;
+        parse_document(path, &bytes)
+    }
+
+    /// The file read.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The body encoding of the file.
+    pub fn format(&self) -> PlyFormat {
+        self.format
+    }
+
+    /// The element with this name (the first, if several share it).
+    pub fn element(&self, name: &str) -> Option<&PlyElement> {
+        self.elements.iter().find(|e| e.name == name)
+    }
+
+    fn vertex_element(&self) -> Option<usize> {
+        self.elements.iter().position(|e| e.name == "vertex")
+    }
+
+    /// True if the vertices carry normals (`nx`, `ny`, `nz`), which writing recomputes.
+    pub fn has_normals(&self) -> bool {
+        self.element("vertex").is_some_and(|v| NORMAL_NAMES.iter().all(|n| v.property(n).is_some()))
+    }
+
+    /// Positions, fan-triangulated faces (empty for a point cloud) and the other scalar vertex
+    /// properties, as [`read_ply_data`] returns them.
+    pub fn data(&self) -> PlyData {
+        let mut data = PlyData::default();
+        if let Some(vertex) = self.element("vertex") {
+            let column = |name: &str| vertex.property(name).and_then(|p| p.values.scalars());
+            if let (Some(x), Some(y), Some(z)) = (column("x"), column("y"), column("z")) {
+                data.positions = x.iter().zip(y).zip(z).map(|((x, y), z)| DVec3::new(*x, *y, *z)).collect();
+            }
+            for p in &vertex.properties {
+                if let PlyColumn::Scalar { ty, values } = &p.values
+                    && !POSITION_NAMES.contains(&p.name.as_str())
+                {
+                    data.properties.push(VertexProperty { name: p.name.clone(), ty: *ty, values: values.clone() });
+                }
+            }
+        }
+        if let Some(face) = self.element("face")
+            && let Some(indices) = face.properties.iter().find(|p| is_index_list_name(&p.name))
+        {
+            for r in 0..face.count {
+                let polygon = indices.values.list(r).unwrap_or(&[]);
+                for i in 1..polygon.len().saturating_sub(1) {
+                    data.triangles.push([polygon[0] as u32, polygon[i] as u32, polygon[i + 1] as u32]);
+                }
+            }
+        }
+        data
+    }
+
+    /// The mesh of the file (checked by [`TriMesh::new`]); a file without faces is an error.
+    pub fn mesh(&self) -> Result<TriMesh, IoError> {
+        let data = self.data();
+        if data.triangles.is_empty() && !data.positions.is_empty() {
+            return Err(IoError::format(
+                &self.path,
+                format!(
+                    "no faces ({} vertices, 0 faces): this is a point cloud, not a mesh; export the mesh with its faces",
+                    data.positions.len()
+                ),
+            ));
+        }
+        TriMesh::new(data.positions, data.triangles).map_err(|e| IoError::mesh(&self.path, e))
+    }
+
+    /// Writes the file back to `path` (atomically) with new vertex positions, in the file's
+    /// encoding, header and element order; vertex normals (`nx`, `ny`, `nz`), if present, are
+    /// recomputed from the new positions (area-weighted face normals). Every other value is
+    /// written as read.
+    pub fn write_with_positions(&self, path: &Path, positions: &[DVec3]) -> Result<(), IoError> {
+        let Some(vertex) = self.vertex_element() else {
+            return Err(IoError::invalid_input(path, "the PLY document has no vertex element"));
+        };
+        let count = self.elements[vertex].count;
+        if positions.len() != count {
+            return Err(IoError::invalid_input(
+                path,
+                format!("{} positions for the {count} vertices of {}", positions.len(), self.path.display()),
+            ));
+        }
+        if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(IoError::invalid_input(path, format!("vertex {v} has a non-finite coordinate")));
+        }
+        let normals = if self.has_normals() {
+            let triangles = self.data().triangles;
+            Some(squish::mesh::vertex_normals(&TriMesh { positions: positions.to_vec(), triangles }))
+        } else {
+            None
+        };
+        // Which vertex column takes which new value: (property index, source, axis).
+        let overrides: Vec<Option<(bool, usize)>> = self.elements[vertex]
+            .properties
+            .iter()
+            .map(|p| {
+                let axis = |names: [&str; 3]| names.iter().position(|n| *n == p.name);
+                match (axis(POSITION_NAMES), axis(NORMAL_NAMES), &normals) {
+                    (Some(a), _, _) => Some((false, a)),
+                    (None, Some(a), Some(_)) => Some((true, a)),
+                    _ => None,
+                }
+            })
+            .collect();
+        for (p, o) in self.elements[vertex].properties.iter().zip(&overrides) {
+            if let (Some(_), PlyColumn::Scalar { ty, .. }) = (o, &p.values)
+                && !ty.is_float()
+            {
+                return Err(IoError::invalid_input(
+                    path,
+                    format!(
+                        "vertex property '{}' of {} is an integer ({}); deformed coordinates need float or double",
+                        p.name,
+                        self.path.display(),
+                        ty.ply_name()
+                    ),
+                ));
+            }
+        }
+        let value = |e: usize, p: usize, r: usize| -> f64 {
+            if e == vertex
+                && let Some((is_normal, axis)) = overrides[p]
+            {
+                let v = if is_normal { normals.as_ref().map_or(DVec3::ZERO, |n| n[r]) } else { positions[r] };
+                // A vertex on no face keeps the normal it had.
+                if !is_normal || v != DVec3::ZERO {
+                    return v[axis];
+                }
+            }
+            match &self.elements[e].properties[p].values {
+                PlyColumn::Scalar { values, .. } => values[r],
+                PlyColumn::List { .. } => 0.0,
+            }
+        };
+        write_atomically(path, |w| {
+            w.write_all(&self.header)?;
+            let big = self.format == PlyFormat::BinaryBigEndian;
+            let mut record: Vec<u8> = Vec::new();
+            let mut line = String::new();
+            for (e, element) in self.elements.iter().enumerate() {
+                for r in 0..element.count {
+                    record.clear();
+                    line.clear();
+                    for (p, property) in element.properties.iter().enumerate() {
+                        match &property.values {
+                            PlyColumn::Scalar { ty, .. } => {
+                                let v = value(e, p, r);
+                                match self.format {
+                                    PlyFormat::Ascii => push_ascii(&mut line, *ty, v),
+                                    _ => push_binary(&mut record, *ty, v, big),
+                                }
+                            }
+                            PlyColumn::List { count_ty, item_ty, .. } => {
+                                let items = property.values.list(r).unwrap_or(&[]);
+                                match self.format {
+                                    PlyFormat::Ascii => {
+                                        push_ascii(&mut line, *count_ty, items.len() as f64);
+                                        for &v in items {
+                                            push_ascii(&mut line, *item_ty, v);
+                                        }
+                                    }
+                                    _ => {
+                                        push_binary(&mut record, *count_ty, items.len() as f64, big);
+                                        for &v in items {
+                                            push_binary(&mut record, *item_ty, v, big);
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if self.format == PlyFormat::Ascii {
+                        line.pop();
+                        line.push('\n');
+                        w.write_all(line.as_bytes())?;
+                    } else {
+                        w.write_all(&record)?;
+                    }
+                }
+            }
+            Ok(())
+        })
+    }
+}
+
 fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
+    Ok(parse_document(path, bytes)?.data())
+}
+
+fn parse_document(path: &Path, bytes: &[u8]) -> Result<PlyDocument, IoError> {
     let header = parse_header(path, bytes)?;
     let Some(vertex_decl) = header.elements.iter().find(|e| e.name == "vertex") else {
         return Err(IoError::line(
@@ -525,7 +793,7 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
             "the header declares no 'vertex' element; a PLY mesh needs 'element vertex <count>' with x, y, z properties",
         ));
     };
-    for axis in ["x", "y", "z"] {
+    for axis in POSITION_NAMES {
         match vertex_decl.properties.iter().find(|p| p.name == axis) {
             Some(PropertyDecl { kind: PropertyKind::Scalar(_), .. }) => {}
             Some(_) => {
@@ -580,26 +848,30 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
 
     // Reservations are capped so that a corrupt count cannot allocate gigabytes up front.
     const RESERVE_CAP: usize = 1 << 22;
-    let mut data = PlyData { positions: Vec::with_capacity(vertex_count.min(RESERVE_CAP)), ..PlyData::default() };
+    let mut elements = Vec::with_capacity(header.elements.len());
+    let mut vertex_seen = false;
     let mut face_seen = false;
-    let mut polygon: Vec<u32> = Vec::new();
     for element in &header.elements {
-        let is_vertex = element.name == "vertex" && data.positions.is_empty() && vertex_count > 0;
+        // The first `vertex` and `face` elements are the mesh; later ones are kept as data.
+        let is_vertex = element.name == "vertex" && !vertex_seen;
         let is_face = element.name == "face" && !face_seen;
-        if element.name == "face" {
-            face_seen = true;
-        }
-        if is_vertex {
-            for p in &element.properties {
-                if let (PropertyKind::Scalar(ty), false) = (&p.kind, ["x", "y", "z"].contains(&p.name.as_str())) {
-                    data.properties.push(VertexProperty {
-                        name: p.name.clone(),
-                        ty: *ty,
-                        values: Vec::with_capacity(vertex_count.min(RESERVE_CAP)),
-                    });
+        vertex_seen |= element.name == "vertex";
+        face_seen |= element.name == "face";
+        let reserve = usize::try_from(element.count).unwrap_or(usize::MAX).min(RESERVE_CAP);
+        let mut columns: Vec<PlyColumn> = element
+            .properties
+            .iter()
+            .map(|p| match p.kind {
+                PropertyKind::Scalar(ty) => PlyColumn::Scalar { ty, values: Vec::with_capacity(reserve) },
+                PropertyKind::List { count, item } => {
+                    let mut offsets = Vec::with_capacity(reserve + 1);
+                    offsets.push(0);
+                    PlyColumn::List { count_ty: count, item_ty: item, offsets, items: Vec::new() }
                 }
-            }
-        }
+            })
+            .collect();
+        // Only the first index list of the face element is the polygon (others are data).
+        let polygon_list = is_face.then(|| element.properties.iter().position(is_face_index_list)).flatten();
         for record in 0..element.count {
             if !body.start_record() {
                 return Err(body.error(
@@ -610,62 +882,47 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
                     ),
                 ));
             }
-            let mut xyz = [0.0f64; 3];
-            let mut extra = 0usize;
-            for p in &element.properties {
+            for (k, (p, column)) in element.properties.iter().zip(&mut columns).enumerate() {
                 let site = ValueSite { element: &element.name, record, count: element.count, property: &p.name };
-                match p.kind {
-                    PropertyKind::Scalar(ty) => {
-                        let v = body.read(path, ty, &site)?;
-                        if is_vertex {
-                            match p.name.as_str() {
-                                "x" => xyz[0] = v,
-                                "y" => xyz[1] = v,
-                                "z" => xyz[2] = v,
-                                _ => {
-                                    data.properties[extra].values.push(v);
-                                    extra += 1;
-                                }
-                            }
-                            if ["x", "y", "z"].contains(&p.name.as_str()) && !v.is_finite() {
-                                return Err(body.error(
-                                    path,
-                                    format!(
-                                        "{}: non-finite coordinate ({v}); every coordinate must be a finite number",
-                                        site.describe()
-                                    ),
-                                ));
-                            }
+                match column {
+                    PlyColumn::Scalar { ty, values } => {
+                        let v = body.read(path, *ty, &site)?;
+                        if is_vertex && POSITION_NAMES.contains(&p.name.as_str()) && !v.is_finite() {
+                            return Err(body.error(
+                                path,
+                                format!(
+                                    "{}: non-finite coordinate ({v}); every coordinate must be a finite number",
+                                    site.describe()
+                                ),
+                            ));
                         }
+                        values.push(v);
                     }
-                    PropertyKind::List { count, item } => {
-                        let n = body.read(path, count, &site)?;
+                    PlyColumn::List { count_ty, item_ty, offsets, items } => {
+                        let n = body.read(path, *count_ty, &site)?;
                         if n < 0.0 {
                             return Err(body.error(path, format!("{}: negative list length {n}", site.describe())));
                         }
-                        let wanted = is_face && is_face_index_list(p) && polygon.is_empty();
-                        let mut items = Vec::new();
+                        let start = items.len();
                         for _ in 0..n as u64 {
-                            let v = body.read(path, item, &site)?;
-                            if wanted {
-                                items.push(v);
-                            }
+                            items.push(body.read(path, *item_ty, &site)?);
                         }
-                        if wanted {
-                            if items.len() < 3 {
+                        offsets.push(items.len());
+                        if polygon_list == Some(k) {
+                            let polygon = &items[start..];
+                            if polygon.len() < 3 {
                                 return Err(body.error(
                                     path,
-                                    format!("face {record} has {} vertices; a face needs at least 3", items.len()),
+                                    format!("face {record} has {} vertices; a face needs at least 3", polygon.len()),
                                 ));
                             }
-                            for v in items {
-                                if v < 0.0 || v.fract() != 0.0 || v >= vertex_count as f64 {
-                                    return Err(body.error(
-                                        path,
-                                        format!("face {record} refers to vertex {v}, but the file has {vertex_count} vertices (indices start at 0)"),
-                                    ));
-                                }
-                                polygon.push(v as u32);
+                            if let Some(&v) =
+                                polygon.iter().find(|&&v| v < 0.0 || v.fract() != 0.0 || v >= vertex_count as f64)
+                            {
+                                return Err(body.error(
+                                    path,
+                                    format!("face {record} refers to vertex {v}, but the file has {vertex_count} vertices (indices start at 0)"),
+                                ));
                             }
                         }
                     }
@@ -681,22 +938,32 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyData, IoError> {
                     ),
                 ));
             }
-            if is_vertex {
-                data.positions.push(DVec3::from_array(xyz));
-            }
-            if is_face && !polygon.is_empty() {
-                for i in 1..polygon.len() - 1 {
-                    data.triangles.push([polygon[0], polygon[i], polygon[i + 1]]);
-                }
-                polygon.clear();
-            }
         }
+        elements.push(PlyElement {
+            name: element.name.clone(),
+            count: element.count as usize,
+            properties: element
+                .properties
+                .iter()
+                .zip(columns)
+                .map(|(p, values)| PlyProperty { name: p.name.clone(), values })
+                .collect(),
+        });
     }
-    Ok(data)
+    Ok(PlyDocument {
+        path: path.to_path_buf(),
+        header: bytes[..header.body_start].to_vec(),
+        format: header.format,
+        elements,
+    })
+}
+
+fn is_index_list_name(name: &str) -> bool {
+    name == "vertex_indices" || name == "vertex_index"
 }
 
 fn is_face_index_list(p: &PropertyDecl) -> bool {
-    matches!(p.kind, PropertyKind::List { .. }) && (p.name == "vertex_indices" || p.name == "vertex_index")
+    matches!(p.kind, PropertyKind::List { .. }) && is_index_list_name(&p.name)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -113,6 +113,10 @@ fn animated_glb_reproduces_every_frame() {
     bad[2][5].x = f64::INFINITY;
     assert!(write_animated_glb(&path, "bad", &mesh.triangles, &bad, fps).is_err());
     assert!(write_animated_glb(&path, "bad", &mesh.triangles, &frames, 0.0).is_err());
-    assert!(write_animated_glb(&dir.path().join("a.gltf"), "bad", &mesh.triangles, &frames, fps).is_err());
+    assert!(write_animated_glb(&dir.path().join("a.txt"), "bad", &mesh.triangles, &frames, fps).is_err());
     assert_eq!(std::fs::read(&path).unwrap(), before);
+    // The same animation as a .gltf JSON file.
+    let json = dir.path().join("a.gltf");
+    write_animated_glb(&json, "json", &mesh.triangles, &frames, fps).unwrap();
+    assert_eq!(read_gltf(&json, &GltfReadOptions::default()).unwrap().meshes[0].morph_targets.len(), frames.len() - 1);
 }

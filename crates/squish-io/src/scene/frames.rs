@@ -60,8 +60,8 @@ impl OutputSpec {
         self.dir.join(object)
     }
 
-    /// The file of `object` at `frame`: `DIR/<object>/<frame:04>.obj|ply`; for `glb`, the one
-    /// animated file of the object, `DIR/<object>.glb`, whatever the frame.
+    /// The file of `object` at `frame`: `DIR/<object>/<frame:04>.obj|ply`; for `glb`, `gltf` and
+    /// `pc2`, the one file of the object holding every frame, whatever the frame.
     pub fn path_for(&self, object: &str, frame: i64) -> PathBuf {
         if self.format.per_frame() {
             self.object_dir(object).join(format!("{}.{}", format_frame(frame, 4), self.format.extension()))
@@ -70,9 +70,11 @@ impl OutputSpec {
         }
     }
 
-    /// `DIR/<object>.glb`: where the animated result of an object goes (`format = "glb"`).
+    /// `DIR/<object>.glb` (or `.gltf`, `.pc2`): where the result of an object holding every
+    /// frame goes.
     pub fn animated_path(&self, object: &str) -> PathBuf {
-        self.dir.join(format!("{object}.glb"))
+        let ext = if self.format.per_frame() { "glb" } else { self.format.extension() };
+        self.dir.join(format!("{object}.{ext}"))
     }
 }
 

@@ -37,8 +37,8 @@ pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_se
 pub use keys::Keyed;
 pub use tracks::{ParamTracks, RawParams, Track, TrackError, names_vertex_data, param_value, toml_value};
 pub use types::{
-    AxisAngle, FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, Scale,
-    SceneDescription, SelfContactSpec, Transform, VertexData, Weld,
+    AxisAngle, FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreviewCamera,
+    PreviewSpec, Scale, SceneDescription, SelfContactSpec, Transform, UpAxisName, VertexData, Weld,
 };
 pub use vertex_data::read_vertex_map;
 
@@ -61,6 +61,15 @@ pub struct Scene {
     pair_objects: Vec<[usize; 2]>,
     /// Per pair: its parameters over the shot.
     pair_params: Vec<ParamTracks<PairParams>>,
+}
+
+/// How an object read from a glTF node is posed at one frame ([`Scene::gltf_pose`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GltfFramePose {
+    pub node: usize,
+    pub animation: Option<usize>,
+    /// Animation time in seconds.
+    pub time: f64,
 }
 
 /// What an object's frames are made from.
@@ -301,6 +310,37 @@ impl Scene {
             }
         }
         missing
+    }
+
+    /// How object `i`, read from a glTF node, is posed at `frame`: the node, the animation and
+    /// its time (`None` for other sources). With [`Self::placement`], what writing the results
+    /// back into the glTF file needs to take them into the node's own space.
+    pub fn gltf_pose(&self, i: usize, frame: f64) -> Option<GltfFramePose> {
+        match &self.assets.get(i)?.source {
+            SourceAssets::Gltf(g) => Some(GltfFramePose { node: g.node, animation: g.animation, time: g.time(frame) }),
+            _ => None,
+        }
+    }
+
+    /// Object `i`'s `transform` at `frame` as an affine matrix (identity without one): the
+    /// placement applied to its mesh after posing.
+    pub fn placement(&self, i: usize, frame: f64) -> Result<glam::DMat4, IoError> {
+        let Some(spec) = self.description.objects.get(i) else {
+            return Err(IoError::format(&self.path, format!("object #{} does not exist", i + 1)));
+        };
+        if spec.transform.is_identity() {
+            return Ok(glam::DMat4::IDENTITY);
+        }
+        let map = evaluate::transform_at(&spec.transform, frame)
+            .map_err(|m| IoError::format(&self.path, format!("object \"{}\": {m}", spec.name)))?;
+        // An affine map is known by where it takes the origin and the three unit vectors.
+        let origin = map(glam::DVec3::ZERO);
+        Ok(glam::DMat4::from_cols(
+            (map(glam::DVec3::X) - origin).extend(0.0),
+            (map(glam::DVec3::Y) - origin).extend(0.0),
+            (map(glam::DVec3::Z) - origin).extend(0.0),
+            origin.extend(1.0),
+        ))
     }
 
     /// The resolved description as pretty JSON: every parameter of every table, the defaults of

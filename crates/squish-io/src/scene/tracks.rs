@@ -85,6 +85,28 @@ pub fn names_vertex_data(info: &ParamInfo, v: &Value) -> bool {
     info.kind == ParamKind::PerVertex && !matches!(v, Value::Array(_)) && v.as_str() != Some(info.word)
 }
 
+/// An unknown key of a table: the key meant among the table's own keys and `P`'s parameters, or
+/// both lists.
+fn unknown_in_table<P: Params>(key: &str, table_keys: &[&str]) -> TrackError {
+    if let Some(k) = squish::params::did_you_mean(key, table_keys) {
+        return TrackError::new(key, format!("unknown key (did you mean \"{k}\"?)"));
+    }
+    let e = squish::params::unknown_key::<P>(key);
+    if e.suggestion.is_some() || table_keys.is_empty() {
+        return e.into();
+    }
+    let params: Vec<&str> = P::schema().iter().map(|i| i.key).collect();
+    TrackError::new(
+        key,
+        format!(
+            "unknown key; the table's keys are {} and the {} parameters {}",
+            table_keys.join(", "),
+            P::LEVEL.name(),
+            params.join(", ")
+        ),
+    )
+}
+
 /// A TOML value as a parameter value: numbers, booleans, words and lists of numbers.
 pub fn param_value(v: &Value) -> Result<ParamValue, String> {
     match v {
@@ -142,10 +164,7 @@ impl<P: Params> ParamTracks<P> {
         let mut scratch = P::default();
         for (key, v) in raw {
             let Some(info) = P::info(key) else {
-                if let Some(k) = squish::params::did_you_mean(key, table_keys) {
-                    return Err(TrackError::new(key, format!("unknown key (did you mean \"{k}\"?)")));
-                }
-                return Err(squish::params::unknown_key::<P>(key).into());
+                return Err(unknown_in_table::<P>(key, table_keys));
             };
             let fail = |m: String| TrackError::new(key, m);
             if names_vertex_data(info, v) {

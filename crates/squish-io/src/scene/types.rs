@@ -35,6 +35,74 @@ pub struct SceneDescription {
     /// Which objects collide (`[[pairs]]`).
     #[serde(default)]
     pub pairs: Vec<PairSpec>,
+    /// How preview pictures are taken (`preview = { camera, size, up }`). Default: framed on
+    /// the contact, 640 × 480, the up axis from the files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview: Option<PreviewSpec>,
+}
+
+/// `preview = { camera = { eye, target, up, fov }, size = [w, h], up = "y" }`: the pictures of
+/// `squish run --preview`. Every key is optional; command-line options win over it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PreviewSpec {
+    /// A fixed camera instead of the one framed on the contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<PreviewCamera>,
+    /// Picture size in pixels, `[width, height]` (each 16 to 8192).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[u32; 2]>,
+    /// The world's up axis, `"y"` or `"z"`. Default: y when an object is read from glTF, else z.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<UpAxisName>,
+}
+
+/// A camera: where the eye is, what it looks at, which way is up, the vertical field of view.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PreviewCamera {
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    /// Default: the world's up axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f64; 3]>,
+    /// Vertical field of view in degrees, in (0, 180). Default 35.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov: Option<f64>,
+}
+
+/// An up axis by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxisName {
+    Y,
+    Z,
+}
+
+impl PreviewSpec {
+    /// What is wrong with these values, if anything (a message naming the key).
+    pub fn problem(&self) -> Option<String> {
+        if let Some([w, h]) = self.size
+            && !((16..=8192).contains(&w) && (16..=8192).contains(&h))
+        {
+            return Some(format!("preview.size [{w}, {h}]: each side must be 16 to 8192 pixels"));
+        }
+        let camera = self.camera?;
+        let finite = |v: [f64; 3]| v.iter().all(|x| x.is_finite());
+        if !finite(camera.eye) || !finite(camera.target) || camera.up.is_some_and(|u| !finite(u)) {
+            return Some("preview.camera: eye, target and up must be finite [x, y, z]".into());
+        }
+        if camera.eye == camera.target {
+            return Some("preview.camera: eye and target are the same point; the camera needs a direction".into());
+        }
+        if camera.up.is_some_and(|u| u == [0.0; 3]) {
+            return Some("preview.camera.up is [0, 0, 0]; give a direction".into());
+        }
+        if camera.fov.is_some_and(|f| !(f > 0.0 && f < 180.0)) {
+            return Some(format!("preview.camera.fov {}: give degrees between 0 and 180", camera.fov.unwrap_or(0.0)));
+        }
+        None
+    }
 }
 
 /// `frames = { start = 1, end = 48, fps = 24 }`: an inclusive range of whole frames.
@@ -107,8 +175,14 @@ squish::choice! {
         Obj = "obj",
         /// One binary `.ply` per object and frame.
         Ply = "ply",
-        /// One animated `.glb` per object (all frames).
+        /// One animated `.glb` per object (all frames): a glTF source's whole document with the
+        /// deformation as per-frame morph targets, an OBJ/PLY source's positions.
         Glb = "glb",
+        /// As `glb`, as a `.gltf` JSON file.
+        Gltf = "gltf",
+        /// One point cache `.pc2` per object (all frames, the source file's vertex order), for
+        /// Blender's Mesh Cache modifier, Maya and 3ds Max.
+        Pc2 = "pc2",
     }
 }
 
@@ -119,13 +193,15 @@ impl OutputFormat {
             Self::Obj => "obj",
             Self::Ply => "ply",
             Self::Glb => "glb",
+            Self::Gltf => "gltf",
+            Self::Pc2 => "pc2",
         }
     }
 
-    /// True if every frame is a file of its own (OBJ, PLY); false for one animated file per
-    /// object (GLB).
+    /// True if every frame is a file of its own (OBJ, PLY); false for one file per object
+    /// holding every frame (GLB, glTF, PC2).
     pub fn per_frame(self) -> bool {
-        !matches!(self, Self::Glb)
+        matches!(self, Self::Obj | Self::Ply)
     }
 }
 

@@ -26,6 +26,9 @@ use crate::IoError;
 pub(crate) const MAX_FRAMES: i64 = 1_000_000;
 
 pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(), IoError> {
+    if let Some(problem) = scene.preview.as_ref().and_then(|p| p.problem()) {
+        return Err(src.error_at_key(&[Seg::Key("preview")], problem));
+    }
     let f = &scene.frames;
     if f.end < f.start {
         return Err(src.error_at_key(
