@@ -13,6 +13,7 @@ mod cmd_info;
 mod cmd_run;
 mod console;
 mod error;
+mod frame_quality;
 mod input;
 mod interrupt;
 mod params;

@@ -24,6 +24,7 @@ pub mod mesh;
 pub mod pipeline;
 pub mod skinning;
 pub mod spatial;
+pub mod stage;
 
 pub use glam::DVec3;
 pub use mesh::{MeshError, SubMesh, Topology, TriMesh};

@@ -20,7 +20,7 @@ pub enum DirectionFieldMethod {
     /// Method A (§5.2.1): the directions' tangent parts, as angles (arcsin remapping), diffused
     /// over 𝒟 with parallel transport (complex connection Laplacian) from the displacement
     /// directions at ∂𝒞 to the normals at ∂𝒟, remapped to the uniform parametrization u (u/u′
-    /// correction). Costs two more factorizations per frame. See [`super::transport`].
+    /// correction). Costs two more factorizations per frame. See [`super::transport_field`].
     ParallelTransport,
 }
 
@@ -72,7 +72,7 @@ pub struct DeformParams {
     /// How the direction field is built. Default [`DirectionFieldMethod::Blended`].
     pub direction_method: DirectionFieldMethod,
     /// The radius of the parametrization domain 𝒫 as a multiple of φ_max (see
-    /// [`mod@super::parametrize`]): φ is solved on the faces within `domain_factor·φ_max` of ∂𝒞
+    /// [`super::parametrize()`]): φ is solved on the faces within `domain_factor·φ_max` of ∂𝒞
     /// along edges, so the result does not depend on the rest of the region. At least 1;
     /// `f64::INFINITY` solves on the whole region as the thesis does. Default 2.
     pub domain_factor: f64,

@@ -44,10 +44,8 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
-use faer::sparse::linalg::amd;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 
 use super::dissection;
 use super::supernodal::{SOLVE_BLOCK, SupernodalPlan, Workspace};
@@ -123,19 +121,6 @@ impl Analysis {
     }
 }
 
-/// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
-/// control): `order[new] = old`.
-pub(super) fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
-    let n = structure.nrows();
-    let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
-    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-    let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
-    let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
-    amd::order_maybe_unsorted(&mut forward, &mut inverse, structure, Default::default(), MemStack::new(&mut buffer))
-        .map_err(|e| analysis_error(&e))?;
-    Ok(forward)
-}
-
 /// The analysis of the principal submatrix on one set of coupled rows.
 #[derive(Debug)]
 struct RowsAnalysis {
@@ -186,7 +171,7 @@ impl SymbolicFactor {
 
     /// [`Self::analyze`] with the whole pattern in the given kind of order.
     pub fn analyze_in(pattern: &Arc<SparsePattern>, fill_order: FillOrder) -> Result<Arc<Self>, SolveError> {
-        let amd = amd_order(pattern.structure())?;
+        let amd = symbolic::amd_order(pattern.structure())?;
         let n = pattern.num_vertices();
         let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
         // Steps 1–3 of each candidate order; the chosen one is finished, not eliminated again.

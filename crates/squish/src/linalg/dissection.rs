@@ -388,7 +388,7 @@ mod tests {
             let pattern = SparsePattern::shared(mesh, &topology).expect("pattern");
             let n = pattern.num_vertices();
             let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-            let amd = crate::linalg::cholesky::amd_order(pattern.structure()).expect("AMD");
+            let amd = crate::linalg::symbolic::amd_order(pattern.structure()).expect("AMD");
             let mut rank = vec![0; n];
             for (r, &v) in amd.iter().enumerate() {
                 rank[v] = r;

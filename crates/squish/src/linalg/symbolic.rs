@@ -28,7 +28,12 @@
 //! structure our kernel ([`super::supernodal`]) reads and `A`'s permuted layout directly, and
 //! postorders the restricted order, whose chains then form wider supernodes (a faster numeric
 //! factorization on the same fill). Measurements in `docs/decisions.md` (Speed).
-//! The AMD ordering itself stays faer's; the alternative, nested dissection, is [`super::dissection`].
+//! The AMD ordering itself stays faer's ([`amd_order`]); the alternative, nested dissection, is
+//! [`super::dissection`].
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::sparse::linalg::amd;
 
 use super::SolveError;
 
@@ -56,6 +61,19 @@ pub(super) struct SupernodalStructure {
     pub a_col_ptr: Vec<usize>,
     pub a_row_idx: Vec<usize>,
     pub a_slot: Vec<usize>,
+}
+
+/// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
+/// control): `order[new] = old`.
+pub(super) fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
+    let n = structure.nrows();
+    let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
+    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
+    let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
+    let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
+    amd::order_maybe_unsorted(&mut forward, &mut inverse, structure, Default::default(), MemStack::new(&mut buffer))
+        .map_err(|e| analysis_error(&e))?;
+    Ok(forward)
 }
 
 #[cfg(test)]

@@ -63,7 +63,7 @@ pub struct ObjectParams {
     /// pair. Default none.
     pub uvs: Option<Vec<DVec2>>,
     /// 𝒲: the working regions the pipeline processes (§4, §4.5, §7.5). Default: the whole
-    /// object. See [`WorkingRegion`] and [`super::regions`].
+    /// object. See [`WorkingRegion`].
     pub region: WorkingRegion,
     /// Articulations whose two sides may fold onto each other (skinned joints, lips; thesis
     /// ch. 6), resolved before the contacts with other objects. Default: none.

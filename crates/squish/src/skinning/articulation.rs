@@ -111,7 +111,7 @@ pub struct ArticulationParams {
     /// Pseudo-stiffnesses of the two sides, k₁ and k₂ (§4.3); equal by default (k̄ = 0.5, as in
     /// the thesis' figures).
     pub stiffness: [f64; 2],
-    /// φ_max in world units. `None`: automatic (see [`super::self_contact`]).
+    /// φ_max in world units. `None`: automatic (see [`super::plan_articulation`]).
     pub extent: Option<f64>,
     /// Weight of the regional term β in the crease cut's energy (Eq. 6.1 has 1).
     pub cut_regional_weight: f64,

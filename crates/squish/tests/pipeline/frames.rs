@@ -2,30 +2,18 @@
 //! on the shared meshes: volume, clean contact, no flips, untouched vertices, symmetry,
 //! continuity, γ, bulge maps, determinism.
 
-#![allow(clippy::unwrap_used, clippy::expect_used)]
-
 use glam::DVec3;
+use squish::contact::{ContactMethod, MappingMethod, PairParams};
+use squish::deform::DirectionFieldMethod;
+use squish::mesh::{TriMesh, face_normal_unnormalized, shapes};
+use squish::pipeline::*;
+use squish_scenes::bench::{self, BenchSize};
+use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use super::scenes::{self, ProceduralScene};
-use super::*;
-use crate::contact::{ContactMethod, MappingMethod};
-use crate::deform::DirectionFieldMethod;
-use crate::mesh::{face_normal_unnormalized, shapes};
-use crate::spatial::{penetration_depths, test_meshes};
+use crate::common::{self as test_meshes, deepest_penetration, deformed};
 
 fn run(scene: &ProceduralScene) -> FrameResult {
     Deformer::new().deform(&scene.frame()).expect("frame deforms")
-}
-
-pub(super) fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
-    TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
-}
-
-/// Deepest vertex of either mesh inside the other.
-pub(super) fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
-    let ab = penetration_depths(a, b).unwrap();
-    let ba = penetration_depths(b, a).unwrap();
-    ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
 }
 
 /// Checks volume, clean contact, orientation, NaN and untouched vertices; returns the largest
@@ -253,7 +241,7 @@ fn frames_keep_no_trace_of_the_frames_before_them() {
     // A static ball pressed by fingers that move: the ball's systems change only around the
     // contacts, so a reused deformer recomputes part of their factors. Whatever came before — the
     // previous frame, the frames in reverse order, nothing — every frame is the same bit for bit.
-    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let scene = bench::fingers_ball(BenchSize::Quick);
     let times = [0.0, 0.2, 0.4, 0.7, 1.0];
     let bits = |r: &FrameResult| -> Vec<u64> {
         r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
@@ -389,13 +377,50 @@ fn method_a_runs_through_the_deformer() {
     assert!(err.contains("\"ground\"") && err.contains("UVs"), "{err}");
 }
 
+/// Ball testing is a per-pair parameter, so the [`Deformer`] already runs it
+/// (the direction field is not selectable there yet): a rigid ball in the procedural ground.
+#[test]
+fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
+    let mut scene = scenes::ball_on_ground(0.15, 4, 48);
+    scene.objects[0].params = ObjectParams::rigid();
+    // The ground slab is 0.5 thick: the ball (r_s = 0.1) must fit inside it (§4.4.1).
+    scene.pairs[0].params = PairParams::default().with_contact_method(ContactMethod::Ball { radius: 0.1 });
+    let result = Deformer::new().deform(&scene.frame()).unwrap();
+    let ground = &scene.objects[1];
+    let stats = &result.stats.objects[1];
+    let contact = result.contacts[0].as_ref().unwrap();
+    println!(
+        "Deformer with ball testing: zone vertices {:?}, contact area {:.4}, ground volume change {:.2e}",
+        result.stats.pairs[0].zone_vertices, contact.contact_area, stats.relative_volume_change
+    );
+    assert!(stats.deformed && !result.stats.objects[0].deformed);
+    assert!(result.stats.pairs[0].zone_vertices[1] > 0 && result.stats.pairs[0].zone_vertices[0] == 0);
+    assert!(stats.relative_volume_change.abs() < 1e-9);
+    let output = deformed(&scene, &result, 1);
+    for t in 0..output.num_triangles() {
+        let (n0, n1) = (ground.mesh.corners(t), output.corners(t));
+        let alignment =
+            face_normal_unnormalized(n0[0], n0[1], n0[2]).dot(face_normal_unnormalized(n1[0], n1[1], n1[2]));
+        assert!(alignment > 0.0, "face {t} of the ground flipped");
+    }
+    // The zone is pressed onto the ball.
+    let zone = &contact.sides[1].zone;
+    let centre = DVec3::new(0.0, 0.0, 1.0 - 0.15);
+    for v in 0..ground.mesh.num_vertices() {
+        if zone.region.contains(v as u32) {
+            let d = (result.positions[1][v] - centre).length();
+            assert!((d - 1.0).abs() < 5e-3, "vertex {v} at {d} from the ball's centre");
+        }
+    }
+}
+
 /// The zones lent to chapter 5 come back to the pair and side they were found on: four fingers
 /// pressed to unequal depths into one ball give four zones on the ball's one region, and each
 /// pair's zones are the ones its statistics counted, carry its mapping direction and lie under
 /// its own finger.
 #[test]
 fn each_pair_gets_its_own_zones_back_after_the_deformation() {
-    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let scene = bench::fingers_ball(BenchSize::Quick);
     let pose = scene.pose(1.0);
     let frame = pose.frame();
     let result = Deformer::new().deform(&frame).unwrap();

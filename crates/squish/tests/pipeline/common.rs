@@ -1,0 +1,36 @@
+//! What the pipeline's tests share: the shared sample meshes, deformed meshes, penetration depths.
+
+use std::path::Path;
+
+use squish::mesh::TriMesh;
+use squish::pipeline::FrameResult;
+use squish::spatial::penetration_depths;
+use squish_scenes::procedural::ProceduralScene;
+
+/// A mesh of the shared data by file name (e.g. `"spot_11533.obj"`), or `None` (with a message)
+/// if absent.
+pub fn shared_mesh(name: &str) -> Option<TriMesh> {
+    let path = format!("{}/../../../shared/data/meshes/{name}", env!("CARGO_MANIFEST_DIR"));
+    let mesh = squish_io::read_obj(Path::new(&path)).ok();
+    if mesh.is_none() {
+        eprintln!("skipping: {path} not found");
+    }
+    mesh
+}
+
+/// The 3301-vertex Stanford bunny of the shared data, or `None` (with a message) if absent.
+pub fn bunny() -> Option<TriMesh> {
+    shared_mesh("bunny_3301.obj")
+}
+
+/// Object `i` of `scene` with its positions of `result`.
+pub fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
+    TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
+}
+
+/// Deepest vertex of either mesh inside the other.
+pub fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
+    let ab = penetration_depths(a, b).unwrap();
+    let ba = penetration_depths(b, a).unwrap();
+    ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
+}
