@@ -9,11 +9,11 @@
 //!   `‖p_ij − p′_ij‖` with a sign: `a > 0` is a penetration the zone pushes back, `a < 0` a gap it
 //!   closes by moving outward (the thesis' norm loses the sign). With a single mapping direction
 //!   the target lies along d_ij and `−a·d_ij = p′_ij − p_ij` exactly. Towards 90° it fades to 0
-//!   continuously (a sign switch would jump). The plain projection `(p_ij − p′_ij)·d_ij` we used
-//!   before shortens the amplitude wherever d_ij leaves the target's direction: at a fold's crease
+//!   continuously (a sign switch would jump). Not the plain projection `(p_ij − p′_ij)·d_ij`: it
+//!   shortens the amplitude wherever d_ij leaves the target's direction — at a fold's crease
 //!   (ch. 6), where d̄ = (2β − 1)d̂ is short and d_ij turns to the normal, the vertices next to
-//!   ∂𝒞 then moved half as far as their contact neighbours and thin faces turned over (bent
-//!   capsule: 2 faces newly inverted at every frame from 142.5°; now only at 150°).
+//!   ∂𝒞 would move half as far as their contact neighbours and thin faces turn over (measured on
+//!   the bent capsule: `docs/decisions.md`).
 //! - **Vertex values.** Every vertex j outside 𝒞 on a boundary edge ij gets `a_j = Σ_i α_ij a_ij /
 //!   Σ_i α_ij` (α from the inside vertex, so the points nearest to j weigh most), likewise s_j.
 //! - **Soft, fading constraints (continuity).** a_j and s_j are least-squares vertex constraints of

@@ -63,9 +63,8 @@ pub const REDUCE_MIN_DIMENSION: usize = 256;
 
 /// [`NumericFactor::factorize_within`] factorizes at most this fraction more rows than the
 /// matrix couples to avoid an analysis of its own. An analysis costs about as much as the numeric
-/// factorization of the same rows, and the flops grow faster than the rows: the guide system of
-/// fingers–palm's palm (1 426 of 2 162 rows, factorized whole) and of its fingers (~240 of ~280)
-/// gain, bunny–jelly's (6 081 of 10 188) would lose.
+/// factorization of the same rows, and the flops grow faster than the rows (measured cases:
+/// `docs/speed.md`).
 pub const WITHIN_MAX_EXTRA_ROWS: f64 = 0.6;
 
 /// Coupled-row analyses a [`SymbolicFactor`] keeps for its factors (a region's frame couples two
@@ -162,9 +161,9 @@ impl SymbolicFactor {
     /// factorization needs fewer flops (AMD on a tie), then the elimination tree and supernodes.
     ///
     /// Submatrices of coupled rows stay in AMD's order restricted to them, whichever order the
-    /// whole pattern got: on stress-100k's moving cap, the dissection's restriction gave factors
-    /// 15% costlier and analyses 35% slower, and choosing between the two restrictions for each
-    /// new set of rows (two flop counts) doubled the analysis time (`docs/decisions.md`, Speed).
+    /// whole pattern got: the dissection's restriction gives costlier factors and slower analyses
+    /// on a moving cap, and choosing between the two for each new set of rows costs more than it
+    /// saves (`docs/speed.md`).
     pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
         Self::analyze_in(pattern, FillOrder::FewerFlops)
     }

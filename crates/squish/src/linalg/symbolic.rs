@@ -21,13 +21,12 @@
 //!    entry of `A`, so that it comes out sorted.
 //!
 //! **Why our own.** A contact that moves changes the coupled rows of a system every frame, and
-//! the submatrix on them ([`super::NumericFactor`]) needs a new analysis each time: about a tenth
-//! of bunny–jelly's frame with faer's analysis, half as much as the numeric factorizations it
-//! served. faer counts the columns by walking every entry of `L`, builds its structure in several
+//! the submatrix on them ([`super::NumericFactor`]) needs a new analysis each time, which with
+//! faer's analysis cost half as much as the numeric factorizations it served. faer counts the columns by walking every entry of `L`, builds its structure in several
 //! passes, and keeps a custom order as given; this one counts in near-linear time, writes the
 //! structure our kernel ([`super::supernodal`]) reads and `A`'s permuted layout directly, and
 //! postorders the restricted order, whose chains then form wider supernodes (a faster numeric
-//! factorization on the same fill). Measurements in `docs/decisions.md` (Speed).
+//! factorization on the same fill). Measurements in `docs/speed.md`.
 //! The AMD ordering itself stays faer's ([`amd_order`]); the alternative, nested dissection, is
 //! [`super::dissection`].
 

@@ -174,14 +174,17 @@ impl Deformer {
         Ok(result)
     }
 
-    /// The contacts between objects (ch. 4–5) of a frame; `start` is when the frame began.
+    /// The contacts between objects of a frame, stage after stage: setup, working regions,
+    /// contact definition (ch. 4), deformation (ch. 5), results. `start` is when the frame began.
     fn deform_pairs(&mut self, frame: &Frame, start: Instant) -> Result<FrameResult, PipelineError> {
         let mut stages = StageTimes::default();
+        // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
         let timer = Instant::now();
         let figures = setup::update_objects(&mut self.caches, frame, &pairing.needs_tree)?;
         stages[Stage::Setup] = timer.elapsed();
 
+        // Working regions (§4.5).
         let timer = Instant::now();
         regions::update_working_regions(&mut self.caches, frame, &pairing.partners, &pairing.needs_tree, &figures)?;
         stages[Stage::Regions] = timer.elapsed();
@@ -205,6 +208,7 @@ impl Deformer {
         self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
         region_contacts.give_back(&mut contacts);
 
+        // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         Ok(FrameResult {

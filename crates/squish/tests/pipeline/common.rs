@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use squish::mesh::TriMesh;
+use squish::mesh::{TriMesh, face_normal_unnormalized};
 use squish::pipeline::FrameResult;
 use squish::spatial::penetration_depths;
 use squish_scenes::procedural::ProceduralScene;
@@ -33,4 +33,15 @@ pub fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
     let ab = penetration_depths(a, b).unwrap();
     let ba = penetration_depths(b, a).unwrap();
     ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
+}
+
+/// Asserts that no face of `output` turned over from `input` (their normals more than 90° apart);
+/// `what` names the mesh in the message.
+pub fn assert_no_flipped_face(input: &TriMesh, output: &TriMesh, what: &str) {
+    for t in 0..output.num_triangles() {
+        let [a, b, c] = input.corners(t);
+        let [a2, b2, c2] = output.corners(t);
+        let (n0, n1) = (face_normal_unnormalized(a, b, c), face_normal_unnormalized(a2, b2, c2));
+        assert!(n0.dot(n1) > 0.0, "{what}: face {t} flipped");
+    }
 }

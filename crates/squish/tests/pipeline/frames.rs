@@ -5,12 +5,12 @@
 use glam::DVec3;
 use squish::contact::{ContactMethod, MappingMethod, PairParams};
 use squish::deform::DirectionFieldMethod;
-use squish::mesh::{TriMesh, face_normal_unnormalized, shapes};
+use squish::mesh::{TriMesh, shapes};
 use squish::pipeline::*;
 use squish_scenes::bench::{self, BenchSize};
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use crate::common::{self as test_meshes, deepest_penetration, deformed};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed};
 
 fn run(scene: &ProceduralScene) -> FrameResult {
     Deformer::new().deform(&scene.frame()).expect("frame deforms")
@@ -35,12 +35,7 @@ fn check_scene(scene: &ProceduralScene) -> (f64, f64) {
         worst_volume = worst_volume.max(stats.relative_volume_change.abs());
         let output = &after_meshes[i];
         assert!(output.positions.iter().all(|p| p.is_finite()), "{}: NaN in {}", scene.name, object.name);
-        for t in 0..output.num_triangles() {
-            let [a, b, c] = object.mesh.corners(t);
-            let [a2, b2, c2] = output.corners(t);
-            let (n0, n1) = (face_normal_unnormalized(a, b, c), face_normal_unnormalized(a2, b2, c2));
-            assert!(n0.dot(n1) > 0.0, "{}: face {t} of {} flipped", scene.name, object.name);
-        }
+        assert_no_flipped_face(&object.mesh, output, &format!("{} ({})", object.name, scene.name));
         let deformation = result.deformations[i].as_ref().unwrap();
         for v in 0..output.num_vertices() {
             if !deformation.deformable[v] && !deformation.contact[v] {
@@ -396,13 +391,7 @@ fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
     assert!(stats.deformed && !result.stats.objects[0].deformed);
     assert!(result.stats.pairs[0].zone_vertices[1] > 0 && result.stats.pairs[0].zone_vertices[0] == 0);
     assert!(stats.relative_volume_change.abs() < 1e-9);
-    let output = deformed(&scene, &result, 1);
-    for t in 0..output.num_triangles() {
-        let (n0, n1) = (ground.mesh.corners(t), output.corners(t));
-        let alignment =
-            face_normal_unnormalized(n0[0], n0[1], n0[2]).dot(face_normal_unnormalized(n1[0], n1[1], n1[2]));
-        assert!(alignment > 0.0, "face {t} of the ground flipped");
-    }
+    assert_no_flipped_face(&ground.mesh, &deformed(&scene, &result, 1), "the ground");
     // The zone is pressed onto the ball.
     let zone = &contact.sides[1].zone;
     let centre = DVec3::new(0.0, 0.0, 1.0 - 0.15);

@@ -6,13 +6,13 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use squish::contact::{ContactError, PairParams};
-use squish::mesh::{SubMesh, TriMesh, face_normal_unnormalized, shapes};
+use squish::mesh::{SubMesh, TriMesh, shapes};
 use squish::pipeline::*;
 use squish::spatial::{penetration_depths, self_intersections};
 use squish::stage::{Stage, StageTimes};
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use crate::common::{self as test_meshes, deepest_penetration, deformed};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed};
 
 fn bits(positions: &[DVec3]) -> Vec<u64> {
     positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
@@ -43,12 +43,7 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
         worst_volume = worst_volume.max(stats.relative_volume_change.abs());
         let output = &after_meshes[i];
         assert!(output.positions.iter().all(|p| p.is_finite()), "{}: NaN in {}", scene.name, object.name);
-        for t in 0..output.num_triangles() {
-            let [a, b, c] = object.mesh.corners(t);
-            let [a2, b2, c2] = output.corners(t);
-            let (n0, n1) = (face_normal_unnormalized(a, b, c), face_normal_unnormalized(a2, b2, c2));
-            assert!(n0.dot(n1) > 0.0, "{}: face {t} of {} flipped", scene.name, object.name);
-        }
+        assert_no_flipped_face(&object.mesh, output, &format!("{} ({})", object.name, scene.name));
         let mut in_region = vec![false; object.mesh.num_vertices()];
         for summary in result.regions.iter().filter(|s| s.object == i) {
             if summary.whole {
@@ -446,11 +441,7 @@ fn fingers_pressing_their_own_palm_are_regions_of_one_object() {
     assert!(stats.objects[0].relative_volume_change.abs() <= 1e-9);
     let mesh = &scene.objects[0].mesh;
     let output = deformed(&scene, &result, 0);
-    for t in 0..mesh.num_triangles() {
-        let [a, b, c] = mesh.corners(t);
-        let [a2, b2, c2] = output.corners(t);
-        assert!(face_normal_unnormalized(a, b, c).dot(face_normal_unnormalized(a2, b2, c2)) > 0.0, "face {t} flipped");
-    }
+    assert_no_flipped_face(mesh, &output, "the hand");
     // The palm (first component) and the fingers as separate meshes: clean contact.
     let split = |m: &TriMesh| {
         let faces = result.regions[0].faces.iter().copied();
