@@ -71,25 +71,60 @@ fn every_module_of_the_crate_root_has_a_layer() {
     assert_eq!(modules, layered, "lib.rs's modules and the layers of this test differ: give a new module its layer");
 }
 
-#[test]
-fn no_module_uses_a_module_of_its_own_layer_or_above() {
-    let modules = root_modules();
-    let reexports = root_reexports();
+/// The uses, in `sources` (`(module, file, text)`), of a module of the same layer or above
+/// (`crate::x`, or an item the crate root re-exports from `x`), one message each.
+fn upward_uses(
+    sources: &[(String, String, String)],
+    modules: &BTreeSet<String>,
+    reexports: &BTreeMap<String, String>,
+) -> Vec<String> {
     let mut violations = Vec::new();
-    for module in &modules {
+    for (module, file, text) in sources {
         let Some(layer) = layer_of(module) else { continue };
-        for file in module_files(module) {
-            for name in names_after(&read(&file), "crate::") {
-                let used = if modules.contains(&name) { Some(&name) } else { reexports.get(&name) };
-                let Some(used) = used.filter(|used| *used != module) else { continue };
-                let Some(used_layer) = layer_of(used) else { continue };
-                if used_layer >= layer {
-                    violations.push(format!("{} (layer {layer}) uses `{used}` (layer {used_layer})", file.display()));
-                }
+        for name in names_after(text, "crate::") {
+            let used = if modules.contains(&name) { Some(&name) } else { reexports.get(&name) };
+            let Some(used) = used.filter(|used| *used != module) else { continue };
+            let Some(used_layer) = layer_of(used) else { continue };
+            if used_layer >= layer {
+                violations.push(format!("{file} (`{module}`, layer {layer}) uses `{used}` (layer {used_layer})"));
             }
         }
     }
+    violations
+}
+
+#[test]
+fn no_module_uses_a_module_of_its_own_layer_or_above() {
+    let modules = root_modules();
+    let sources: Vec<(String, String, String)> = modules
+        .iter()
+        .flat_map(|module| {
+            module_files(module).into_iter().map(move |file| (module.clone(), file.display().to_string(), read(&file)))
+        })
+        .collect();
+    let violations = upward_uses(&sources, &modules, &root_reexports());
     assert!(violations.is_empty(), "modules that do not point down:\n{}", violations.join("\n"));
+}
+
+#[test]
+fn uses_of_the_same_layer_or_above_are_found() {
+    // What the layers forbid, as the code once had it: skinning calling the pipeline's extent
+    // rule, and two modules of the bottom layer using each other.
+    let source = |module: &str, text: &str| (module.to_string(), format!("{module}.rs"), text.to_string());
+    let sources = [
+        source("skinning", "let e = crate::pipeline::automatic_extent(r, r, a);"),
+        source("stage", "use crate::{mesh::TriMesh, DVec3};"),
+        source("deform", "use crate::{contact::ContactZone, mesh::TriMesh};\nfn f(d: &crate::Deformer) {}"),
+    ];
+    let modules = root_modules();
+    let reexports = BTreeMap::from([("Deformer".to_string(), "pipeline".to_string())]);
+    let found = upward_uses(&sources, &modules, &reexports);
+    assert_eq!(found.len(), 3, "{found:#?}");
+    assert!(
+        found[0].contains("uses `pipeline`")
+            && found[1].contains("uses `mesh`")
+            && found[2].contains("uses `pipeline`")
+    );
 }
 
 #[test]

@@ -28,6 +28,16 @@ pub fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriM
     TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
 }
 
+/// The deepest penetration between a two-object scene's inputs (which must intersect), the
+/// deformed meshes of `result`, and their deepest penetration.
+pub fn penetrations(scene: &ProceduralScene, result: &FrameResult) -> (f64, Vec<TriMesh>, f64) {
+    let before = deepest_penetration(&scene.objects[0].mesh, &scene.objects[1].mesh);
+    assert!(before > 0.0, "{}: the inputs must intersect", scene.name);
+    let after_meshes: Vec<TriMesh> = (0..2).map(|i| deformed(scene, result, i)).collect();
+    let after = deepest_penetration(&after_meshes[0], &after_meshes[1]);
+    (before, after_meshes, after)
+}
+
 /// Deepest vertex of either mesh inside the other.
 pub fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
     let ab = penetration_depths(a, b).unwrap();

@@ -10,7 +10,7 @@ use squish::pipeline::*;
 use squish_scenes::bench::{self, BenchSize};
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deformed, penetrations};
 
 fn run(scene: &ProceduralScene) -> FrameResult {
     Deformer::new().deform(&scene.frame()).expect("frame deforms")
@@ -20,10 +20,7 @@ fn run(scene: &ProceduralScene) -> FrameResult {
 /// relative volume change and the residual penetration ratio.
 fn check_scene(scene: &ProceduralScene) -> (f64, f64) {
     let result = run(scene);
-    let before = deepest_penetration(&scene.objects[0].mesh, &scene.objects[1].mesh);
-    assert!(before > 0.0, "{}: the inputs must intersect", scene.name);
-    let after_meshes: Vec<TriMesh> = (0..2).map(|i| deformed(scene, &result, i)).collect();
-    let after = deepest_penetration(&after_meshes[0], &after_meshes[1]);
+    let (before, after_meshes, after) = penetrations(scene, &result);
     let mut worst_volume = 0.0f64;
     for (i, object) in scene.objects.iter().enumerate() {
         let stats = &result.stats.objects[i];

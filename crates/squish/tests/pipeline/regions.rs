@@ -12,7 +12,7 @@ use squish::spatial::{penetration_depths, self_intersections};
 use squish::stage::{Stage, StageTimes};
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed, penetrations};
 
 fn bits(positions: &[DVec3]) -> Vec<u64> {
     positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
@@ -31,10 +31,7 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
     let start = Instant::now();
     let result = Deformer::new().deform(&scene.frame()).expect("frame deforms");
     let elapsed = start.elapsed();
-    let before = deepest_penetration(&scene.objects[0].mesh, &scene.objects[1].mesh);
-    assert!(before > 0.0, "{}: the inputs must intersect", scene.name);
-    let after_meshes: Vec<TriMesh> = (0..2).map(|i| deformed(scene, &result, i)).collect();
-    let after = deepest_penetration(&after_meshes[0], &after_meshes[1]);
+    let (before, after_meshes, after) = penetrations(scene, &result);
     let mut worst_volume = 0.0f64;
     for (i, object) in scene.objects.iter().enumerate() {
         let stats = &result.stats.objects[i];
