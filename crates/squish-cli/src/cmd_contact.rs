@@ -9,6 +9,7 @@ use serde::Serialize;
 use squish::contact::{BoundaryKind, ContactSide, PairContact, contact_pair, debug_export};
 use squish::mesh::{Topology, vertex_normals};
 use squish::spatial::TriangleBvh;
+use squish::stage::PerStage;
 use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
 use squish_render::{Label, rgba8};
 
@@ -79,13 +80,12 @@ struct Summary {
     numerical_fallbacks: usize,
 }
 
+/// The contact stage's times in ms, per stage (its own: intersection, mapping, contact zone), and
+/// the whole call.
 #[derive(Serialize)]
 struct Timings {
-    intersection: f64,
-    direction: f64,
-    mapping: f64,
-    surface: f64,
-    zone: f64,
+    #[serde(flatten)]
+    stages: PerStage<f64>,
     total: f64,
 }
 
@@ -163,8 +163,6 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let points_path = args.output.join("boundary_points.ply");
     write_point_cloud_ply(&points_path, &points, &properties, &PlyWriteOptions::default())?;
 
-    let t = &result.stats.timings;
-    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     let [side_a, side_b]: [SideSummary; 2] =
         side_summaries.try_into().map_err(|_| CliError::failure("internal: two sides expected"))?;
     let summary = Summary {
@@ -179,14 +177,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         intersection_points: result.intersection_points.iter().map(|p| p.position.to_array()).collect(),
         sides: [side_a, side_b],
         boundary_points: points_path.display().to_string(),
-        timings_ms: Timings {
-            intersection: ms(t.intersection),
-            direction: ms(t.direction),
-            mapping: ms(t.mapping),
-            surface: ms(t.surface),
-            zone: ms(t.zone),
-            total: ms(t.total),
-        },
+        timings_ms: Timings { stages: result.stats.timings.millis(), total: result.stats.time.as_secs_f64() * 1e3 },
         numerical_fallbacks: result.stats.fallbacks.numerical(),
     };
     let json_path = args.output.join("contact.json");

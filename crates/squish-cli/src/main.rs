@@ -14,6 +14,7 @@ mod cmd_params;
 mod cmd_run;
 mod console;
 mod error;
+mod frame_quality;
 mod input;
 mod interrupt;
 mod params;

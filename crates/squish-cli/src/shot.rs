@@ -28,8 +28,8 @@ use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, Fra
 use squish::{ObjectParams, TriMesh};
 
 use crate::error::CliError;
+use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
 use crate::interrupt::Interrupt;
-use crate::quality::{self, MeasureCache, ObjectQuality, PairQuality};
 
 /// An object of one frame, owned.
 #[derive(Clone, Debug)]
@@ -350,9 +350,10 @@ fn compute_frame(
     write: &FrameWriter,
 ) -> Result<FrameDone, CliError> {
     let shot = source.frame(f)?;
-    let result = worker.deformer.deform(&shot.frame()).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
+    let frame = shot.frame();
+    let result = worker.deformer.deform(&frame).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
     write(f, &shot, &result.positions)?;
-    let (objects, pairs) = quality::measure(&shot, &result, &mut worker.measure);
+    let (objects, pairs) = frame_quality::measure(&frame, &result, &mut worker.measure);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
     let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
