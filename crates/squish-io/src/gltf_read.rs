@@ -58,12 +58,38 @@ impl GltfReadOptions {
 /// Reads a `.gltf` or `.glb` file (recognized by content: GLB starts with `glTF`).
 pub fn read_gltf(path: &Path, options: &GltfReadOptions) -> Result<GltfScene, IoError> {
     let bytes = std::fs::read(path).map_err(|e| IoError::io(path, "open", e))?;
-    let (json, bin) = if bytes.starts_with(b"glTF") { split_glb(path, &bytes)? } else { (&bytes[..], None) };
+    let (json, bin) = if bytes.starts_with(b"glTF") {
+        split_glb(path, &bytes)?
+    } else if starts_like_json(&bytes) {
+        (&bytes[..], None)
+    } else {
+        return Err(not_gltf(path, &bytes));
+    };
     let document = parse_document(path, json)?;
     let buffers = load_buffers(path, &document, bin)?;
     let reader =
         Reader { path, document: &document, data: BufferData { path, document: &document, buffers: &buffers } };
     reader.scene(options)
+}
+
+/// True if the first byte other than white space (after an optional UTF-8 byte order mark) is
+/// `{`, as in every JSON glTF.
+fn starts_like_json(bytes: &[u8]) -> bool {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{')
+}
+
+/// The error for a file that is neither GLB (magic `glTF`) nor JSON: it names the bytes found.
+fn not_gltf(path: &Path, bytes: &[u8]) -> IoError {
+    let head: Vec<String> = bytes.iter().take(4).map(|b| format!("{b:02X}")).collect();
+    let found = if head.is_empty() { "the file is empty".to_string() } else { format!("it starts with {}", head.join(" ")) };
+    IoError::offset(
+        path,
+        0,
+        format!(
+            "not a glTF file: a .glb starts with the magic bytes 'glTF' (67 6C 54 46) and a .gltf with '{{', but {found}; the file is corrupt or in another format (export it again)"
+        ),
+    )
 }
 
 /// Extensions that change how geometry is stored, which this reader cannot decode.
