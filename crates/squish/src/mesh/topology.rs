@@ -361,6 +361,9 @@ impl Topology {
     pub fn face_components(&self, mesh: &TriMesh) -> (Vec<u32>, usize) {
         let nf = mesh.num_triangles();
         let mut label = vec![u32::MAX; nf];
+        // Each vertex's faces are scanned once: a fan of n faces around one vertex is O(n),
+        // not O(n²).
+        let mut vertex_done = vec![false; self.num_vertices];
         let mut count = 0u32;
         let mut stack = Vec::new();
         for seed in 0..nf {
@@ -371,6 +374,9 @@ impl Topology {
             stack.push(seed as u32);
             while let Some(f) = stack.pop() {
                 for &v in &mesh.triangles[f as usize] {
+                    if std::mem::replace(&mut vertex_done[v as usize], true) {
+                        continue;
+                    }
                     for &g in self.vertex_faces(v) {
                         if label[g as usize] == u32::MAX {
                             label[g as usize] = count;
