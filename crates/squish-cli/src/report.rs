@@ -45,6 +45,9 @@ pub struct FrameReport {
     pub stages_ms: StageMillis,
     pub objects: Vec<ObjectStats>,
     pub pairs: Vec<PairStats>,
+    /// What the frame did not do that it was asked to (empty contact zone, containment,
+    /// reduced parameters, no bulge, residual penetration above the tolerance).
+    pub warnings: Vec<squish::pipeline::FrameWarning>,
 }
 
 impl From<&FrameStats> for FrameReport {
@@ -54,6 +57,7 @@ impl From<&FrameStats> for FrameReport {
             stages_ms: StageMillis::from(&stats.stages),
             objects: stats.objects.clone(),
             pairs: stats.pairs.clone(),
+            warnings: stats.warnings.clone(),
         }
     }
 }

@@ -31,6 +31,7 @@ mod params;
 pub mod regions;
 pub mod scenes;
 mod self_contact;
+mod warnings;
 
 use std::time::{Duration, Instant};
 
@@ -41,6 +42,7 @@ use serde::{Deserialize, Serialize};
 pub use params::ObjectParams;
 pub use regions::WorkingRegion;
 pub use self_contact::SelfContactResult;
+pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
 
 use crate::contact::{ContactError, ContactSide, ContactZone, PairContact, PairParams, contact_pair};
 use crate::deform::{DeformError, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, deform_region_with};
@@ -281,6 +283,9 @@ pub struct FrameStats {
     /// Every articulation with self-contact (ch. 6), object by object.
     #[serde(default)]
     pub articulations: Vec<crate::skinning::ArticulationStats>,
+    /// What the frame did not do that it was asked to (see [`FrameWarning`]).
+    #[serde(default)]
+    pub warnings: Vec<FrameWarning>,
 }
 
 /// Which part of its object a working region is (same order as [`FrameStats::regions`]).
@@ -412,6 +417,16 @@ impl ObjectCache {
         }
         let p = *sub.sub.mesh.positions.first()?;
         other.bvh.contains(p).then(|| sub.sub.parent_vertex[0])
+    }
+
+    /// For whole regions that no edge crosses: true if `mesh` (this object, region `r`) has a
+    /// vertex inside `other` (closed, region `other_r`), i.e. lies inside it.
+    fn lies_inside(&self, r: usize, mesh: &TriMesh, other: &ObjectCache, other_r: usize) -> bool {
+        let whole = |c: &ObjectCache, r: usize| c.regions.get(r).is_some_and(|region| region.sub.is_none());
+        if !other.closed || !whole(self, r) || !whole(other, other_r) {
+            return false;
+        }
+        mesh.triangles.first().is_some_and(|t| other.bvh.contains(mesh.positions[t[0] as usize]))
     }
 
     fn region_bounds(&self, r: usize) -> Aabb3 {
@@ -780,6 +795,27 @@ impl Deformer {
             })
             .collect::<Result<_, _>>()?;
 
+        // One side wholly inside the other, for the warnings: [inner, outer] as sides of the pair.
+        let contained: Vec<Option<[usize; 2]>> = region_pairs
+            .iter()
+            .zip(&contacts)
+            .map(|(rp, contact)| {
+                let (Some([ra, rb]), Some(contact)) = (rp.regions, contact) else { return None };
+                if !contact.intersection_points.is_empty() {
+                    return None;
+                }
+                let [ia, ib] = frame.pairs[rp.pair].objects;
+                let (ma, mb) = (frame.objects[ia].mesh, frame.objects[ib].mesh);
+                if caches[ia].lies_inside(ra, ma, caches[ib], rb) {
+                    Some([0, 1])
+                } else if caches[ib].lies_inside(rb, mb, caches[ia], ra) {
+                    Some([1, 0])
+                } else {
+                    None
+                }
+            })
+            .collect();
+
         // Zones, partners, contact areas and touching regions per region.
         let per_region = |fill: f64| -> Vec<Vec<f64>> { caches.iter().map(|c| vec![fill; c.regions.len()]).collect() };
         let mut zones: Vec<Vec<Vec<ContactZone>>> =
@@ -988,6 +1024,8 @@ impl Deformer {
             }
             object_stats.push(stats);
         }
+        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
+        let warnings = warnings::frame_warnings(&pair_stats, &contacts, &params, &contained, &object_stats, &closed);
         Ok(FrameResult {
             positions,
             contacts,
@@ -1001,6 +1039,7 @@ impl Deformer {
                 pairs: pair_stats,
                 regions: region_stats,
                 articulations: Vec::new(),
+                warnings,
             },
         })
     }
