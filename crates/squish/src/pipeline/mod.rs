@@ -1232,3 +1232,5 @@ fn combine(
 mod region_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod warning_tests;
