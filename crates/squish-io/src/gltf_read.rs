@@ -124,6 +124,26 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
             format!("the file requires unsupported glTF extensions: {}", unsupported.join(", ")),
         ));
     }
+    // The `gltf` crate's validation indexes the accessor of every POSITION attribute without a
+    // bounds check (gltf-json 1.4.1, mesh.rs): an index past the accessors must be an error here.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(index) = position
+                && index.value() >= root.accessors.len()
+            {
+                return Err(IoError::element(
+                    path,
+                    format!("mesh {m} primitive {p}"),
+                    format!(
+                        "its POSITION attribute refers to accessor {}, but the file has {} accessors; the file is corrupt (export it again)",
+                        index.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
     // glTF requires min/max on POSITION accessors, and the validator rejects files without
     // them; several exporters omit them. They are metadata this reader never uses (bounds are
     // recomputed from the data), so fill placeholders rather than refuse the file.

@@ -26,6 +26,7 @@ pub use region::{
 };
 pub use submesh::{NOT_IN_SUBMESH, SubMesh};
 pub use topology::{NO_FACE, Topology};
+pub(crate) use topology::faces_around_vertices;
 
 use glam::DVec3;
 

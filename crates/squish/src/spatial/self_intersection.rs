@@ -42,7 +42,7 @@ use super::bvh::TriangleBvh;
 use super::exact::cross_exact;
 use super::obb_tree::{Item, ObbTree};
 use super::tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
-use crate::mesh::{MeshError, TriMesh};
+use crate::mesh::{MeshError, TriMesh, faces_around_vertices};
 
 /// Stars and edges with at most this many faces test all their pairs.
 const SMALL: usize = 24;
@@ -64,7 +64,7 @@ pub struct SelfIntersections {
 
 /// Self-intersections of `mesh` (see the module docs for the rule on adjacent faces).
 pub fn self_intersections(mesh: &TriMesh) -> Result<SelfIntersections, SpatialError> {
-    let faces = self_intersecting_faces(mesh, 0..mesh.num_triangles() as u32, |_, _| true)?;
+    let faces = search(mesh, 0..mesh.num_triangles() as u32, &|_, _| true, true)?;
     Ok(SelfIntersections { faces })
 }
 
@@ -76,6 +76,19 @@ pub fn self_intersecting_faces(
     mesh: &TriMesh,
     faces: impl IntoIterator<Item = u32>,
     related: impl Fn(u32, u32) -> bool + Sync,
+) -> Result<Vec<u32>, SpatialError> {
+    search(mesh, faces, &related, false)
+}
+
+/// [`self_intersecting_faces`]; with `merge_copies` (only for a relation that holds for every
+/// pair), faces at the same three positions are searched once: they coincide, so they intersect
+/// each other, and a copy intersects whatever its original does. A mesh of a few vertices and
+/// many faces then has only as many faces to search as distinct triples.
+fn search(
+    mesh: &TriMesh,
+    faces: impl IntoIterator<Item = u32>,
+    related: &(impl Fn(u32, u32) -> bool + Sync),
+    merge_copies: bool,
 ) -> Result<Vec<u32>, SpatialError> {
     let mut faces: Vec<u32> = faces.into_iter().collect();
     faces.sort_unstable();
@@ -92,9 +105,12 @@ pub fn self_intersecting_faces(
             return Err(MeshError::NonFiniteCoordinate { vertex: v, value }.into());
         }
     }
-    let set = FaceSet::new(mesh, &faces);
+    let set = FaceSet::new(mesh, &faces, merge_copies);
     let found: Vec<AtomicBool> = (0..set.len()).map(|_| AtomicBool::new(false)).collect();
-    let search = Search { set: &set, found: &found, related: &related };
+    for &(k, _) in &set.copies {
+        found[k as usize].store(true, Ordering::Relaxed);
+    }
+    let search = Search { set: &set, found: &found, related };
     // Unshared pairs first with a budget per face (a soup where everything intersects is done
     // here), then the shared ones, then the unshared again for the faces still open (a mesh of
     // few vertices and many faces, where nearly every candidate shares a vertex, is mostly
@@ -104,7 +120,11 @@ pub fn self_intersecting_faces(
     search.around_edges();
     search.around_vertices();
     search.unshared(&tree, None);
-    Ok(set.face.iter().zip(&found).filter(|(_, f)| f.load(Ordering::Relaxed)).map(|(&f, _)| f).collect())
+    let mut result: Vec<u32> =
+        set.face.iter().zip(&found).filter(|(_, f)| f.load(Ordering::Relaxed)).map(|(&f, _)| f).collect();
+    result.extend(set.copies.iter().map(|&(_, f)| f));
+    result.sort_unstable();
+    Ok(result)
 }
 
 /// The non-degenerate faces to search, with their corners and position ids.
@@ -119,10 +139,13 @@ struct FaceSet {
     star_faces: Vec<u32>,
     /// Largest coordinate magnitude: the scale of the main tree's margin.
     scale: f64,
+    /// Faces left out as copies of a searched face at the same three positions: (the searched
+    /// face's index, the copy's mesh face id).
+    copies: Vec<(u32, u32)>,
 }
 
 impl FaceSet {
-    fn new(mesh: &TriMesh, faces: &[u32]) -> Self {
+    fn new(mesh: &TriMesh, faces: &[u32], merge_copies: bool) -> Self {
         // -0.0 and 0.0 are the same position (as `==` in the exact test says).
         let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
         let mut id_of: HashMap<[u64; 3], u32> = HashMap::new();
@@ -131,6 +154,8 @@ impl FaceSet {
         let mut corners = Vec::new();
         let mut ids = Vec::new();
         let mut scale = 0.0f64;
+        let mut searched: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut copies = Vec::new();
         for &f in faces {
             let tri = mesh.triangles[f as usize];
             let c = tri.map(|v| mesh.positions[v as usize]);
@@ -145,29 +170,22 @@ impl FaceSet {
                 }
                 *slot
             });
+            if merge_copies {
+                let mut sorted = t;
+                sorted.sort_unstable();
+                if let Some(&k) = searched.get(&sorted) {
+                    copies.push((k, f));
+                    continue;
+                }
+                searched.insert(sorted, face.len() as u32);
+            }
             scale = c.iter().fold(scale, |m, p| m.max(p.abs().max_element()));
             face.push(f);
             corners.push(c);
             ids.push(t);
         }
-        let mut star_offsets = vec![0u32; id_of.len() + 1];
-        for t in &ids {
-            for &i in t {
-                star_offsets[i as usize + 1] += 1;
-            }
-        }
-        for i in 0..id_of.len() {
-            star_offsets[i + 1] += star_offsets[i];
-        }
-        let mut fill = star_offsets.clone();
-        let mut star_faces = vec![0u32; 3 * ids.len()];
-        for (k, t) in ids.iter().enumerate() {
-            for &i in t {
-                star_faces[fill[i as usize] as usize] = k as u32;
-                fill[i as usize] += 1;
-            }
-        }
-        Self { face, corners, ids, star_offsets, star_faces, scale }
+        let (star_offsets, star_faces) = faces_around_vertices(id_of.len(), &ids);
+        Self { face, corners, ids, star_offsets, star_faces, scale, copies }
     }
 
     fn len(&self) -> usize {
