@@ -165,9 +165,20 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let contained = if result.intersection_points.is_empty() {
         let inside = |i: usize| {
             let other = &prepared[1 - i];
-            other.0.is_closed() && inputs[i].mesh.triangles.first().is_some_and(|t| other.2.contains(inputs[i].mesh.positions[t[0] as usize]))
+            other.0.is_closed()
+                && inputs[i]
+                    .mesh
+                    .triangles
+                    .first()
+                    .is_some_and(|t| other.2.contains(inputs[i].mesh.positions[t[0] as usize]))
         };
-        if inside(0) { Some([0, 1]) } else if inside(1) { Some([1, 0]) } else { None }
+        if inside(0) {
+            Some([0, 1])
+        } else if inside(1) {
+            Some([1, 0])
+        } else {
+            None
+        }
     } else {
         None
     };

@@ -9,7 +9,9 @@ use squish::spatial;
 
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
-use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text};
+use crate::input::{
+    FormatChoice, InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text,
+};
 use crate::params::{PairSettings, pair_settings};
 use crate::report::FrameReport;
 

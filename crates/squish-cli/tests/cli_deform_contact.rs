@@ -128,8 +128,19 @@ fn strict_fails_on_warnings_and_reports_them() {
     let output = run(&["--strict"], &inner, &b, &dir.path().join("inside"));
     assert_eq!(output.status.code(), Some(1));
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(stdout.contains("\"inner\" lies wholly inside \"lower\"") && stdout.contains("still penetrates"), "{stdout}");
-    let output = squish().arg("contact").arg(&inner).arg(&b).arg("-o").arg(dir.path().join("c")).arg("--strict").output().unwrap();
+    assert!(
+        stdout.contains("\"inner\" lies wholly inside \"lower\"") && stdout.contains("still penetrates"),
+        "{stdout}"
+    );
+    let output = squish()
+        .arg("contact")
+        .arg(&inner)
+        .arg(&b)
+        .arg("-o")
+        .arg(dir.path().join("c"))
+        .arg("--strict")
+        .output()
+        .unwrap();
     assert_eq!(output.status.code(), Some(1));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("c/contact.json")).unwrap()).unwrap();

@@ -82,7 +82,8 @@ fn starts_like_json(bytes: &[u8]) -> bool {
 /// The error for a file that is neither GLB (magic `glTF`) nor JSON: it names the bytes found.
 fn not_gltf(path: &Path, bytes: &[u8]) -> IoError {
     let head: Vec<String> = bytes.iter().take(4).map(|b| format!("{b:02X}")).collect();
-    let found = if head.is_empty() { "the file is empty".to_string() } else { format!("it starts with {}", head.join(" ")) };
+    let found =
+        if head.is_empty() { "the file is empty".to_string() } else { format!("it starts with {}", head.join(" ")) };
     IoError::offset(
         path,
         0,

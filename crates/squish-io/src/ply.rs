@@ -736,7 +736,8 @@ fn check_body_ends(path: &Path, header: &Header, body: &mut Body) -> Result<(), 
             break;
         }
         for p in &last.properties {
-            let site = ValueSite { element: &last.name, record: last.count + extra, count: last.count, property: &p.name };
+            let site =
+                ValueSite { element: &last.name, record: last.count + extra, count: last.count, property: &p.name };
             let ok = match p.kind {
                 PropertyKind::Scalar(ty) => body.read(path, ty, &site).is_ok(),
                 PropertyKind::List { count, item } => match body.read(path, count, &site) {

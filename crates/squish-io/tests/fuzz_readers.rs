@@ -163,9 +163,8 @@ fn keep_failure(target: Target, seed: u64, case: &Case, why: &str) -> String {
 /// Replays every corpus file of `target`.
 fn replay_corpus(target: Target) -> usize {
     let work = tempfile::tempdir().unwrap();
-    let mut files: Vec<PathBuf> = std::fs::read_dir(corpus_dir(target))
-        .map(|d| d.map(|e| e.unwrap().path()).collect())
-        .unwrap_or_default();
+    let mut files: Vec<PathBuf> =
+        std::fs::read_dir(corpus_dir(target)).map(|d| d.map(|e| e.unwrap().path()).collect()).unwrap_or_default();
     files.sort();
     let mut count = 0;
     for file in files {
@@ -345,8 +344,9 @@ fn number_text(rng: &mut Rng, wild: bool) -> String {
     }
     match rng.u8(0..20) {
         0 => ["nan", "NaN", "inf", "-inf", "infinity"][rng.usize(0..5)].to_string(),
-        1 => ["1e308", "-1e308", "1e999", "4.9e-324", "1e-320", "-0", "0x10", "1.2.3", "", "+", "e5", "1e"][rng.usize(0..12)]
-            .to_string(),
+        1 => ["1e308", "-1e308", "1e999", "4.9e-324", "1e-320", "-0", "0x10", "1.2.3", "", "+", "e5", "1e"]
+            [rng.usize(0..12)]
+        .to_string(),
         2 => format!("{}", rng.i64(..)),
         3 => format!("{:e}", f64::from_bits(rng.u64(..))),
         4..=9 => format!("{}", rng.i32(-4..5)),
@@ -361,8 +361,9 @@ fn obj_index(rng: &mut Rng, n: usize, wild: bool) -> String {
         0 => "0".to_string(),
         1 => format!("{}", n + rng.i64(1..10)),
         2 => format!("-{}", n + rng.i64(1..10)),
-        3 => ["99999999999999999999", "-99999999999999999999", "4294967296", "4294967295", "x", "1.5", ""][rng.usize(0..7)]
-            .to_string(),
+        3 => ["99999999999999999999", "-99999999999999999999", "4294967296", "4294967295", "x", "1.5", ""]
+            [rng.usize(0..7)]
+        .to_string(),
         4..=6 => format!("-{}", rng.i64(1..=n)),
         _ => format!("{}", rng.i64(1..=n)),
     }
@@ -448,8 +449,15 @@ fn obj_case(rng: &mut Rng) -> Case {
             }
             8..=12 => {}
             13 => text.push_str(&format!("vt {} {}", number_text(rng, wild), number_text(rng, wild))),
-            14 => text.push_str(&format!("vn {} {} {}", number_text(rng, wild), number_text(rng, wild), number_text(rng, wild))),
-            15 => text.push_str(["# comment", "o thing", "g a b", "s off", "usemtl m", "mtllib x.mtl", "", "   "][rng.usize(0..8)]),
+            14 => text.push_str(&format!(
+                "vn {} {} {}",
+                number_text(rng, wild),
+                number_text(rng, wild),
+                number_text(rng, wild)
+            )),
+            15 => text.push_str(
+                ["# comment", "o thing", "g a b", "s off", "usemtl m", "mtllib x.mtl", "", "   "][rng.usize(0..8)],
+            ),
             16 => text.push_str("v 0 0 \\"),
             17 => text.push_str("f 1 2 3 # trailing"),
             18 => {
@@ -461,7 +469,12 @@ fn obj_case(rng: &mut Rng) -> Case {
         text.push_str(newline);
     }
     if !wild && vertices > 0 {
-        text.push_str(&format!("f {} {} {}\n", obj_index(rng, vertices, false), obj_index(rng, vertices, false), obj_index(rng, vertices, false)));
+        text.push_str(&format!(
+            "f {} {} {}\n",
+            obj_index(rng, vertices, false),
+            obj_index(rng, vertices, false),
+            obj_index(rng, vertices, false)
+        ));
     }
     let mut bytes = text.into_bytes();
     if wild && rng.u8(0..10) == 0 {
@@ -503,7 +516,8 @@ fn ply_case(rng: &mut Rng) -> Case {
     let mut vertex_props: Vec<PlyProperty> = Vec::new();
     for axis in ["x", "y", "z"] {
         if !wild || rng.u8(0..40) != 0 {
-            let ty = if !wild || rng.bool() { ["float", "double"][rng.usize(0..2)] } else { PLY_TYPES[rng.usize(0..16)] };
+            let ty =
+                if !wild || rng.bool() { ["float", "double"][rng.usize(0..2)] } else { PLY_TYPES[rng.usize(0..16)] };
             vertex_props.push(PlyProperty::Scalar(ty, axis.to_string()));
         }
     }
@@ -511,13 +525,24 @@ fn ply_case(rng: &mut Rng) -> Case {
         vertex_props.push(if rng.u8(0..4) == 0 {
             PlyProperty::List(PLY_TYPES[rng.usize(0..6)], PLY_TYPES[rng.usize(0..16)], format!("extra{k}"))
         } else {
-            PlyProperty::Scalar(PLY_TYPES[rng.usize(0..16)], ["red", "green", "nx", "label", "s"][rng.usize(0..5)].to_string())
+            PlyProperty::Scalar(
+                PLY_TYPES[rng.usize(0..16)],
+                ["red", "green", "nx", "label", "s"][rng.usize(0..5)].to_string(),
+            )
         });
     }
     rng.shuffle(&mut vertex_props);
     let index_name = if rng.u8(0..10) == 0 { "vertex_index" } else { "vertex_indices" };
-    let count_type = if wild && rng.u8(0..12) == 0 { PLY_TYPES[rng.usize(0..16)] } else { ["uchar", "ushort", "int", "uint"][rng.usize(0..4)] };
-    let item_type = if wild && rng.bool() { PLY_TYPES[rng.usize(0..16)] } else { ["int", "uint", "int32", "uint32"][rng.usize(0..4)] };
+    let count_type = if wild && rng.u8(0..12) == 0 {
+        PLY_TYPES[rng.usize(0..16)]
+    } else {
+        ["uchar", "ushort", "int", "uint"][rng.usize(0..4)]
+    };
+    let item_type = if wild && rng.bool() {
+        PLY_TYPES[rng.usize(0..16)]
+    } else {
+        ["int", "uint", "int32", "uint32"][rng.usize(0..4)]
+    };
     let mut face_props = vec![PlyProperty::List(count_type, item_type, index_name.to_string())];
     if rng.u8(0..4) == 0 {
         face_props.insert(rng.usize(0..2), PlyProperty::Scalar(PLY_TYPES[rng.usize(0..16)], "flags".to_string()));
@@ -679,7 +704,10 @@ fn gltf_case(rng: &mut Rng) -> Case {
     for k in 0..joints {
         let mut node = json!({ "name": format!("joint{k}") });
         match rng.u8(0..4) {
-            0 => node["matrix"] = json!((0..16).map(|i| if i % 5 == 0 { 1.0 } else { rng.f64() * 0.1 }).collect::<Vec<f64>>()),
+            0 => {
+                node["matrix"] =
+                    json!((0..16).map(|i| if i % 5 == 0 { 1.0 } else { rng.f64() * 0.1 }).collect::<Vec<f64>>())
+            }
             1 => node["rotation"] = json!([rng.f64(), rng.f64(), rng.f64(), rng.f64()]),
             _ => node["translation"] = json!([rng.f64(), 0.0, 0.0]),
         }

@@ -190,7 +190,8 @@ fn frames_and_output_are_checked() {
 #[test]
 fn extreme_frame_ranges_are_errors_not_panics() {
     let shot = basic_shot();
-    let range = |start: &str, end: &str| HEADER.replace("start = 1, end = 48", &format!("start = {start}, end = {end}"));
+    let range =
+        |start: &str, end: &str| HEADER.replace("start = 1, end = 48", &format!("start = {start}, end = {end}"));
     let err = shot.error(&range("-9223372036854775808", "9223372036854775807"));
     assert!(err.contains("frame -9223372036854775808 is beyond") && err.contains("use frame numbers"), "{err}");
     let err = shot.error(&range("-5000000000000000000", "5000000000000000000"));
@@ -198,7 +199,10 @@ fn extreme_frame_ranges_are_errors_not_panics() {
     let err = shot.error(&range("0", "9000000000000000"));
     assert!(err.contains("9000000000000001 frames is more than the 1000000"), "{err}");
     let err = shot.error(&range("0", "9223372036854775807"));
-    assert!(err.contains("frame 9223372036854775807 is beyond") && !err.contains("-9223372036854775808 frames"), "{err}");
+    assert!(
+        err.contains("frame 9223372036854775807 is beyond") && !err.contains("-9223372036854775808 frames"),
+        "{err}"
+    );
     // The largest accepted numbers load, and their length is right.
     let scene = shot.load(&range("9007199254740990", "9007199254740992")).unwrap();
     assert_eq!(scene.frame_range().len(), 3);

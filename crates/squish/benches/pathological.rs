@@ -64,7 +64,8 @@ fn slivers(faces: usize) -> TriMesh {
         positions.push(o);
         positions.push(o + along);
     }
-    let triangles = (0..strips as u32).flat_map(|i| [[2 * i, 2 * i + 2, 2 * i + 1], [2 * i + 1, 2 * i + 2, 2 * i + 3]]).collect();
+    let triangles =
+        (0..strips as u32).flat_map(|i| [[2 * i, 2 * i + 2, 2 * i + 1], [2 * i + 1, 2 * i + 2, 2 * i + 3]]).collect();
     TriMesh { positions, triangles }
 }
 

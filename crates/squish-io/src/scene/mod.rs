@@ -162,7 +162,10 @@ impl Scene {
             if !matches!(object.mesh, MeshSource::Sequence { .. }) && !object.mesh.file().is_file() {
                 let file = object.mesh.file();
                 let message = if file.is_dir() {
-                    format!("{} is a folder, not a mesh file; give a .obj, .ply, .gltf or .glb file in it", file.display())
+                    format!(
+                        "{} is a folder, not a mesh file; give a .obj, .ply, .gltf or .glb file in it",
+                        file.display()
+                    )
                 } else {
                     missing(file)
                 };

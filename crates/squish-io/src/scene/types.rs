@@ -53,7 +53,11 @@ impl FrameRange {
     /// Number of frames.
     pub fn len(&self) -> usize {
         // In i128: `end − start + 1` of two i64 can overflow i64.
-        usize::try_from(self.end as i128 - self.start as i128 + 1).unwrap_or(if self.is_empty() { 0 } else { usize::MAX })
+        usize::try_from(self.end as i128 - self.start as i128 + 1).unwrap_or(if self.is_empty() {
+            0
+        } else {
+            usize::MAX
+        })
     }
 
     /// True if the range holds no frame (`end < start`, rejected when a scene loads).

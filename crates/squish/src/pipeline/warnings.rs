@@ -86,7 +86,10 @@ pub(super) fn frame_warnings(
         warnings.extend(pair_warnings(&stats.objects, k, contact.as_ref(), params, contained));
     }
     for (i, object) in objects.iter().enumerate() {
-        if object.deformed && !closed.get(i).copied().unwrap_or(true) && !object.preserve_volume && object.applied_bulge_height == 0.0
+        if object.deformed
+            && !closed.get(i).copied().unwrap_or(true)
+            && !object.preserve_volume
+            && object.applied_bulge_height == 0.0
         {
             warnings.push(FrameWarning {
                 kind: WarningKind::NoBulge,
@@ -165,7 +168,10 @@ pub fn pair_warnings(
         };
         warn(
             WarningKind::EmptyContactZone,
-            format!("the meshes intersect ({} crossings) but the contact zone is empty: {why}", contact.intersection_points.len()),
+            format!(
+                "the meshes intersect ({} crossings) but the contact zone is empty: {why}",
+                contact.intersection_points.len()
+            ),
         );
     }
 
@@ -176,6 +182,11 @@ fn finish(names: &[String; 2], k: usize, found: Vec<(WarningKind, String)>) -> V
     let named = format!("pair (\"{}\", \"{}\")", names[0], names[1]);
     found
         .into_iter()
-        .map(|(kind, message)| FrameWarning { kind, pair: Some(k), object: None, message: format!("{named}: {message}") })
+        .map(|(kind, message)| FrameWarning {
+            kind,
+            pair: Some(k),
+            object: None,
+            message: format!("{named}: {message}"),
+        })
         .collect()
 }

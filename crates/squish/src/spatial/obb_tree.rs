@@ -187,7 +187,8 @@ impl ObbTree {
                 points.clear();
                 points.extend(range.iter().map(|&i| centroids[i as usize]));
                 let axes = spread_axes(&points);
-                let obb = Obb::fitted(range.iter().flat_map(|&i| items[i as usize].points().iter().copied()), axes, margin);
+                let obb =
+                    Obb::fitted(range.iter().flat_map(|&i| items[i as usize].points().iter().copied()), axes, margin);
                 let common = common_ids(range.iter().map(|&i| &items[i as usize]));
                 if range.len() <= LEAF_SIZE {
                     nodes[node] = Node { obb, common, first: start as u32, count: range.len() as u32 };
@@ -310,7 +311,12 @@ mod tests {
     use super::*;
 
     fn triangle(points: [DVec3; 3], owner: u32) -> Item {
-        Item { points: [points[0], points[1], points[2], DVec3::ZERO], len: 3, owner, ids: [3 * owner, 3 * owner + 1, 3 * owner + 2] }
+        Item {
+            points: [points[0], points[1], points[2], DVec3::ZERO],
+            len: 3,
+            owner,
+            ids: [3 * owner, 3 * owner + 1, 3 * owner + 2],
+        }
     }
 
     /// Parallel diagonal slivers 0.01 apart: an oriented box separates each from its neighbours

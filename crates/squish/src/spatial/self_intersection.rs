@@ -27,6 +27,7 @@
 //! - *two or three shared vertices* (a shared edge): they overlap iff they are coplanar on the
 //!   same side of the edge, so the faces around each edge are sorted by their angle about it
 //!   and only faces of equal angle (up to a bound on its round-off) are tested.
+//!
 //! Every test is the exact [`triangles_intersect_away_from_shared`]; the trees and angles only
 //! choose candidates, conservatively. Small stars and edges (≤ [`SMALL`] faces) test all their
 //! pairs. The result is sorted and does not depend on the thread count.
@@ -95,7 +96,10 @@ fn search(
     faces.dedup();
     let nv = mesh.positions.len();
     for &f in &faces {
-        let tri = mesh.triangles.get(f as usize).ok_or(SpatialError::FaceOutOfRange { face: f, faces: mesh.triangles.len() })?;
+        let tri = mesh
+            .triangles
+            .get(f as usize)
+            .ok_or(SpatialError::FaceOutOfRange { face: f, faces: mesh.triangles.len() })?;
         if let Some(&i) = tri.iter().find(|&&i| i as usize >= nv) {
             return Err(MeshError::IndexOutOfRange { triangle: f as usize, index: i as u64, vertices: nv }.into());
         }
@@ -226,8 +230,7 @@ impl<R: Fn(u32, u32) -> bool + Sync> Search<'_, R> {
             return false;
         }
         let (ta, tb) = (&set.corners[a as usize], &set.corners[b as usize]);
-        let hit =
-            if shared == 0 { triangles_intersect(ta, tb) } else { triangles_intersect_away_from_shared(ta, tb) };
+        let hit = if shared == 0 { triangles_intersect(ta, tb) } else { triangles_intersect_away_from_shared(ta, tb) };
         if hit {
             self.found[a as usize].store(true, Ordering::Relaxed);
             self.found[b as usize].store(true, Ordering::Relaxed);
@@ -510,9 +513,11 @@ mod tests {
         faces.dedup();
         assert_eq!(faces, expected);
         // Restricted to a relation: faces of the first sphere with faces of the second only.
-        let across = self_intersecting_faces(&mesh, 0..mesh.num_triangles() as u32, |f, g| (f < n0) != (g < n0)).unwrap();
+        let across =
+            self_intersecting_faces(&mesh, 0..mesh.num_triangles() as u32, |f, g| (f < n0) != (g < n0)).unwrap();
         assert_eq!(across, expected);
-        let within = self_intersecting_faces(&mesh, 0..mesh.num_triangles() as u32, |f, g| (f < n0) == (g < n0)).unwrap();
+        let within =
+            self_intersecting_faces(&mesh, 0..mesh.num_triangles() as u32, |f, g| (f < n0) == (g < n0)).unwrap();
         assert!(within.is_empty(), "{within:?}");
     }
 
