@@ -56,6 +56,12 @@ impl Obb {
         Self { center, axes, half, radius }
     }
 
+    /// Half of the box's surface area, for choosing between candidate frames.
+    fn surface(&self) -> f64 {
+        let [x, y, z] = self.half;
+        x * y + y * z + z * x
+    }
+
     /// The box of one planar item: axes along its longest edge, in its plane, and its normal.
     pub(crate) fn of_item(points: &[DVec3], margin: f64) -> Self {
         let mut longest = DVec3::ZERO;
@@ -183,19 +189,46 @@ impl ObbTree {
             let mut points: Vec<DVec3> = Vec::with_capacity(items.len());
             while let Some((node, start, end)) = stack.pop() {
                 let range = &mut order[start..end];
-                // Axes from the items' centroids (a quarter of the points), extents from all points.
+                // The first axis from the items' centroids (a quarter of the points), the second
+                // and the extents from all points: collinear centroids (a stack of parallel
+                // slivers) leave the second axis to the items' own extent.
                 points.clear();
                 points.extend(range.iter().map(|&i| centroids[i as usize]));
-                let axes = spread_axes(&points);
-                let obb =
-                    Obb::fitted(range.iter().flat_map(|&i| items[i as usize].points().iter().copied()), axes, margin);
+                let all = range.iter().flat_map(|&i| items[i as usize].points().iter().copied());
+                // Two candidate frames, the smaller box kept: the spread of the centroids, and
+                // the items' own mean direction (a stack of parallel slivers, whose centroids
+                // spread across them, is bounded tightly only along them).
+                let spread = spread_axes(&points, all.clone());
+                let first = boxes[range[0] as usize].axes[0];
+                let mean: DVec3 = range
+                    .iter()
+                    .map(|&i| {
+                        let d = boxes[i as usize].axes[0];
+                        if d.dot(first) < 0.0 { -d } else { d }
+                    })
+                    .sum();
+                let along = spread_axes_from(mean.try_normalize().unwrap_or(first), points[0], all.clone());
+                let (a, b) = (Obb::fitted(all.clone(), spread, margin), Obb::fitted(all, along, margin));
+                let obb = if b.surface() < a.surface() { b } else { a };
+                // Split along the frame's axis of largest centroid spread.
+                let axis = (0..3)
+                    .map(|k| {
+                        let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                            let t = c.dot(obb.axes[k]);
+                            (lo.min(t), hi.max(t))
+                        });
+                        (hi - lo, k)
+                    })
+                    .fold((f64::NEG_INFINITY, 0), |best, x| if x.0 > best.0 { x } else { best })
+                    .1;
+                let split_axis = obb.axes[axis];
                 let common = common_ids(range.iter().map(|&i| &items[i as usize]));
                 if range.len() <= LEAF_SIZE {
                     nodes[node] = Node { obb, common, first: start as u32, count: range.len() as u32 };
                     continue;
                 }
                 let mid = range.len() / 2;
-                let key = |i: &u32| (centroids[*i as usize].dot(axes[0]), *i);
+                let key = |i: &u32| (centroids[*i as usize].dot(split_axis), *i);
                 range.select_nth_unstable_by(mid, |a, b| {
                     let (ka, kb) = (key(a), key(b));
                     ka.0.total_cmp(&kb.0).then(ka.1.cmp(&kb.1))
@@ -270,13 +303,13 @@ fn common_ids<'a>(mut items: impl Iterator<Item = &'a Item>) -> [u32; 3] {
     common
 }
 
-/// Axes that follow the spread of `points`: a diameter estimate (the farthest point from the
-/// first, then the farthest from that), the direction to the point farthest from that line, and
-/// their cross product. O(points).
-fn spread_axes(points: &[DVec3]) -> [DVec3; 3] {
-    let Some(&start) = points.first() else { return [DVec3::X, DVec3::Y, DVec3::Z] };
+/// Axes that follow the spread of a node: a diameter estimate of its `centroids` (the farthest
+/// from the first, then the farthest from that), the direction to the one of its `points`
+/// farthest from that line, and their cross product. O(points).
+fn spread_axes(centroids: &[DVec3], points: impl Iterator<Item = DVec3>) -> [DVec3; 3] {
+    let Some(&start) = centroids.first() else { return [DVec3::X, DVec3::Y, DVec3::Z] };
     let farthest = |from: DVec3| {
-        points.iter().fold((from, 0.0), |(best, d), &p| {
+        centroids.iter().fold((from, 0.0), |(best, d), &p| {
             let e = (p - from).length_squared();
             if e > d { (p, e) } else { (best, d) }
         })
@@ -284,7 +317,13 @@ fn spread_axes(points: &[DVec3]) -> [DVec3; 3] {
     let (a, _) = farthest(start);
     let (b, _) = farthest(a);
     let u = (b - a).try_normalize().unwrap_or(DVec3::X);
-    let (c, _) = points.iter().fold((a, 0.0), |(best, d), &p| {
+    spread_axes_from(u, a, points)
+}
+
+/// A frame whose first axis is `u` and whose third points from the line through `a` along `u`
+/// toward the farthest of `points`.
+fn spread_axes_from(u: DVec3, a: DVec3, points: impl Iterator<Item = DVec3>) -> [DVec3; 3] {
+    let (c, _) = points.fold((a, 0.0), |(best, d), p| {
         let r = p - a;
         let e = (r - u * r.dot(u)).length_squared();
         if e > d { (p, e) } else { (best, d) }

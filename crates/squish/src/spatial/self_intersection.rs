@@ -120,10 +120,11 @@ fn search(
     // few vertices and many faces, where nearly every candidate shares a vertex, is mostly
     // settled by the shared pairs).
     let tree = search.unshared_tree();
-    search.unshared(&tree, Some(UNSHARED_BUDGET));
+    let settled: Vec<AtomicBool> = (0..set.len()).map(|_| AtomicBool::new(false)).collect();
+    search.unshared(&tree, Some(UNSHARED_BUDGET), &settled);
     search.around_edges();
     search.around_vertices();
-    search.unshared(&tree, None);
+    search.unshared(&tree, None, &settled);
     let mut result: Vec<u32> =
         set.face.iter().zip(&found).filter(|(_, f)| f.load(Ordering::Relaxed)).map(|(&f, _)| f).collect();
     result.extend(set.copies.iter().map(|&(_, f)| f));
@@ -245,18 +246,22 @@ impl<R: Fn(u32, u32) -> bool + Sync> Search<'_, R> {
         ObbTree::new(items, MARGIN * set.scale.max(f64::MIN_POSITIVE))
     }
 
-    /// Pairs that share no vertex, each open face visiting at most `budget` candidates.
-    fn unshared(&self, tree: &ObbTree, budget: Option<usize>) {
+    /// Pairs that share no vertex, each open face visiting at most `budget` candidates; a face
+    /// whose query visited all of its candidates is marked in `settled` and not queried again.
+    fn unshared(&self, tree: &ObbTree, budget: Option<usize>, settled: &[AtomicBool]) {
         let set = self.set;
         (0..set.len() as u32).into_par_iter().with_min_len(64).for_each(|q| {
-            if self.is_found(q) {
+            if self.is_found(q) || settled[q as usize].load(Ordering::Relaxed) {
                 return;
             }
             let mut left = budget.unwrap_or(usize::MAX);
-            tree.query(q, set.ids[q as usize], u32::MAX, |s| {
+            let stopped = tree.query(q, set.ids[q as usize], u32::MAX, |s| {
                 left = left.saturating_sub(1);
                 (set.shared(q, s) == 0 && self.test(q, s, 0)) || left == 0
             });
+            if !stopped {
+                settled[q as usize].store(true, Ordering::Relaxed);
+            }
         });
     }
 
