@@ -366,7 +366,7 @@ fn strict_run_fails_on_warnings_after_writing_everything() {
                 [[objects]]\nname = \"ground\"\nmesh = \"ground.obj\"\n\n[[pairs]]\nobjects = [\"ball\", \"ground\"]\n";
     std::fs::write(&scene, text).unwrap();
     let out = dir.path().join("out");
-    let output = run(&scene, &out, &["--strict"]);
+    let output = squish().arg("run").arg(&scene).arg("-o").arg(&out).arg("--strict").output().unwrap();
     assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(stdout.contains("warning: frame 1: pair (\"ball\", \"ground\"): \"ball\" lies wholly inside"), "{stdout}");
@@ -375,7 +375,7 @@ fn strict_run_fails_on_warnings_after_writing_everything() {
     assert!(out.join("ball/0003.obj").is_file());
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    let frames = report["frames"].as_array().unwrap();
+    let frames = report["per_frame"].as_array().unwrap();
     assert_eq!(frames.len(), 3);
     assert_eq!(frames[2]["stats"]["warnings"][0]["kind"], "containment");
     assert!(run(&scene, &out, &[]).status.success());
