@@ -295,15 +295,20 @@ fn regression_obj_long_random_faces() {
     assert_eq!(run_case(Target::Obj, &case, dir.path()), Ok(true));
 }
 
-/// Found by `short_ply`: a PLY of 27 vertices and 624 polygons of up to 300 corners (nearly every pair of
-/// faces shares a vertex) kept the first search over the pairs that share none busy skipping
-/// candidates; its corpus file is replayed by `short_ply`, and read here on its own.
+/// Runs the corpus file `name` of `target` as a case.
+fn run_corpus_file(target: Target, name: &str) -> Result<bool, String> {
+    let bytes = std::fs::read(corpus_dir(target).join(name)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let extension = if name.ends_with(".glb") { "glb" } else { target.name() };
+    run_case(target, &Case { extension, bytes, side: None }, dir.path())
+}
+
+/// Found by `short_ply`: a PLY of 27 vertices and 624 polygons of up to 300 corners (nearly
+/// every pair of faces shares a vertex) kept the first search over the pairs that share none
+/// busy skipping candidates; its corpus file is replayed by `short_ply`, and read here alone.
 #[test]
 fn regression_ply_few_vertices_many_faces() {
-    let path = corpus_dir(Target::Ply).join("crash-few-vertices-many-faces.ply");
-    let case = Case { extension: "ply", bytes: std::fs::read(path).unwrap(), side: None };
-    let dir = tempfile::tempdir().unwrap();
-    assert_eq!(run_case(Target::Ply, &case, dir.path()), Ok(true));
+    assert_eq!(run_corpus_file(Target::Ply, "crash-few-vertices-many-faces.ply"), Ok(true));
 }
 
 /// Found by `long_ply` (seed 5078689693977255278): 10 vertices and 35 000 triangles, so that
@@ -312,10 +317,7 @@ fn regression_ply_few_vertices_many_faces() {
 /// Copies are now searched once (they coincide, so they intersect each other).
 #[test]
 fn regression_ply_ten_vertices_books() {
-    let path = corpus_dir(Target::Ply).join("crash-ten-vertices-books.ply");
-    let case = Case { extension: "ply", bytes: std::fs::read(path).unwrap(), side: None };
-    let dir = tempfile::tempdir().unwrap();
-    assert_eq!(run_case(Target::Ply, &case, dir.path()), Ok(true));
+    assert_eq!(run_corpus_file(Target::Ply, "crash-ten-vertices-books.ply"), Ok(true));
 }
 
 /// Found by `long_gltf` (seed 15178484154088650513): a POSITION attribute naming an accessor
