@@ -13,9 +13,9 @@ use squish::stage::PerStage;
 use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
 use squish_render::{Label, rgba8};
 
-use crate::console::say;
+use crate::console::{print_warnings, say};
 use crate::error::CliError;
-use crate::input::{InputMesh, WeldChoice, create_dir, output_stems, write_text};
+use crate::input::{InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text};
 use crate::params::pair_settings;
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::shot::PreviewFrame;
@@ -43,6 +43,10 @@ pub struct ContactArgs {
     pub preview: bool,
     #[command(flatten)]
     pub pictures: PictureArgs,
+    /// Exit with 1 (after writing the outputs) when there is a warning: a contact zone left
+    /// empty while the meshes intersect, a mesh inside the other, a reduced parameter.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 #[derive(Serialize)]
@@ -78,6 +82,7 @@ struct Summary {
     boundary_points: String,
     timings_ms: Timings,
     numerical_fallbacks: usize,
+    warnings: Vec<squish::pipeline::FrameWarning>,
 }
 
 /// The contact stage's times in ms, per stage (its own: intersection, mapping, contact zone), and
@@ -95,7 +100,8 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let mut settings = pair_settings(args.params.as_deref(), &args.sets)?;
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
     settings.complete(&inputs)?;
-    let stems = output_stems(&inputs[0], &inputs[1]);
+    let files = output_stems(&inputs[0], &inputs[1]);
+    let stems = display_names(&files);
     let mut prepared = Vec::new();
     for (input, name) in inputs.iter().zip(&stems) {
         let topology = input.mesh.check_for_deformation().map_err(|e| CliError::input(format!("{name}: {e}")))?;
@@ -125,7 +131,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
             .collect();
         let mut properties = VertexProperty::rgb(&colors);
         properties.push(VertexProperty::int("label", &labels.iter().map(|&k| i32::from(k)).collect::<Vec<_>>()));
-        let path = args.output.join(format!("{}.ply", stems[l]));
+        let path = output_path(&args.output, &files[l], "ply");
         write_ply_with(
             &path,
             &input.file.positions,
@@ -163,6 +169,28 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let points_path = args.output.join("boundary_points.ply");
     write_point_cloud_ply(&points_path, &points, &properties, &PlyWriteOptions::default())?;
 
+    // No edge crosses: one closed mesh may lie inside the other.
+    let contained = if result.intersection_points.is_empty() {
+        let inside = |i: usize| {
+            let other = &prepared[1 - i];
+            other.0.is_closed()
+                && inputs[i]
+                    .mesh
+                    .triangles
+                    .first()
+                    .is_some_and(|t| other.2.contains(inputs[i].mesh.positions[t[0] as usize]))
+        };
+        if inside(0) {
+            Some([0, 1])
+        } else if inside(1) {
+            Some([1, 0])
+        } else {
+            None
+        }
+    } else {
+        None
+    };
+    let warnings = squish::pipeline::pair_warnings(&stems, 0, Some(&result), &settings.pair, contained);
     let [side_a, side_b]: [SideSummary; 2] =
         side_summaries.try_into().map_err(|_| CliError::failure("internal: two sides expected"))?;
     let summary = Summary {
@@ -179,6 +207,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         boundary_points: points_path.display().to_string(),
         timings_ms: Timings { stages: result.stats.timings.millis(), total: result.stats.time.as_secs_f64() * 1e3 },
         numerical_fallbacks: result.stats.fallbacks.numerical(),
+        warnings: warnings.clone(),
     };
     let json_path = args.output.join("contact.json");
     write_text(&json_path, &serde_json::to_string_pretty(&summary)?)?;
@@ -204,7 +233,9 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     } else {
         None
     };
-    if result.is_empty() {
+    if result.is_empty() && !result.intersection_points.is_empty() {
+        say!("the meshes intersect but have no contact zone");
+    } else if result.is_empty() {
         say!("the meshes do not intersect (no contact zone)");
     } else {
         let d = result.direction;
@@ -233,6 +264,10 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     say!("summary: {}", json_path.display());
     if let Some(picture) = picture {
         say!("preview: {}", picture.display());
+    }
+    let count = print_warnings(None, &warnings);
+    if args.strict && count > 0 {
+        return Err(CliError::strict(count));
     }
     Ok(())
 }

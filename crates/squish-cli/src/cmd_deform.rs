@@ -7,10 +7,12 @@ use serde::Serialize;
 use squish::pipeline::{Deformer, Frame, FrameObject, FramePair};
 use squish_io::MeshFormat;
 
-use crate::console::say;
+use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::frame_quality::deepest_penetration;
-use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
+use crate::input::{
+    FormatChoice, InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text,
+};
 use crate::params::{PairSettings, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::report::FrameReport;
@@ -47,6 +49,11 @@ pub struct DeformArgs {
     pub color: ColorMode,
     #[command(flatten)]
     pub pictures: PictureArgs,
+    /// Exit with 1 (after writing the outputs) when there is a warning: a contact zone left
+    /// empty, a mesh inside the other, a reduced parameter, an open mesh without bulge, or a
+    /// penetration deeper than 10% of the input's left.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 #[derive(Serialize)]
@@ -72,7 +79,8 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
     settings.complete(&inputs)?;
     let stems = output_stems(&inputs[0], &inputs[1]);
-    let names = [stems[0].as_str(), stems[1].as_str()];
+    let display = display_names(&stems);
+    let names = [display[0].as_str(), display[1].as_str()];
     let frame = Frame {
         objects: vec![
             FrameObject { name: names[0], mesh: &inputs[0].mesh, params: &settings.a },
@@ -80,23 +88,28 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
         ],
         pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
     };
-    let result = Deformer::new().deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
+    let mut result = Deformer::new().deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
     create_dir(&args.output)?;
     let mut outputs = [String::new(), String::new()];
     let mut deformed = Vec::new();
     for (i, input) in inputs.iter().enumerate() {
         let ext = args.format.map_or(FormatChoice::extension_of(input.format), FormatChoice::extension);
-        let path = args.output.join(format!("{}.{ext}", stems[i]));
+        let path = output_path(&args.output, &stems[i], ext);
         input.write_result(&path, &result.positions[i])?;
         outputs[i] = path.display().to_string();
         deformed.push(result.mesh(&frame, i));
+    }
+    let penetration_before = deepest_penetration(&inputs[0].mesh, &inputs[1].mesh);
+    let penetration_after = deepest_penetration(&deformed[0], &deformed[1]);
+    if let (Some(before), Some(after)) = (penetration_before, penetration_after) {
+        result.stats.note_residual_penetration(0, before, after);
     }
     let report = DeformReport {
         inputs: [args.a.display().to_string(), args.b.display().to_string()],
         outputs: outputs.clone(),
         parameters: Parameters { a: &settings.a, b: &settings.b, pair: &settings.pair },
-        penetration_before: deepest_penetration(&inputs[0].mesh, &inputs[1].mesh),
-        penetration_after: deepest_penetration(&deformed[0], &deformed[1]),
+        penetration_before,
+        penetration_after,
         frame: FrameReport::from(&result.stats),
     };
     let report_path = args.output.join("report.json");
@@ -133,6 +146,8 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
             pair.threshold,
             pair.contact_area
         );
+    } else if pair.intersection_points > 0 {
+        say!("the meshes intersect but have no contact zone: outputs are copies of the inputs");
     } else {
         say!("the meshes do not intersect: outputs are copies of the inputs");
     }
@@ -156,6 +171,10 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     say!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
     if let Some(picture) = picture {
         say!("preview: {}", picture.display());
+    }
+    let warnings = print_warnings(None, &result.stats.warnings);
+    if args.strict && warnings > 0 {
+        return Err(CliError::strict(warnings));
     }
     Ok(())
 }

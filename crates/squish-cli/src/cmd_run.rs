@@ -16,7 +16,7 @@ use serde_json::json;
 use squish_io::Scene;
 use squish_io::scene::{MeshSource, OutputFormat, OutputSpec};
 
-use crate::console::say;
+use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::create_dir;
 use crate::interrupt;
@@ -24,7 +24,7 @@ use crate::preview::{CameraPlacement, ColorMode, PictureArgs, SceneDefaults, UpA
 use crate::quality::write_report;
 use crate::report_parts::{merge_reports, part_file_name};
 use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
-use crate::shot::{ShotFrame, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
 use crate::shot_outputs::ShotOutputs;
 
 #[derive(Args, Debug)]
@@ -57,6 +57,11 @@ pub struct RunArgs {
     /// without computing anything.
     #[arg(long)]
     pub dry_run: bool,
+    /// Exit with 1 (after writing everything) when a frame has a warning: a contact zone left
+    /// empty, a mesh inside another, a reduced parameter, an open mesh without bulge, or a
+    /// penetration deeper than 10% of the input's left.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// `--format` of `squish run`.
@@ -211,6 +216,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         )));
     }
     say!("{}", summary.one_line());
+    let warnings = print_shot_warnings(&outcome);
     for articulation in &summary.articulations {
         say!("  {}", articulation.line());
     }
@@ -221,8 +227,28 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if !previews.is_empty() {
         say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
     }
+    if args.strict && warnings > 0 {
+        return Err(CliError::strict(warnings));
+    }
     Ok(())
 }
+
+/// Prints the shot's warnings, the first [`SHOWN_WARNINGS`] in full; returns how many there are.
+fn print_shot_warnings(outcome: &ShotOutcome) -> usize {
+    let mut count = 0;
+    for record in &outcome.records {
+        let shown = SHOWN_WARNINGS.saturating_sub(count).min(record.stats.warnings.len());
+        print_warnings(Some(record.frame), &record.stats.warnings[..shown]);
+        count += record.stats.warnings.len();
+    }
+    if count > SHOWN_WARNINGS {
+        say!("warning: … and {} more (report.json, frames[].stats.warnings)", count - SHOWN_WARNINGS);
+    }
+    count
+}
+
+/// Warnings of a shot printed in full.
+const SHOWN_WARNINGS: usize = 10;
 
 /// The error for missing sequence files: the first few, with the frame and the expected path.
 fn missing_error(scene: &std::path::Path, missing: &[(String, i64, PathBuf)]) -> CliError {

@@ -357,7 +357,13 @@ fn compute_frame(
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
     let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
-    let record = FrameRecord { frame: f, stats: result.stats, objects, pairs, support };
+    let mut stats = result.stats;
+    for (k, pair) in pairs.iter().enumerate() {
+        if let (Some(before), Some(after)) = (pair.penetration_before, pair.penetration_after) {
+            stats.note_residual_penetration(k, before, after);
+        }
+    }
+    let record = FrameRecord { frame: f, stats, objects, pairs, support };
     let inputs = shot.objects.into_iter().map(|o| o.mesh.positions).collect();
     continuity.add(f, inputs, result.positions);
     Ok(FrameDone { record, preview, kept })
