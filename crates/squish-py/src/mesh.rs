@@ -75,6 +75,31 @@ impl Mesh {
         Ok(Self { mesh })
     }
 
+    /// A sphere of `radius` centred at the origin: an icosahedron subdivided `subdivisions` times
+    /// (0 to 7: 12 to 163 842 vertices), projected onto the sphere.
+    #[staticmethod]
+    #[pyo3(signature = (radius=1.0, subdivisions=3))]
+    fn icosphere(radius: f64, subdivisions: u32) -> PyResult<Self> {
+        if !(radius.is_finite() && radius > 0.0) || subdivisions > 7 {
+            return Err(input_error(format!(
+                "icosphere(radius={radius}, subdivisions={subdivisions}): give a radius > 0 and 0 to 7 subdivisions"
+            )));
+        }
+        Ok(Self { mesh: squish::mesh::shapes::icosphere(radius, subdivisions) })
+    }
+
+    /// A closed box of `size` (x, y, z) centred at the origin, each face an `n` × `n` grid of quads
+    /// split into triangles (n from 1 to 256).
+    #[staticmethod]
+    #[pyo3(signature = (size, n=8))]
+    fn cuboid(size: (f64, f64, f64), n: u32) -> PyResult<Self> {
+        let size = DVec3::new(size.0, size.1, size.2);
+        if !(size.is_finite() && size.min_element() > 0.0) || !(1..=256).contains(&n) {
+            return Err(input_error(format!("cuboid(size={size}, n={n}): give sizes > 0 and n from 1 to 256")));
+        }
+        Ok(Self { mesh: squish::mesh::shapes::cuboid(size, n) })
+    }
+
     fn __repr__(&self) -> String {
         format!("squish.Mesh({} vertices, {} faces)", self.mesh.num_vertices(), self.mesh.num_triangles())
     }

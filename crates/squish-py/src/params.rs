@@ -2,19 +2,22 @@
 //! [`ParamValue`]s, set through [`Params::set`] and checked by [`Params::validate`], so that the
 //! keys, ranges and messages are those of the command line and the scene files.
 //!
-//! Values: `True`/`False`; an int or a float; a word (`"auto"`, `"ball"`, `"inf"`); a sequence or
-//! NumPy array of numbers (a direction `[x, y, z]`, a pair `[a, b]`, one value per vertex).
+//! Values: `True`/`False`; an int or a float; a string, read as `--set` reads its text (`"auto"`,
+//! `"ball"`, `"inf"`, `"0,0,1"`); a sequence or NumPy array of numbers (a direction `[x, y, z]`, a
+//! pair `[a, b]`, one value per vertex).
 //! Errors name the key with its prefix (`a.stiffness`, `pair.contact_tau`), as `--set` does.
 
 use numpy::{PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
-use squish::params::{ParamError, ParamKind, ParamValue, Params, unknown_key};
+use squish::params::{ParamError, ParamInfo, ParamKind, ParamValue, Params, unknown_key};
 
 use crate::errors::parameter_error;
 
-/// A Python value as a parameter value for `info`'s key (the key, prefixed, in errors).
-fn param_value(value: &Bound<'_, PyAny>, key: &str) -> Result<ParamValue, ParamError> {
+/// A Python value as a parameter value for `info`'s key. A string is read as the command line
+/// reads `--set` text ([`ParamInfo::parse`]), with its messages.
+fn param_value(value: &Bound<'_, PyAny>, info: &ParamInfo) -> Result<ParamValue, ParamError> {
+    let key = info.key;
     let wrong = |what: String| ParamError::new(key, None, what);
     if value.is_instance_of::<PyBool>() {
         return Ok(ParamValue::Bool(value.extract::<bool>().map_err(|e| wrong(e.to_string()))?));
@@ -24,18 +27,14 @@ fn param_value(value: &Bound<'_, PyAny>, key: &str) -> Result<ParamValue, ParamE
         return Ok(ParamValue::Number(x));
     }
     if value.is_instance_of::<PyString>() {
-        let word: String = value.extract().map_err(|e: PyErr| wrong(e.to_string()))?;
-        // As in scene files and JSON, where infinity is the word "inf".
-        return Ok(match word.as_str() {
-            "inf" => ParamValue::Number(f64::INFINITY),
-            _ => ParamValue::Word(word),
-        });
+        let text: String = value.extract().map_err(|e: PyErr| wrong(e.to_string()))?;
+        return info.parse(&text).map_err(wrong);
     }
     // NumPy scalars (np.float64, np.int32, np.bool_) convert like Python's.
     if let Ok(item) = value.call_method0("item")
         && !value.hasattr("__len__").unwrap_or(false)
     {
-        return param_value(&item, key);
+        return param_value(&item, info);
     }
     if let Ok(array) = value.extract::<PyReadonlyArray1<'_, f64>>() {
         return Ok(ParamValue::List(array.as_array().to_vec()));
@@ -59,7 +58,7 @@ pub fn apply<P: Params>(params: &mut P, prefix: &str, items: &Bound<'_, PyDict>)
         let Some(info) = P::info(&key) else {
             return Err(parameter_error(unknown_key::<P>(&key).with_prefix(prefix)));
         };
-        let value = param_value(&value, info.key).map_err(|e| parameter_error(e.with_prefix(prefix)))?;
+        let value = param_value(&value, info).map_err(|e| parameter_error(e.with_prefix(prefix)))?;
         params.set(&key, &value).map_err(|e| parameter_error(e.with_prefix(prefix)))?;
     }
     Ok(())
