@@ -4,9 +4,10 @@
 use std::time::Duration;
 
 use serde::Serialize;
-use squish::linalg::FactorizationTiming;
-use squish::pipeline::bench_scenes::{BenchSize, ThesisRow};
-use squish::pipeline::{FrameStats, StageTimes};
+use squish::pipeline::FrameStats;
+use squish::stage::{PerStage, Stage, StageTimes};
+use squish_scenes::bench::{BenchSize, ThesisRow};
+use squish_scenes::timing::FactorizationTiming;
 
 fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
@@ -68,76 +69,28 @@ pub struct ThesisReport {
     pub deformable: [usize; 2],
     /// Average ms per frame of the C++ prototype, one core of an i7-4790K.
     pub ms: f64,
-    /// The row's breakdown in ms (its % of `ms`).
-    pub stages_ms: ThesisStages,
+    /// The row's breakdown in ms (its % of `ms`), per stage; `null` where the table has no
+    /// column (table 7.1 has no factorization column).
+    pub stages_ms: PerStage<Option<f64>>,
 }
 
 impl From<ThesisRow> for ThesisReport {
     fn from(row: ThesisRow) -> Self {
-        let [i, m, c, p, di, g, de] = row.stage_ms();
         Self {
             table: row.table.to_string(),
             scene: row.scene.to_string(),
             working: row.working,
             deformable: row.deformable,
             ms: row.ms,
-            stages_ms: ThesisStages {
-                intersection: Some(i),
-                mapping: Some(m),
-                contact_zone: Some(c),
-                parametrization: Some(p),
-                directions: Some(di),
-                guide: Some(g),
-                deformation: Some(de),
-                factorization: row.factorizations.map(|percent| row.ms * percent / 100.0),
-            },
+            stages_ms: row.stage_ms(),
         }
     }
 }
 
-/// One figure per column of the thesis' tables 7.1–7.2 (`None` where there is none: table 7.1
-/// has no factorization column, and a ratio to a stage the thesis timed at 0 % is undefined).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct ThesisStages {
-    pub intersection: Option<f64>,
-    pub mapping: Option<f64>,
-    pub contact_zone: Option<f64>,
-    pub parametrization: Option<f64>,
-    pub directions: Option<f64>,
-    pub guide: Option<f64>,
-    pub deformation: Option<f64>,
-    /// Part of parametrization, directions and guide.
-    pub factorization: Option<f64>,
-}
-
-impl ThesisStages {
-    /// Our stage times (ms) over the thesis' (ms), column by column.
-    fn ratios(ours: &Breakdown, thesis: &ThesisStages) -> Self {
-        let ratio = |ours: f64, thesis: Option<f64>| thesis.filter(|&t| t > 0.0).map(|t| ours / t);
-        Self {
-            intersection: ratio(ours.intersection, thesis.intersection),
-            mapping: ratio(ours.mapping, thesis.mapping),
-            contact_zone: ratio(ours.contact_zone, thesis.contact_zone),
-            parametrization: ratio(ours.parametrization, thesis.parametrization),
-            directions: ratio(ours.directions, thesis.directions),
-            guide: ratio(ours.guide, thesis.guide),
-            deformation: ratio(ours.deformation, thesis.deformation),
-            factorization: ratio(ours.factorization, thesis.factorization),
-        }
-    }
-
-    fn columns(&self) -> [Option<f64>; 8] {
-        [
-            self.intersection,
-            self.mapping,
-            self.contact_zone,
-            self.parametrization,
-            self.directions,
-            self.guide,
-            self.deformation,
-            self.factorization,
-        ]
-    }
+/// Our stage times (ms) over the thesis' (ms), stage by stage (`None` where the thesis has no
+/// figure, or timed the stage at 0 %).
+fn ratios_to_thesis(ours: &Breakdown, thesis: &PerStage<Option<f64>>) -> PerStage<Option<f64>> {
+    thesis.map(|stage, t| t.filter(|&t| t > 0.0).map(|t| ours.stages[stage] / t))
 }
 
 /// One object of a scene.
@@ -151,76 +104,34 @@ pub struct ObjectReport {
     pub contact_vertices: usize,
 }
 
-/// Stage times in milliseconds, the thesis' columns plus our setup and the remainder.
+/// Stage times in milliseconds: every stage (the thesis' columns, our setup and working regions,
+/// and the nested factorizations and analyses) and the remainder.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Breakdown {
-    pub setup: f64,
-    /// Choosing the working regions and updating their caches (automatic regions follow the
-    /// contact; not a column of the thesis' tables).
-    pub regions: f64,
-    pub intersection: f64,
-    pub mapping: f64,
-    pub contact_zone: f64,
-    pub parametrization: f64,
-    pub directions: f64,
-    pub guide: f64,
-    pub deformation: f64,
-    /// The frame minus the stages above (gathering zones, statistics, copies). Negative in a
-    /// multi-threaded run, whose stage times add up the work of concurrent pairs and objects.
+    #[serde(flatten)]
+    pub stages: PerStage<f64>,
+    /// The frame minus the stages that are spans of their own (gathering zones, statistics,
+    /// copies). Negative in a multi-threaded run, whose stage times add up the work of concurrent
+    /// pairs and objects.
     pub other: f64,
-    /// Of parametrization, directions and guide: numeric factorizations (the thesis' s.).
-    pub factorization: f64,
-    /// Of the factorizations: symbolic analyses of coupled-row submatrices.
-    pub analysis: f64,
 }
 
 impl Breakdown {
     fn new(total: Duration, t: &StageTimes) -> Self {
-        let stages = [
-            t.setup,
-            t.regions,
-            t.intersection,
-            t.mapping,
-            t.contact_zone,
-            t.parametrization,
-            t.directions,
-            t.guide,
-            t.deformation,
-        ];
-        let named: f64 = stages.iter().map(|d| ms(*d)).sum();
-        Self {
-            setup: ms(t.setup),
-            regions: ms(t.regions),
-            intersection: ms(t.intersection),
-            mapping: ms(t.mapping),
-            contact_zone: ms(t.contact_zone),
-            parametrization: ms(t.parametrization),
-            directions: ms(t.directions),
-            guide: ms(t.guide),
-            deformation: ms(t.deformation),
-            other: ms(total) - named,
-            factorization: ms(t.factorization),
-            analysis: ms(t.analysis),
-        }
+        let stages = t.millis();
+        let named: f64 = Stage::spans().map(|s| stages[s]).sum();
+        Self { stages, other: ms(total) - named }
     }
 
-    /// Every field as a percentage of `total_ms`.
+    /// Every figure as a percentage of `total_ms`.
     fn percent_of(&self, total_ms: f64) -> Self {
         let p = |x: f64| if total_ms > 0.0 { 100.0 * x / total_ms } else { 0.0 };
-        Self {
-            setup: p(self.setup),
-            regions: p(self.regions),
-            intersection: p(self.intersection),
-            mapping: p(self.mapping),
-            contact_zone: p(self.contact_zone),
-            parametrization: p(self.parametrization),
-            directions: p(self.directions),
-            guide: p(self.guide),
-            deformation: p(self.deformation),
-            other: p(self.other),
-            factorization: p(self.factorization),
-            analysis: p(self.analysis),
-        }
+        Self { stages: self.stages.map(|_, &x| p(x)), other: p(self.other) }
+    }
+
+    /// The time outside the thesis' columns: our stages it has no column for, and the rest.
+    fn outside_thesis_columns(&self) -> f64 {
+        Stage::spans().filter(|s| !s.in_thesis_tables()).map(|s| self.stages[s]).sum::<f64>() + self.other
     }
 }
 
@@ -239,7 +150,8 @@ pub struct RunReport {
     pub median_frame: usize,
     /// Stages of the median frame.
     pub breakdown_ms: Breakdown,
-    /// The same in % of the median frame (the fields but `factorization` sum to 100).
+    /// The same in % of the median frame (the stages that are not nested, and `other`, sum to
+    /// 100).
     pub breakdown_percent: Breakdown,
     /// Numeric factorizations in the median frame (3 per deformed object: heat, Poisson, guide).
     pub numeric_factorizations_per_frame: usize,
@@ -353,7 +265,7 @@ pub struct SceneReport {
     pub thesis_ratio: Option<f64>,
     /// The single-thread median frame's stages over the thesis' (ms / ms, column by column):
     /// where the time goes compared with the prototype.
-    pub stages_over_thesis: Option<ThesisStages>,
+    pub stages_over_thesis: Option<PerStage<Option<f64>>>,
     /// The part of that frame outside the thesis' columns (setup, working regions, other), ms.
     pub outside_thesis_columns_ms: Option<f64>,
     /// Peak resident memory while the scene ran (see `memory_method`), MB, in the first round.
@@ -438,8 +350,8 @@ impl SceneReport {
         if let Some(single) = &self.single {
             self.thesis_ratio = self.thesis.as_ref().map(|t| single.median_ms / t.ms);
             let ours = &single.breakdown_ms;
-            self.stages_over_thesis = self.thesis.as_ref().map(|t| ThesisStages::ratios(ours, &t.stages_ms));
-            self.outside_thesis_columns_ms = self.thesis.as_ref().map(|_| ours.setup + ours.regions + ours.other);
+            self.stages_over_thesis = self.thesis.as_ref().map(|t| ratios_to_thesis(ours, &t.stages_ms));
+            self.outside_thesis_columns_ms = self.thesis.as_ref().map(|_| ours.outside_thesis_columns());
             self.frame_over_factorization = factorization_ms.map(|f| single.median_ms / f);
         }
         if let Some(multi) = &self.multi {
@@ -623,46 +535,22 @@ pub fn print_table(report: &BenchReport) {
     println!(
         "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions; s. = factorizations, part of p./di./g.; an. = submatrix analyses, part of s.)"
     );
+    // The stages that are spans, `other`, then the nested stages (shares of the spans).
+    let breakdown_columns =
+        || Stage::spans().map(Some).chain([None]).chain(Stage::ALL.into_iter().filter(|s| s.is_nested()).map(Some));
+    let header: String = breakdown_columns().map(|s| format!(" {:>6}", s.map_or("other", Stage::label))).collect();
     println!(
-        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
-        "scene",
-        "setup",
-        "reg.",
-        "i.",
-        "m.",
-        "c.",
-        "p.",
-        "di.",
-        "g.",
-        "de.",
-        "other",
-        "s.",
-        "an.",
-        "fact.",
-        "rows",
-        "recomp.",
-        "symbolic",
-        "sub",
-        "peak MB"
+        "{:<18}{header} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
+        "scene", "fact.", "rows", "recomp.", "symbolic", "sub", "peak MB"
     );
     for scene in &report.scenes {
         let Some(single) = &scene.single else { continue };
         let b = &single.breakdown_percent;
+        let shares: String =
+            breakdown_columns().map(|s| format!(" {:>6.1}", s.map_or(b.other, |s| b.stages[s]))).collect();
         println!(
-            "{:<18} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>5.1} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
+            "{:<18}{shares} {:>6} {:>8} {:>8} {:>9} {:>5} {:>9}",
             scene.name,
-            b.setup,
-            b.regions,
-            b.intersection,
-            b.mapping,
-            b.contact_zone,
-            b.parametrization,
-            b.directions,
-            b.guide,
-            b.deformation,
-            b.other,
-            b.factorization,
-            b.analysis,
             single.numeric_factorizations_per_frame,
             single.factorized_rows_per_frame,
             single.recomputed_rows_per_frame,
@@ -681,19 +569,15 @@ pub fn print_table(report: &BenchReport) {
         "single thread against the thesis, stage by stage: our ms ÷ the thesis' ms (its % × its total; s. = factorizations, \
          part of p./di./g., table 7.2 only; outside = our setup, reg. and other, ms, not in its columns)"
     );
-    println!(
-        "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
-        "scene", "i.", "m.", "c.", "p.", "di.", "g.", "de.", "s.", "outside"
-    );
+    let thesis_columns = || Stage::ALL.into_iter().filter(|s| s.in_thesis_tables());
+    let header: String = thesis_columns().map(|s| format!(" {:>6}", s.label())).collect();
+    println!("{:<18}{header} {:>8}", "scene", "outside");
     for scene in &report.scenes {
         let (Some(ratios), Some(outside)) = (&scene.stages_over_thesis, scene.outside_thesis_columns_ms) else {
             continue;
         };
-        let [i, m, c, p, di, g, de, f] = ratios.columns().map(|r| opt(r, 2));
-        println!(
-            "{:<18} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.2}",
-            scene.name, i, m, c, p, di, g, de, f, outside
-        );
+        let columns: String = thesis_columns().map(|s| format!(" {:>6}", opt(ratios[s], 2))).collect();
+        println!("{:<18}{columns} {outside:>8.2}", scene.name);
     }
     if let Some(speedup) = report.automatic_region_speedup {
         println!();

@@ -1,13 +1,13 @@
 //! `squish bench`: times the whole pipeline on reproducible animated scenes at the sizes of the
 //! thesis' performance tables (ch. 7 §5, tables 7.1–7.3) and compares with the C++ prototype.
 //!
-//! For every scene of [`squish::pipeline::bench_scenes`] (two of them read `bunny_29834.obj` and
+//! For every scene of [`squish_scenes::bench`] (two of them read `bunny_29834.obj` and
 //! `hand_7993.obj` from the data directory and are skipped with a note when it is absent):
 //! - one [`Deformer`] runs a warm-up frame (it builds the caches: topology, trees, symbolic
 //!   analyses) and then `--frames` frames of the animation, reused as an animation would, inside a
 //!   local rayon pool of one thread, then again (fresh deformer) in a pool of `--threads`;
 //! - the median frame time of each run, and the stage breakdown of the single-thread median frame
-//!   (the thesis' columns i., m., c., p., di., g., de., s.), the numeric factorizations of that
+//!   (every [`Stage`](squish::stage::Stage); the thesis' columns i., m., c., p., di., g., de., s.), the numeric factorizations of that
 //!   frame and the rows they ran on (fewer than the regions' sizes when the rows outside 𝒫 or 𝒟
 //!   are decoupled and left out, see [`squish::linalg::NumericFactor`]), and the symbolic
 //!   analyses (the regions' own, and those of coupled-row submatrices);
@@ -33,9 +33,9 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use rayon::prelude::*;
 use squish::Topology;
-use squish::linalg::time_laplacian_factorization;
-use squish::pipeline::bench_scenes::{self, BenchScene, BenchSize};
 use squish::pipeline::{Deformer, FrameStats};
+use squish_scenes::bench::{self as bench_scenes, BenchScene, BenchSize};
+use squish_scenes::timing::time_laplacian_factorization;
 
 use crate::bench_report::{
     BenchReport, FactorizationReport, MachineReport, ObjectReport, RunFigures, RunReport, SceneReport, ShotReport,

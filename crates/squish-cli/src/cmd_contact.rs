@@ -9,6 +9,7 @@ use serde::Serialize;
 use squish::contact::{BoundaryKind, ContactSide, PairContact, contact_pair, debug_export};
 use squish::mesh::{Topology, vertex_normals};
 use squish::spatial::TriangleBvh;
+use squish::stage::PerStage;
 use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
 use squish_render::{Label, rgba8};
 
@@ -90,13 +91,12 @@ pub struct ContactFigures {
     numerical_fallbacks: usize,
 }
 
+/// The contact stage's times in ms, per stage (its own: intersection, mapping, contact zone), and
+/// the whole call.
 #[derive(Clone, Debug, Serialize)]
 struct Timings {
-    intersection: f64,
-    direction: f64,
-    mapping: f64,
-    surface: f64,
-    zone: f64,
+    #[serde(flatten)]
+    stages: PerStage<f64>,
     total: f64,
 }
 
@@ -154,8 +154,6 @@ pub fn define_contact(
             boundary_points.push((p.position.to_array(), kind, l as i32));
         }
     }
-    let t = &result.stats.timings;
-    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     let figures = ContactFigures {
         mapping_direction: result.direction.to_array(),
         direction_automatic: matches!(result.direction_source, squish::contact::DirectionSource::Automatic),
@@ -166,14 +164,7 @@ pub fn define_contact(
         contact_area_on_surface: result.contact_area,
         intersection_points: result.intersection_points.iter().map(|p| p.position.to_array()).collect(),
         sides,
-        timings_ms: Timings {
-            intersection: ms(t.intersection),
-            direction: ms(t.direction),
-            mapping: ms(t.mapping),
-            surface: ms(t.surface),
-            zone: ms(t.zone),
-            total: ms(t.total),
-        },
+        timings_ms: Timings { stages: result.stats.timings.millis(), total: result.stats.time.as_secs_f64() * 1e3 },
         numerical_fallbacks: result.stats.fallbacks.numerical(),
     };
     let [labels_a, labels_b] = debug.map(|d| d.labels);

@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult};
-use squish::spatial;
 use squish_io::MeshFormat;
 
 use crate::console::say;
 use crate::error::CliError;
+use crate::frame_quality::deepest_penetration;
 use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
 use crate::params::{PairSettings, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
@@ -100,13 +100,6 @@ pub fn deform_pair(
         frame: FrameReport::from(&result.stats),
     };
     Ok((result, figures))
-}
-
-/// Deepest penetration of either closed mesh into the other, or `None` if one is open.
-pub fn deepest_penetration(a: &squish::TriMesh, b: &squish::TriMesh) -> Option<f64> {
-    let ab = spatial::penetration_depths(a, b).ok()?;
-    let ba = spatial::penetration_depths(b, a).ok()?;
-    Some(ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d)))
 }
 
 pub fn run(args: &DeformArgs) -> Result<(), CliError> {

@@ -23,9 +23,9 @@ use squish::ObjectParams;
 use squish::PairParams;
 use squish::mesh::shapes;
 use squish::pipeline::FramePair;
-use squish::pipeline::scenes::{self, ProceduralScene, SceneObject};
 use squish_io::scene::{OutputFormat, OutputSpec};
 use squish_render::vstack;
+use squish_scenes::procedural::{self as scenes, ProceduralScene, SceneObject};
 
 use crate::console::say;
 use crate::error::CliError;

@@ -25,6 +25,7 @@ pub mod cmd_params;
 pub mod cmd_run;
 mod console;
 pub mod error;
+pub mod frame_quality;
 pub mod input;
 pub mod interrupt;
 pub mod params;

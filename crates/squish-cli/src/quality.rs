@@ -13,167 +13,17 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+use std::time::Duration;
 
-use glam::DVec3;
 use serde::Serialize;
-use squish::pipeline::FrameResult;
-use squish::spatial::TriangleBvh;
-use squish::{Topology, TriMesh};
+use squish::stage::Stage;
 use squish_render::{Plot, Series, encode_png, grid, plot_image, svg_line_plot};
 
 use crate::error::CliError;
+use crate::frame_quality::{ObjectQuality, PairQuality};
 use crate::input::{write_bytes, write_text};
 use crate::report::FrameReport;
-use crate::shot::{FrameRecord, ShotFrame, ShotOutcome};
-
-/// Figures of one object at one frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ObjectQuality {
-    pub name: String,
-    /// True if the object was deformed at this frame.
-    pub deformed: bool,
-    /// (V_after − V_before) / |V_before|.
-    pub relative_volume_change: f64,
-    /// Largest contact area of the object's pairs (on the potential contact surface).
-    pub contact_area: f64,
-    /// Largest vertex displacement from this frame's input.
-    pub max_deformation: f64,
-    /// Largest vertex displacement from the previous frame's output (`None` for the first frame
-    /// of the range, or after a frame that was not computed).
-    pub output_step: Option<f64>,
-    /// Largest vertex displacement of the input from the previous frame's input.
-    pub input_step: Option<f64>,
-    /// `output_step / input_step` (`None` when the input did not move).
-    pub step_ratio: Option<f64>,
-}
-
-impl ObjectQuality {
-    /// Sets the frame-to-frame steps.
-    pub fn set_steps(&mut self, output: f64, input: f64) {
-        self.output_step = Some(output);
-        self.input_step = Some(input);
-        self.step_ratio = (input > 0.0).then(|| output / input);
-    }
-}
-
-/// Figures of one pair at one frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PairQuality {
-    pub objects: [String; 2],
-    pub in_contact: bool,
-    /// Area of the contact zone on the potential contact surface.
-    pub contact_area: f64,
-    /// Deepest vertex of either mesh inside the other, before (input) and after (output); `None`
-    /// when a mesh is not closed (inside is undefined).
-    pub penetration_before: Option<f64>,
-    pub penetration_after: Option<f64>,
-    /// `penetration_after / penetration_before` (`None` when there was no penetration).
-    pub penetration_ratio: Option<f64>,
-}
-
-/// What measuring a frame reuses from the previous frames a worker measured: per object,
-/// whether it is closed and triangle trees over its input and its output, refitted to each
-/// frame's positions (rebuilding two trees per object and frame would cost as much as a third
-/// of the deformation itself).
-#[derive(Default)]
-pub struct MeasureCache {
-    objects: Vec<Option<ObjectTrees>>,
-}
-
-struct ObjectTrees {
-    triangles: Vec<[u32; 3]>,
-    closed: bool,
-    input: TriangleBvh,
-    output: TriangleBvh,
-}
-
-impl MeasureCache {
-    /// Trees of object `i` over `input` and `output` positions; `None` for an open mesh (no
-    /// inside, no penetration) or a mesh the trees cannot be built for.
-    fn trees(&mut self, i: usize, mesh: &TriMesh, output: &[DVec3]) -> Option<&ObjectTrees> {
-        if self.objects.len() <= i {
-            self.objects.resize_with(i + 1, || None);
-        }
-        let slot = &mut self.objects[i];
-        let reusable = slot.as_ref().is_some_and(|t| t.triangles == mesh.triangles);
-        if reusable {
-            let trees = slot.as_mut()?;
-            if trees.closed && (trees.input.refit(&mesh.positions).is_err() || trees.output.refit(output).is_err()) {
-                *slot = None;
-                return None;
-            }
-        } else {
-            let closed = Topology::new(mesh).is_closed();
-            let output_mesh = TriMesh { positions: output.to_vec(), triangles: mesh.triangles.clone() };
-            let (input, output) = (TriangleBvh::new(mesh).ok()?, TriangleBvh::new(&output_mesh).ok()?);
-            *slot = Some(ObjectTrees { triangles: mesh.triangles.clone(), closed, input, output });
-        }
-        slot.as_ref().filter(|t| t.closed)
-    }
-}
-
-/// Deepest vertex of either point set inside the other tree's closed mesh.
-fn deepest(a: &[DVec3], tree_a: &TriangleBvh, b: &[DVec3], tree_b: &TriangleBvh) -> f64 {
-    if !tree_a.bounds().intersects(&tree_b.bounds()) {
-        return 0.0;
-    }
-    tree_b.penetration_depths(a).into_iter().chain(tree_a.penetration_depths(b)).fold(0.0, f64::max)
-}
-
-/// The quality figures of a computed frame (steps are filled in later, see `shot`).
-pub fn measure(
-    shot: &ShotFrame,
-    result: &FrameResult,
-    cache: &mut MeasureCache,
-) -> (Vec<ObjectQuality>, Vec<PairQuality>) {
-    let stats = &result.stats;
-    let mut area = vec![0.0f64; shot.objects.len()];
-    let mut pairs = Vec::with_capacity(shot.pairs.len());
-    for (pair, pair_stats) in shot.pairs.iter().zip(&stats.pairs) {
-        let [a, b] = pair.objects;
-        for &i in &pair.objects {
-            area[i] = area[i].max(pair_stats.contact_area);
-        }
-        let (mesh_a, mesh_b) = (&shot.objects[a].mesh, &shot.objects[b].mesh);
-        let (out_a, out_b) = (&result.positions[a], &result.positions[b]);
-        let closed_a = cache.trees(a, mesh_a, out_a).is_some();
-        let closed_b = cache.trees(b, mesh_b, out_b).is_some();
-        let (before, after) = match (closed_a, closed_b, &cache.objects[a], &cache.objects[b]) {
-            (true, true, Some(ta), Some(tb)) => (
-                Some(deepest(&mesh_a.positions, &ta.input, &mesh_b.positions, &tb.input)),
-                Some(deepest(out_a, &ta.output, out_b, &tb.output)),
-            ),
-            _ => (None, None),
-        };
-        pairs.push(PairQuality {
-            objects: pair_stats.objects.clone(),
-            in_contact: pair_stats.in_contact,
-            contact_area: pair_stats.contact_area,
-            penetration_before: before,
-            penetration_after: after,
-            penetration_ratio: match (before, after) {
-                (Some(b), Some(a)) if b > 0.0 => Some(a / b),
-                _ => None,
-            },
-        });
-    }
-    let objects = stats
-        .objects
-        .iter()
-        .zip(&area)
-        .map(|(o, &contact_area)| ObjectQuality {
-            name: o.name.clone(),
-            deformed: o.deformed,
-            relative_volume_change: o.relative_volume_change,
-            contact_area,
-            max_deformation: o.max_displacement,
-            output_step: None,
-            input_step: None,
-            step_ratio: None,
-        })
-        .collect();
-    (objects, pairs)
-}
+use crate::shot::{FrameRecord, ShotOutcome};
 
 /// Figures of one articulation (`[[objects.self_contact]]`) at one frame.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -699,7 +549,7 @@ pub fn quality_plots(records: &[FrameRecord]) -> Vec<Plot> {
         .first()
         .map(|r| r.pairs.iter().map(|p| format!("{}/{}", p.objects[0], p.objects[1])).collect())
         .unwrap_or_default();
-    let per_object = |value: &dyn Fn(&crate::quality::ObjectQuality) -> Option<f64>| -> Vec<Series> {
+    let per_object = |value: &dyn Fn(&ObjectQuality) -> Option<f64>| -> Vec<Series> {
         names
             .iter()
             .enumerate()
@@ -738,6 +588,12 @@ pub fn quality_plots(records: &[FrameRecord]) -> Vec<Plot> {
         p
     };
     let times = records.iter().map(|r| (r.frame as f64, r.stats.total.as_secs_f64() * 1e3)).collect();
+    // The frame, then each stage that is a span of its own and took time in some frame.
+    let stage_series =
+        Stage::spans().filter(|&s| records.iter().any(|r| r.stats.stages[s] > Duration::ZERO)).map(|s| {
+            let points = records.iter().map(|r| (r.frame as f64, r.stats.stages[s].as_secs_f64() * 1e3)).collect();
+            Series::new(s.name(), points)
+        });
     vec![
         plot(
             "relative volume change",
@@ -747,7 +603,7 @@ pub fn quality_plots(records: &[FrameRecord]) -> Vec<Plot> {
         plot("residual penetration / input penetration", "ratio", per_pair(&|p| p.penetration_ratio)),
         plot("frame-to-frame step: output / input", "ratio", per_object(&|o| o.step_ratio)),
         plot("contact area", "area", per_pair(&|p| Some(p.contact_area))),
-        plot("time per frame", "ms", vec![Series::new("frame", times)]),
+        plot("time per frame", "ms", std::iter::once(Series::new("frame", times)).chain(stage_series).collect()),
     ]
 }
 
@@ -805,44 +661,6 @@ mod tests {
         );
         assert!(t.line().contains("ground") && t.line().contains("widen `region`"), "{}", t.line());
         assert!(TightRegionSummary::of(&records[..1]).is_empty());
-    }
-
-    #[test]
-    fn step_ratio_is_undefined_for_a_still_input() {
-        let mut o = ObjectQuality {
-            name: "a".into(),
-            deformed: true,
-            relative_volume_change: 0.0,
-            contact_area: 0.0,
-            max_deformation: 0.0,
-            output_step: None,
-            input_step: None,
-            step_ratio: None,
-        };
-        o.set_steps(0.2, 0.1);
-        assert_eq!(o.step_ratio, Some(2.0));
-        o.set_steps(0.2, 0.0);
-        assert_eq!(o.step_ratio, None);
-    }
-
-    #[test]
-    fn penetrations_match_the_direct_measure_with_reused_trees() {
-        use squish::mesh::shapes;
-        let mut cache = MeasureCache::default();
-        let a = shapes::icosphere(1.0, 2);
-        let mut b = a.clone();
-        for depth in [0.3, 0.5, -0.1] {
-            b.positions = a.positions.iter().map(|p| *p + DVec3::new(0.0, 0.0, 2.0 - depth)).collect();
-            let direct = crate::cmd_deform::deepest_penetration(&a, &b).unwrap();
-            let ta = cache.trees(0, &a, &a.positions).map(|t| t.input.clone()).unwrap();
-            let tb = cache.trees(1, &b, &b.positions).map(|t| t.input.clone()).unwrap();
-            let cached = deepest(&a.positions, &ta, &b.positions, &tb);
-            assert_eq!(cached, direct, "depth {depth}");
-        }
-        // An open mesh has no inside.
-        let mut open = a.clone();
-        open.triangles.pop();
-        assert!(cache.trees(2, &open, &open.positions).is_none());
     }
 
     #[test]

@@ -28,8 +28,8 @@ use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, Fra
 use squish::{ObjectParams, TriMesh};
 
 use crate::error::CliError;
+use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
 use crate::interrupt::Interrupt;
-use crate::quality::{self, MeasureCache, ObjectQuality, PairQuality};
 
 /// An object of one frame, owned.
 #[derive(Clone, Debug)]
@@ -350,9 +350,10 @@ fn compute_frame(
     write: &FrameWriter,
 ) -> Result<FrameDone, CliError> {
     let shot = source.frame(f)?;
-    let result = worker.deformer.deform(&shot.frame()).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
+    let frame = shot.frame();
+    let result = worker.deformer.deform(&frame).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
     write(f, &shot, &result.positions)?;
-    let record = frame_record(f, &shot, &result, &mut worker.measure);
+    let record = frame_record(f, &frame, &result, &mut worker.measure);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
     let inputs = shot.objects.into_iter().map(|o| o.mesh.positions).collect();
@@ -362,8 +363,8 @@ fn compute_frame(
 
 /// The figures of computed frame `frame` (its frame-to-frame steps, which need its neighbours,
 /// are left unset); `measure` keeps the quality measure's trees for the next frames.
-pub fn frame_record(frame: i64, shot: &ShotFrame, result: &FrameResult, measure: &mut MeasureCache) -> FrameRecord {
-    let (objects, pairs) = quality::measure(shot, result, measure);
+pub fn frame_record(frame: i64, shot: &Frame, result: &FrameResult, measure: &mut MeasureCache) -> FrameRecord {
+    let (objects, pairs) = frame_quality::measure(shot, result, measure);
     let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
     FrameRecord { frame, stats: result.stats.clone(), objects, pairs, support }
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use serde_json::Value;
+use squish::stage::Stage;
 
 /// Every row of the table, in order.
 const SCENES: [&str; 12] = [
@@ -81,17 +82,7 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
         let single = &scene["single"];
         let total = number(&single["median_ms"], "median_ms");
         let b = &single["breakdown_ms"];
-        let stages = [
-            "setup",
-            "regions",
-            "intersection",
-            "mapping",
-            "contact_zone",
-            "parametrization",
-            "directions",
-            "guide",
-            "deformation",
-        ];
+        let stages: Vec<&str> = Stage::spans().map(Stage::name).collect();
         let named: f64 = stages.iter().map(|k| number(&b[*k], k)).sum();
         assert!(stages.iter().all(|k| number(&b[*k], k) >= 0.0), "{name}: {b}");
         assert!(named <= total * 1.001 + 1e-6, "{name}: stages {named} ms > frame {total} ms");
@@ -116,8 +107,8 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
             assert!(number(&scene["thesis_ratio"], "thesis ratio") > 0.0, "{name}");
             // Stage by stage: our median frame's ms over the thesis' ms (its % of its total), in
             // the thesis' columns (ours but setup and regions) and its factorization column.
-            let thesis_columns = &stages[2..];
-            let columns = thesis_columns.iter().copied().chain(["factorization"]);
+            let thesis_columns: Vec<&str> = Stage::spans().filter(|s| s.in_thesis_tables()).map(Stage::name).collect();
+            let columns = thesis_columns.iter().copied().chain([Stage::Factorization.name()]);
             let thesis_stages = &thesis["stages_ms"];
             let ratios = &scene["stages_over_thesis"];
             let thesis_sum: f64 = thesis_columns.iter().map(|k| number(&thesis_stages[*k], k)).sum();
@@ -135,7 +126,8 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
                 }
             }
             let outside =
-                number(&b["setup"], "setup") + number(&b["regions"], "regions") + number(&b["other"], "other");
+                Stage::spans().filter(|s| !s.in_thesis_tables()).map(|s| number(&b[s.name()], s.name())).sum::<f64>()
+                    + number(&b["other"], "other");
             let reported = number(&scene["outside_thesis_columns_ms"], "outside");
             assert!((reported - outside).abs() <= 1e-9 * outside.abs().max(1.0), "{name}");
         }

@@ -15,7 +15,8 @@ use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
 use squish::params::Articulation;
 use squish_cli::params::PairSettings;
-use squish_cli::quality::{FrameEntry, MeasureCache};
+use squish_cli::frame_quality::MeasureCache;
+use squish_cli::quality::FrameEntry;
 use squish_cli::shot::{ShotFrame, ShotObject, frame_record, worker_pool};
 
 use crate::errors::{cli_error, input_error, parameter_error, pipeline_error, to_python};
@@ -283,8 +284,9 @@ impl Frame {
         let shot = &self.frame;
         let (result, record) = py.detach(|| {
             pool.install(|| {
-                let result = Deformer::new().deform(&shot.frame())?;
-                let record = frame_record(0, shot, &result, &mut MeasureCache::default());
+                let frame = shot.frame();
+                let result = Deformer::new().deform(&frame)?;
+                let record = frame_record(0, &frame, &result, &mut MeasureCache::default());
                 Ok::<_, squish::pipeline::PipelineError>((result, record))
             })
         })

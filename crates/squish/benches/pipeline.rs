@@ -17,17 +17,15 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use squish::PairParams;
-use squish::contact::intersect::intersect;
-use squish::contact::mapping::map_regions;
-use squish::contact::{ContactSide, contact_pair};
-use squish::deform::direction_field::{DirectionParams, direction_field};
-use squish::deform::guide::{GuideParams, guide_fields};
-use squish::deform::parametrize::{ParametrizeParams, parametrize};
-use squish::deform::{ContactSet, RegionSolver, deform_region};
+use squish::contact::{ContactSide, contact_pair, intersect, map_regions};
+use squish::deform::{
+    ContactSet, DirectionParams, GuideParams, ParametrizeParams, RegionSolver, deform_region, direction_field,
+    guide_fields, parametrize,
+};
 use squish::mesh::{Topology, TriMesh, edge_path_distance_bound, edge_path_distance_field, vertex_normals};
 use squish::pipeline::Deformer;
-use squish::pipeline::bench_scenes::{self, BenchScene, BenchSize};
 use squish::spatial::TriangleBvh;
+use squish_scenes::bench::{self as bench_scenes, BenchScene, BenchSize};
 
 /// What the contact stages need about one object.
 struct Side {

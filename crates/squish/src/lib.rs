@@ -29,6 +29,7 @@ pub mod params;
 pub mod pipeline;
 pub mod skinning;
 pub mod spatial;
+pub mod stage;
 
 pub use glam::DVec3;
 pub use mesh::{MeshError, SubMesh, Topology, TriMesh};

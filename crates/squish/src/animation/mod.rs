@@ -5,7 +5,7 @@
 //! This is the skeletal side of the "skinning" input of the pipeline (thesis §2.3.1 and ch. 6):
 //! a frame of an animated character is obtained by evaluating a clip at a time, composing the
 //! node transforms from the roots down, and skinning the rest mesh with
-//! [`crate::skinning::lbs`]. Everything here is pure computation in `f64`; file formats (glTF)
+//! [`crate::skinning::linear_blend_skinning`]. Everything here is pure computation in `f64`; file formats (glTF)
 //! live in `squish-io`, which converts into these types.
 //!
 //! Conventions follow glTF 2.0 (so that files convert without reinterpretation):

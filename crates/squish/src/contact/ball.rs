@@ -593,6 +593,7 @@ mod tests {
     use super::*;
     use crate::mesh::{TriMesh, shapes};
     use crate::params::PairParams;
+    use crate::stage::Stage;
     use std::time::Instant;
 
     fn ball(r: f64) -> PairParams {
@@ -844,18 +845,18 @@ mod tests {
                     let start = Instant::now();
                     let contact = run(&sphere, &grid, &ball(r));
                     best = best.min(start.elapsed().as_secs_f64());
-                    zone_time = zone_time.min(contact.stats.timings.zone.as_secs_f64());
+                    zone_time = zone_time.min(contact.stats.timings[Stage::ContactZone].as_secs_f64());
                     last = Some(contact);
                 }
                 let contact = last.unwrap();
                 let geometric = {
                     let start = Instant::now();
                     let c = run(&sphere, &grid, &PairParams::default());
-                    (start.elapsed().as_secs_f64(), c.stats.timings.zone.as_secs_f64())
+                    (start.elapsed().as_secs_f64(), c.stats.timings[Stage::ContactZone].as_secs_f64())
                 };
                 println!(
                     "r_s = {r}: {} grid vertices, ℳ {} vertices, 𝒞 {} vertices / {} boundary points: contact_pair \
-                     {:.1} ms, of which ball testing + sliding {:.1} ms (geometric criterion: {:.1} ms, zone stage \
+                     {:.1} ms, of which surface, ball testing and sliding {:.1} ms (geometric criterion: {:.1} ms, surface and zones \
                      {:.2} ms)",
                     grid.mesh.num_vertices(),
                     contact.stats.counts.mapping_vertices[1],

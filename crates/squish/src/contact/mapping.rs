@@ -52,7 +52,7 @@ pub enum MatchKind {
     Chord,
     /// Fallback: the line missed the other mesh; closest point instead.
     Closest,
-    /// Shared-parametrization mapping (§4.2.1, [`super::uv_mapping`]): located in the other
+    /// Shared-parametrization mapping (§4.2.1, [`super::map_regions_uv`]): located in the other
     /// mesh's UV space, or an intersection point (known on both meshes).
     Parametric,
 }
@@ -132,7 +132,7 @@ pub struct MappingStats {
     /// then be cut by the working region).
     pub border_vertices: usize,
     /// Vertices removed from ℳ because another part of their own mesh hides them from the other
-    /// object along the mapping direction (see [`visible_part`]).
+    /// object along the mapping direction (the visibility test of the mapping regions).
     pub occluded_vertices: usize,
 }
 

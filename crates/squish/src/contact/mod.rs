@@ -8,17 +8,22 @@
 //! goes on the potential contact surface 𝒮 with the normal of 𝒮 there, and the direction along
 //! which that side is displaced.
 //!
-//! One module per stage, in pipeline order (each cites its section and states its decisions):
-//! - [`intersect`]: edge/face intersection points, tags, flood fill → ℐ_a, ℐ_b (§4.1);
-//! - [`direction`]: mapping direction d̂ from normal integrals over ℐ (§4.2.2, Eq. 4.1, App. A);
-//! - [`mapping`]: front-facing regions ℬ, projected regions 𝒫, mapping regions ℳ and the
+//! One private module per step, in pipeline order (each cites its section and states its
+//! decisions), reached through the functions below:
+//! - [`intersect()`]: edge/face intersection points, tags, flood fill → ℐ_a, ℐ_b (§4.1);
+//! - [`direction_from_points`], [`direction_from_stats`]: mapping direction d̂ from normal
+//!   integrals over ℐ (§4.2.2, Eq. 4.1, App. A);
+//! - [`map_regions`]: front-facing regions ℬ, projected regions 𝒫, mapping regions ℳ and the
 //!   farthest-hit matches along ±d̂ (§4.2.2);
-//! - [`surface`]: the potential contact surface 𝒮, p′ and n′ (§4.3);
-//! - [`zone`]: the threshold ε_c and the contact zones 𝒞 with exact boundary points (§4.4.2);
-//! - method A's alternatives, chosen in [`PairParams`]: [`uv_mapping`], the shared-parametrization
-//!   mapping (§4.2.1), and [`ball`], ball testing and sliding (§4.4.1, rigid–elastic pairs);
-//! - [`pair`]: [`contact_pair`], which runs them all for a pair and returns a [`PairContact`];
-//! - [`export`]: per-vertex labels and boundary points for debugging.
+//! - [`side_surface`]: the potential contact surface 𝒮, p′ and n′ (§4.3);
+//! - [`extract_zone`]: the threshold ε_c ([`criterion`]) and the contact zones 𝒞 with exact
+//!   boundary points (§4.4.2);
+//! - method A's alternatives, chosen in [`PairParams`](crate::params::PairParams): [`map_regions_uv`], the
+//!   shared-parametrization mapping (§4.2.1), and [`ball_zone`], ball testing and sliding (§4.4.1,
+//!   rigid–elastic pairs);
+//! - [`contact_pair`], which runs them all for a pair and returns a [`PairContact`] with the
+//!   stage times ([`ContactStats`]);
+//! - [`debug_export`]: per-vertex labels and boundary points for debugging.
 //!
 //! ```
 //! use squish::contact::{contact_pair, ContactSide, Stiffness};
@@ -41,38 +46,38 @@
 //! assert!(!contact.sides[1].zone.is_empty());
 //! ```
 
-mod region;
-
-pub mod ball;
-pub mod direction;
-pub mod export;
-pub mod intersect;
-pub mod mapping;
-pub mod pair;
-pub mod surface;
-pub mod uv_mapping;
-pub mod zone;
-
+mod ball;
+mod direction;
 mod error;
+mod export;
+mod intersect;
+mod mapping;
+mod pair;
+mod region;
 mod stiffness;
+mod surface;
+mod uv_mapping;
+mod zone;
 
 #[cfg(test)]
 mod acceptance;
 #[cfg(test)]
 mod test_support;
 
-pub use direction::{DirectionSource, NormalStats};
+pub use ball::{BallSetup, BallStats, BallZone, ball_zone};
+pub use direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
 pub use error::ContactError;
-pub use export::{BoundaryKind, DebugPoint, DebugSide, debug_export};
-pub use intersect::{IntersectionPoint, IntersectionStats};
-pub use mapping::{MappingStats, Match, MatchKind, SideMapping};
-pub use pair::{
-    ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, StageTimings, contact_pair,
+pub use export::{
+    BoundaryKind, DebugPoint, DebugSide, LABEL_CONTACT, LABEL_INTERSECTION, LABEL_MAPPING, LABEL_OUTSIDE, debug_export,
 };
+pub use intersect::{Intersection, IntersectionPoint, IntersectionStats, intersect};
+pub use mapping::{MappingStats, Match, MatchKind, NO_SLOT, SideMapping, map_regions};
+pub use pair::{ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, contact_pair};
 pub use region::{EdgeRegion, Sample};
 pub use stiffness::{Stiffness, relative_stiffness};
-pub use surface::{SideSurface, SurfaceSample};
-pub use zone::CriterionStats;
+pub use surface::{SideSurface, SurfaceSample, side_surface};
+pub use uv_mapping::{SharedParametrization, SideParametrization, map_regions_uv};
+pub use zone::{CriterionStats, ZoneResult, ZoneSetup, criterion, extract_zone};
 
 use glam::DVec3;
 

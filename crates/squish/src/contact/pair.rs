@@ -33,6 +33,7 @@ use super::{ContactError, ContactZone, EdgeRegion};
 use crate::mesh::{Topology, TriMesh};
 use crate::params::{MappingMethod, PairParams, Params};
 use crate::spatial::TriangleBvh;
+use crate::stage::{Stage, StageTimes};
 
 /// One side of a pair: a working region and what the contact definition needs about it.
 #[derive(Clone, Copy, Debug)]
@@ -204,17 +205,6 @@ impl SideContact {
     }
 }
 
-/// Wall-clock time of each stage.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct StageTimings {
-    pub intersection: Duration,
-    pub direction: Duration,
-    pub mapping: Duration,
-    pub surface: Duration,
-    pub zone: Duration,
-    pub total: Duration,
-}
-
 /// Sizes of the regions, per side [a, b].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ContactCounts {
@@ -248,7 +238,11 @@ impl ContactFallbacks {
 /// Figures of one run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactStats {
-    pub timings: StageTimings,
+    /// Wall-clock time of each stage: [`Stage::Intersection`], [`Stage::Mapping`] (direction and
+    /// mapping regions) and [`Stage::ContactZone`] (potential contact surface and zones).
+    pub timings: StageTimes,
+    /// Wall-clock time of the whole call.
+    pub time: Duration,
     pub counts: ContactCounts,
     pub fallbacks: ContactFallbacks,
 }
@@ -318,13 +312,13 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
 
     let t = Instant::now();
     let inter = intersect(&a, &b)?;
-    stats.timings.intersection = t.elapsed();
+    stats.timings[Stage::Intersection] = t.elapsed();
     stats.fallbacks.intersection = inter.stats;
     stats.counts.intersection_points = inter.points.len();
     if inter.points.is_empty() {
         let direction = user_direction.unwrap_or(DVec3::ZERO);
         let source = if user_direction.is_some() { DirectionSource::User } else { DirectionSource::None };
-        stats.timings.total = start.elapsed();
+        stats.time = start.elapsed();
         return Ok(PairContact {
             direction,
             direction_source: source,
@@ -355,7 +349,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             )?,
         },
     };
-    stats.timings.direction = t.elapsed();
+    stats.timings[Stage::Mapping] = t.elapsed();
 
     let t = Instant::now();
     let (mappings, mapping_stats, shared) = match params.mapping {
@@ -368,7 +362,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             (mappings, stats, Some(shared))
         }
     };
-    stats.timings.mapping = t.elapsed();
+    stats.timings[Stage::Mapping] += t.elapsed();
     stats.fallbacks.mapping = mapping_stats;
 
     let t = Instant::now();
@@ -384,7 +378,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     if let Some(max) = params.max_contact_threshold {
         crit.threshold = crit.threshold.min(max);
     }
-    stats.timings.surface = t.elapsed();
+    stats.timings[Stage::ContactZone] = t.elapsed();
 
     let t = Instant::now();
     let cos_guard = params.safeguard_cosine();
@@ -430,7 +424,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             zones
         }
     };
-    stats.timings.zone = t.elapsed();
+    stats.timings[Stage::ContactZone] += t.elapsed();
 
     let [ma, mb] = mappings;
     let [sa, sb] = surfaces;
@@ -468,7 +462,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         stats.counts.zone_vertices[l] = s.zone.region.num_inside();
         stats.counts.zone_boundary_points[l] = s.zone.region.points().len();
     }
-    stats.timings.total = start.elapsed();
+    stats.time = start.elapsed();
     Ok(PairContact {
         direction,
         direction_source,

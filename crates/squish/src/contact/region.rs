@@ -32,9 +32,8 @@ use crate::mesh::{Topology, TriMesh};
 const NO_POINT: u32 = u32::MAX;
 
 /// [`EdgeRegion::from_inside`] finds the boundary edges from the inside vertices' edges when
-/// fewer than one vertex in this many is inside, else by scanning every edge of the mesh.
-/// (Measured on spheres of 2.5k and 10k vertices: 2.3–2.5× faster for caps of 1–4% of the
-/// vertices, even at 12%, 1.3× slower at 25%.)
+/// fewer than one vertex in this many is inside, else by scanning every edge of the mesh (the
+/// break-even point, measured: `docs/speed.md`).
 const SPARSE_REGION_FRACTION: usize = 8;
 
 /// A corner of a region piece: a mesh vertex inside the region, or one of its boundary points.

@@ -47,7 +47,7 @@ pub struct CriterionStats {
     pub threshold: f64,
     /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without
     /// penetration): continuous, and 0 when the contact starts. Computed only for a pair with a
-    /// threshold floor ([`super::PairParams::contact_threshold_floor`]), 0 otherwise.
+    /// threshold floor ([`crate::params::PairParams::contact_threshold_floor`]), 0 otherwise.
     pub penetration: f64,
 }
 
@@ -94,7 +94,7 @@ pub fn criterion(
 }
 
 /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without penetration),
-/// for [`super::PairParams::contact_threshold_floor`].
+/// for [`crate::params::PairParams::contact_threshold_floor`].
 pub fn typical_penetration(sides: [&ContactSide; 2], mappings: [&SideMapping; 2], surfaces: [&SideSurface; 2]) -> f64 {
     let (mut first, mut second) = (0.0, 0.0);
     for l in 0..2 {

@@ -33,13 +33,14 @@
 //!   vanishes at the crease and d falls back to the normal there.
 //!
 //! Method A's field (§5.2.1: tangent-space diffusion with parallel transport) is
-//! [`DirectionFieldMethod::ParallelTransport`], computed by [`super::transport`]; with it the
+//! [`DirectionFieldMethod::ParallelTransport`], computed by [`transport_field`]; with it the
 //! result's `mapping` holds the tangent parts B_i d̄_i and `boundary` the target directions at ∂𝒞.
 
 use glam::DVec3;
 
 use super::contact_set::ContactSet;
 use super::parametrize::Parametrization;
+use super::transport::{TransportField, transport_field};
 use super::{DeformError, RegionSolver};
 use crate::linalg::RightHandSide;
 use crate::mesh::TriMesh;
@@ -75,6 +76,20 @@ pub struct DirectionField {
     pub fallbacks: usize,
 }
 
+impl From<TransportField> for DirectionField {
+    /// The parallel-transport field as the rest of the deformation stage consumes it: d̄ holds
+    /// the tangent parts B_i d̄_i.
+    fn from(field: TransportField) -> Self {
+        Self {
+            mapping: field.tangents,
+            directions: field.directions,
+            boundary: field.boundary,
+            diffused: true,
+            fallbacks: field.fallbacks,
+        }
+    }
+}
+
 /// Options of the direction field.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DirectionParams<'a> {
@@ -106,8 +121,7 @@ pub fn direction_field(
     DeformError::check_len("parametrization (u)", n, parametrization.u.len())?;
     DeformError::check_len("parametrization (𝒟)", n, parametrization.deformable.len())?;
     if params.method == DirectionFieldMethod::ParallelTransport {
-        return super::transport::transport_field(mesh, solver, contact, parametrization, normals)
-            .map(super::transport::TransportField::into_direction_field);
+        return transport_field(mesh, solver, contact, parametrization, normals).map(DirectionField::from);
     }
     let first_direction = contact.boundary.first().map_or(DVec3::ZERO, |b| contact.directions[b.zone as usize]);
     let diffused = params.mapping_field.is_none() && contact.has_several_directions();

@@ -9,11 +9,11 @@
 //!   `‖p_ij − p′_ij‖` with a sign: `a > 0` is a penetration the zone pushes back, `a < 0` a gap it
 //!   closes by moving outward (the thesis' norm loses the sign). With a single mapping direction
 //!   the target lies along d_ij and `−a·d_ij = p′_ij − p_ij` exactly. Towards 90° it fades to 0
-//!   continuously (a sign switch would jump). The plain projection `(p_ij − p′_ij)·d_ij` we used
-//!   before shortens the amplitude wherever d_ij leaves the target's direction: at a fold's crease
+//!   continuously (a sign switch would jump). Not the plain projection `(p_ij − p′_ij)·d_ij`: it
+//!   shortens the amplitude wherever d_ij leaves the target's direction — at a fold's crease
 //!   (ch. 6), where d̄ = (2β − 1)d̂ is short and d_ij turns to the normal, the vertices next to
-//!   ∂𝒞 then moved half as far as their contact neighbours and thin faces turned over (bent
-//!   capsule: 2 faces newly inverted at every frame from 142.5°; now only at 150°).
+//!   ∂𝒞 would move half as far as their contact neighbours and thin faces turn over (measured on
+//!   the bent capsule: `docs/decisions.md`).
 //! - **Vertex values.** Every vertex j outside 𝒞 on a boundary edge ij gets `a_j = Σ_i α_ij a_ij /
 //!   Σ_i α_ij` (α from the inside vertex, so the points nearest to j weigh most), likewise s_j.
 //! - **Soft, fading constraints (continuity).** a_j and s_j are least-squares vertex constraints of
@@ -59,10 +59,9 @@ use glam::DVec3;
 
 use super::contact_set::ContactSet;
 use super::direction_field::DirectionField;
-use super::parametrize::Parametrization;
+use super::parametrize::{Parametrization, deformable_face_weights};
 use super::{DeformError, RegionSolver};
-use crate::contact::EdgeRegion;
-use crate::linalg::{SolveError, cut_face_weights};
+use crate::linalg::SolveError;
 use crate::mesh::{Topology, TriMesh};
 
 /// u below which the slope division is clamped (see the module doc).
@@ -154,22 +153,6 @@ pub fn boundary_averages(num_vertices: usize, contact: &ContactSet, values: &[f6
             BoundaryVertex { vertex: j as u32, weight: alpha_sum[j].min(1.0), value }
         })
         .collect()
-}
-
-/// The per-face area fraction inside 𝒟 = (outside 𝒞) ∩ {u < 1} (see the module doc).
-pub fn deformable_face_weights(
-    mesh: &TriMesh,
-    topology: &Topology,
-    contact: &ContactSet,
-    parametrization: &Parametrization,
-) -> Result<Vec<f64>, DeformError> {
-    DeformError::check_len("parametrization (u)", topology.num_vertices(), parametrization.u.len())?;
-    DeformError::check_len("contact set (vertices)", topology.num_vertices(), contact.region.inside().len())?;
-    let level: Vec<f64> = parametrization.u.iter().map(|&u| u - 1.0).collect();
-    let below_one = EdgeRegion::sublevel_set(topology, &level);
-    let deformable = contact.region.complement().intersection(&below_one, topology);
-    let removed = deformable.complement();
-    cut_face_weights(mesh, topology, removed.inside(), removed.points()).map_err(DeformError::solve("𝒟 face weights"))
 }
 
 /// The slope estimate `s_ij` at one boundary edge (see the module doc).
@@ -336,7 +319,7 @@ pub fn guide_fields(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::contact::ContactZone;
+    use crate::contact::{ContactZone, EdgeRegion};
     use crate::deform::direction_field::{DirectionParams, direction_field};
     use crate::deform::parametrize::{ParametrizeParams, parametrize};
     use crate::deform::test_support::plane_zone;

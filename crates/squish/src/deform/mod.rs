@@ -3,15 +3,18 @@
 //! 𝒟 along a smooth direction field with a volume-preserving bulge.
 //!
 //! Every vertex of 𝒟 moves by Eq. 5.1, `p′_i = p_i + 𝓗_{a_i,s_i}(u_i)·d_i`, built in four steps,
-//! one module each:
-//! 1. [`mod@parametrize`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
+//! one private module each, each step a function with explicit inputs and outputs:
+//! 1. [`parametrize()`] (§5.1, App. B): heat-method distance φ from ∂𝒞 with cut-face weights and
 //!    least-squares edge constraints, `u = φ/φ_max`, 𝒟 = {u < 1} outside 𝒞;
-//! 2. [`mod@direction_field`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones push
-//!    different ways) blended into the input normals; or method A's parallel-transport field
-//!    ([`transport`], §5.2.1, [`DirectionFieldMethod::ParallelTransport`]);
-//! 3. [`guide`] (§5.3): signed amplitude a and slope s at ∂𝒞, diffused over 𝒟;
-//! 4. [`profile`] (§5.4.1), [`bulge`] (§5.5) and [`volume`] (§5.4.2, App. C): the per-vertex
-//!    B-spline profile, the bulge map η and the bulge height h_v that preserves the volume.
+//! 2. [`direction_field()`] (§5.2.2, Eq. 5.4): mapping directions (diffused when several zones
+//!    push different ways) blended into the input normals; or method A's parallel-transport field
+//!    ([`transport_field`], §5.2.1, [`DirectionFieldMethod::ParallelTransport`]);
+//! 3. [`guide_fields`] (§5.3): signed amplitude a and slope s at ∂𝒞, diffused over 𝒟;
+//! 4. [`ProfileSampler`] (§5.4.1), [`bulge_map`] (§5.5) and [`solve_bulge_height`] (§5.4.2,
+//!    App. C): the per-vertex B-spline profile, the bulge map η and the bulge height h_v that
+//!    preserves the volume.
+//!
+//! The automatic extent φ_max is [`automatic_extent`] (§7.1).
 //!
 //! Contact-zone vertices go to their targets p′_i on 𝒮; every other vertex outside 𝒟 is copied
 //! bit for bit. The working region may be part of a larger closed object (a [`crate::SubMesh`]):
@@ -23,17 +26,18 @@
 //!
 //! Entry point: [`deform_region`].
 
-pub mod bulge;
-pub mod contact_set;
-pub mod direction_field;
+mod bulge;
+mod contact_set;
+mod direction_field;
 mod error;
-pub mod guide;
-pub mod parametrize;
+mod extent;
+mod guide;
+mod parametrize;
 mod params;
-pub mod profile;
+mod profile;
 mod solver;
-pub mod transport;
-pub mod volume;
+mod transport;
+mod volume;
 
 #[cfg(test)]
 mod method_a_tests;
@@ -47,52 +51,36 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-pub use contact_set::ContactSet;
+pub use bulge::{AnisotropyParams, BulgeMap, anisotropic_bulge_map, bulge_map};
+pub use contact_set::{ContactBoundaryPoint, ContactSet, NO_ZONE};
+pub use direction_field::{DirectionField, DirectionParams, MIN_DIFFUSED_LENGTH, blend_weight, direction_field};
 pub use error::DeformError;
+pub(crate) use extent::size_from_areas;
+pub use extent::{automatic_extent, object_size};
+pub use guide::{GuideFields, GuideParams, MIN_SLOPE_U, guide_fields};
+pub use parametrize::{Parametrization, ParametrizeParams, deformable_face_weights, parametrize};
 pub use params::DeformParams;
-pub use profile::{ProfileShape, Wrinkles};
+pub use profile::{Profile, ProfileSample, ProfileSampler, ProfileShape, Wrinkles};
 pub use solver::RegionSolver;
+pub use transport::{MAX_CORRECTION, TransportField, transport_field};
+pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
 
 use crate::contact::ContactZone;
 use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
 use crate::params::DirectionFieldMethod;
-use bulge::{AnisotropyParams, bulge_map};
-use direction_field::{DirectionParams, direction_field};
-use guide::{GuideParams, guide_fields};
-use parametrize::{ParametrizeParams, parametrize_and_diffuse};
-pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
-
-/// Wall-clock time of each stage of [`deform_region`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct StageTimings {
-    /// Contact set, cut weights, heat step and Poisson solve (§5.1).
-    pub parametrization: Duration,
-    /// Normals, mapping-field diffusion and blend (§5.2).
-    pub directions: Duration,
-    /// Amplitude and slope estimation and diffusion (§5.3).
-    pub guide: Duration,
-    /// Bulge map, profiles, volume cubic and final positions (§5.4–5.5).
-    pub deformation: Duration,
-    /// Of the above: time spent assembling and numerically factorizing the three systems.
-    pub factorization: Duration,
-    /// Of the factorizations: symbolic analyses of coupled-row submatrices (when a system's
-    /// coupled rows changed, see [`crate::linalg::NumericFactor`]).
-    #[serde(default)]
-    pub analysis: Duration,
-    /// The whole call.
-    pub total: Duration,
-}
+use crate::stage::{Stage, StageTimes};
+use parametrize::parametrize_and_diffuse;
 
 /// How often a documented fallback was taken.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FallbackCounters {
-    /// Vertices of 𝒟 (and ∂𝒞 points) whose blended direction vanished ([`mod@direction_field`]).
+    /// Vertices of 𝒟 (and ∂𝒞 points) whose blended direction vanished ([`direction_field()`]).
     pub direction_blend: usize,
-    /// 1 if the anisotropic bulge map fell back to uniform ([`bulge`]).
+    /// 1 if the anisotropic bulge map fell back to uniform ([`bulge_map`]).
     pub bulge_map: usize,
-    /// 1 if the volume cubic had no non-negative root ([`volume`]).
+    /// 1 if the volume cubic had no non-negative root ([`solve_bulge_height`]).
     pub volume_without_root: usize,
-    /// Vertices next to ∂𝒞 whose slope division was clamped at u = 10⁻⁶ ([`guide`]).
+    /// Vertices next to ∂𝒞 whose slope division was clamped at u = 10⁻⁶ ([`guide_fields`]).
     pub clamped_slopes: usize,
 }
 
@@ -138,8 +126,12 @@ pub struct DeformStats {
     /// every system stay the same).
     #[serde(default)]
     pub reduced_analyses: usize,
-    /// Per-stage timings.
-    pub timings: StageTimings,
+    /// Wall-clock time of each stage: [`Stage::Parametrization`], [`Stage::Directions`],
+    /// [`Stage::Guide`], [`Stage::Deformation`] and, within them, [`Stage::Factorization`] and
+    /// [`Stage::Analysis`] (the other stages are zero).
+    pub timings: StageTimes,
+    /// Wall-clock time of the whole call.
+    pub time: Duration,
     /// Fallback counters.
     pub fallbacks: FallbackCounters,
 }
@@ -153,7 +145,7 @@ pub struct RegionDeformation {
     /// parametrization domain 𝒫).
     pub u: Vec<f64>,
     /// Per vertex: within the radius of the parametrization domain 𝒫 (edge-path distance from
-    /// ∂𝒞, [`mod@parametrize`]).
+    /// ∂𝒞, [`parametrize()`]).
     pub domain: Vec<bool>,
     /// The deformable region 𝒟.
     pub deformable: Vec<bool>,
@@ -240,8 +232,8 @@ pub fn deform_region_with(
     stats.volume_exact = volume_exact;
     stats.volume_residual = volume_residual;
     stats.fallbacks.volume_without_root = usize::from(params.preserve_volume && !volume_exact);
-    stats.timings.deformation += height_time;
-    stats.timings.total = start.elapsed();
+    stats.timings[Stage::Deformation] += height_time;
+    stats.time = start.elapsed();
     Ok(deformation)
 }
 
@@ -258,9 +250,9 @@ pub struct RegionOverrides<'a> {
 }
 
 /// A region's deformation before its bulge height is chosen: every position is affine in the
-/// bulge height h (`p′ = p + h·linear + constant`, see [`volume`]). [`deform_region`] solves h for
+/// bulge height h (`p′ = p + h·linear + constant`, see [`AffineDisplacement`]). [`deform_region`] solves h for
 /// the region alone; chapter 6 blends the plans of two overlapping regions first and solves one h
-/// for the blend ([`crate::skinning::self_contact`]).
+/// for the blend ([`crate::skinning::plan_articulation`]).
 #[derive(Clone, Debug)]
 pub struct RegionPlan {
     /// The affine displacement of every region vertex.
@@ -269,7 +261,7 @@ pub struct RegionPlan {
     /// parametrization domain 𝒫).
     pub u: Vec<f64>,
     /// Per vertex: within the radius of the parametrization domain 𝒫 (edge-path distance from
-    /// ∂𝒞, [`mod@parametrize`]).
+    /// ∂𝒞, [`parametrize()`]).
     pub domain: Vec<bool>,
     /// The deformable region 𝒟.
     pub deformable: Vec<bool>,
@@ -332,7 +324,7 @@ impl RegionPlan {
         // Unmoved vertices keep their input bits (`positions`), so their faces' cones are shared.
         (stats.volume_before, stats.volume_after) =
             volumes_about(&mesh.triangles, &mesh.positions, &positions, &self.displacement.moved, reference);
-        stats.timings.deformation += stage.elapsed();
+        stats.timings[Stage::Deformation] += stage.elapsed();
         RegionDeformation {
             positions,
             u: self.u,
@@ -376,7 +368,7 @@ pub fn plan_region(
     let reduced_analyses_before = solver.reduced_analyses();
     let factorization_time_before = solver.factorization_time();
     let analysis_time_before = solver.analysis_time();
-    let mut timings = StageTimings::default();
+    let mut timings = StageTimes::default();
     let mut fallbacks = FallbackCounters::default();
 
     // §5.1: parametrization.
@@ -394,7 +386,7 @@ pub fn plan_region(
         params.object.direction_field == DirectionFieldMethod::Blended && overrides.mapping_field.is_none();
     let parametrization =
         parametrize_and_diffuse(mesh, topology, solver, &contact, &parametrize_params, diffuse_directions)?;
-    timings.parametrization = stage.elapsed();
+    timings[Stage::Parametrization] = stage.elapsed();
 
     // §5.2: directions.
     let stage = Instant::now();
@@ -413,7 +405,7 @@ pub fn plan_region(
     };
     let field = direction_field(mesh, solver, &contact, &parametrization, normals, &direction_params)?;
     fallbacks.direction_blend = field.fallbacks;
-    timings.directions = stage.elapsed();
+    timings[Stage::Directions] = stage.elapsed();
 
     // §5.3: amplitude and slope.
     let stage = Instant::now();
@@ -427,7 +419,7 @@ pub fn plan_region(
         &GuideParams { constraint_weight_factor: params.constraint_weight_factor },
     )?;
     fallbacks.clamped_slopes = guide.clamped_slopes;
-    timings.guide = stage.elapsed();
+    timings[Stage::Guide] = stage.elapsed();
 
     // §5.4–5.5: bulge map and profiles.
     let stage = Instant::now();
@@ -474,10 +466,9 @@ pub fn plan_region(
             bulge_weights[v] = eta.weights[v] * sample.bulge_weight;
         }
     }
-    timings.deformation = stage.elapsed();
-    timings.factorization = solver.factorization_time().saturating_sub(factorization_time_before);
-    timings.analysis = solver.analysis_time().saturating_sub(analysis_time_before);
-    timings.total = start.elapsed();
+    timings[Stage::Deformation] = stage.elapsed();
+    timings[Stage::Factorization] = solver.factorization_time().saturating_sub(factorization_time_before);
+    timings[Stage::Analysis] = solver.analysis_time().saturating_sub(analysis_time_before);
 
     let stats = DeformStats {
         num_deformable: parametrization.num_deformable(),
@@ -494,6 +485,7 @@ pub fn plan_region(
         recomputed_rows: solver.recomputed_rows() - recomputed_rows_before,
         reduced_analyses: solver.reduced_analyses() - reduced_analyses_before,
         timings,
+        time: start.elapsed(),
         fallbacks,
         ..DeformStats::default()
     };

@@ -54,6 +54,7 @@ use glam::DVec3;
 
 use super::contact_set::ContactSet;
 use super::{DeformError, RegionSolver};
+use crate::contact::EdgeRegion;
 use crate::linalg::{
     ConstraintParams, EdgeConstraint, RightHandSide, cut_face_weights, face_gradients, integrated_divergence,
 };
@@ -338,6 +339,24 @@ fn restrict_to_domain(
         }
     }
     distance.iter().map(|d| d.is_finite()).collect()
+}
+
+/// The per-face area fraction inside 𝒟 = (outside 𝒞) ∩ {u < 1} — the diffusion domain of the guide fields (§5.3) and of the
+/// parallel-transport field (§5.2.1): cut-face weights of edge regions, so that nothing jumps when
+/// ∂𝒟 crosses a vertex.
+pub fn deformable_face_weights(
+    mesh: &TriMesh,
+    topology: &Topology,
+    contact: &ContactSet,
+    parametrization: &Parametrization,
+) -> Result<Vec<f64>, DeformError> {
+    DeformError::check_len("parametrization (u)", topology.num_vertices(), parametrization.u.len())?;
+    DeformError::check_len("contact set (vertices)", topology.num_vertices(), contact.region.inside().len())?;
+    let level: Vec<f64> = parametrization.u.iter().map(|&u| u - 1.0).collect();
+    let below_one = EdgeRegion::sublevel_set(topology, &level);
+    let deformable = contact.region.complement().intersection(&below_one, topology);
+    let removed = deformable.complement();
+    cut_face_weights(mesh, topology, removed.inside(), removed.points()).map_err(DeformError::solve("𝒟 face weights"))
 }
 
 #[cfg(test)]

@@ -365,8 +365,8 @@ impl ProfileSampler {
         c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))
     }
 
-    /// Samples the profile of a vertex with amplitude `a`, slope `s` at parameter `u` (the same
-    /// as [`sample`], faster).
+    /// Samples the profile of a vertex with amplitude `a`, slope `s` at parameter `u` (from the
+    /// tabulated basis; the same values as building its [`Profile`]).
     pub fn sample(&self, wrinkles: &Wrinkles, amplitude: f64, slope: f64, u: f64) -> ProfileSample {
         let x1 = second_abscissa(amplitude, slope);
         let (span, tau) = self.invert(x1, u);
@@ -393,7 +393,9 @@ fn cubic_through(values: [f64; 4]) -> [f64; 4] {
     [values[0], d1[0] - d2[0] * h + d3 * 2.0 * h * h, d2[0] - d3 * 3.0 * h, d3]
 }
 
-/// Samples the profile of a vertex with amplitude `a`, slope `s` at parameter `u`.
+/// Samples the profile of a vertex with amplitude `a`, slope `s` at parameter `u`, from scratch:
+/// the reference [`ProfileSampler::sample`] is tested against.
+#[cfg(test)]
 pub fn sample(shape: &ProfileShape, wrinkles: &Wrinkles, amplitude: f64, slope: f64, u: f64) -> ProfileSample {
     let profile = Profile::new(shape, amplitude, slope, 0.0);
     let n = basis(profile.parameter_at(u));

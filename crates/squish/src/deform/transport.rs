@@ -1,8 +1,9 @@
 //! The parallel-transport direction field (thesis §5.2.1, method A; algorithm box of §5.6,
 //! "Direction field computation ▷ §2.1"), selected with
 //! [`DirectionFieldMethod::ParallelTransport`](super::DirectionFieldMethod::ParallelTransport). A
-//! drop-in replacement for the blended field of [`mod@super::direction_field`]: same inputs, same
-//! [`DirectionFieldMethod`] output.
+//! drop-in replacement for the blended field of [`direction_field`](super::direction_field()):
+//! same inputs, and [`direction_field`](super::direction_field()) turns its result into the same
+//! [`DirectionField`](super::DirectionField).
 //!
 //! Every unit direction d_i is stored as its tangent part in a frame B_i = [t_i b_i] of the vertex's
 //! tangent plane, d̄_i = B_iᵀ d_i, and d_i = B_i d̄_i + √(1 − ‖d̄_i‖²) n_i (Eq. 5.2). Tangent vectors
@@ -83,9 +84,7 @@ use faer::{Conj, MatMut, Par, Side, c64};
 use glam::DVec3;
 
 use super::contact_set::ContactSet;
-use super::direction_field::DirectionField;
-use super::guide::deformable_face_weights;
-use super::parametrize::Parametrization;
+use super::parametrize::{Parametrization, deformable_face_weights};
 use super::{DeformError, RegionSolver};
 use crate::linalg::{
     ConstrainedSolver, ConstraintParams, DEFAULT_CONSTRAINT_WEIGHT_FACTOR, EdgeConstraint, Operator, RightHandSide,
@@ -269,17 +268,6 @@ impl TransportField {
         let fp = fi.transported_to(n);
         let z = self.angles[i as usize] * (1.0 - alpha) + fp.rotation_from(fj) * self.angles[j as usize] * alpha;
         fp.decode(z)
-    }
-
-    /// The [`DirectionFieldMethod`] the rest of the deformation stage consumes.
-    pub fn into_direction_field(self) -> DirectionField {
-        DirectionField {
-            mapping: self.tangents,
-            directions: self.directions,
-            boundary: self.boundary,
-            diffused: true,
-            fallbacks: self.fallbacks,
-        }
     }
 }
 

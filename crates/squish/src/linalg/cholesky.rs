@@ -44,10 +44,8 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
-use faer::sparse::linalg::amd;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 
 use super::dissection;
 use super::supernodal::{SOLVE_BLOCK, SupernodalPlan, Workspace};
@@ -65,9 +63,8 @@ pub const REDUCE_MIN_DIMENSION: usize = 256;
 
 /// [`NumericFactor::factorize_within`] factorizes at most this fraction more rows than the
 /// matrix couples to avoid an analysis of its own. An analysis costs about as much as the numeric
-/// factorization of the same rows, and the flops grow faster than the rows: the guide system of
-/// fingers–palm's palm (1 426 of 2 162 rows, factorized whole) and of its fingers (~240 of ~280)
-/// gain, bunny–jelly's (6 081 of 10 188) would lose.
+/// factorization of the same rows, and the flops grow faster than the rows (measured cases:
+/// `docs/speed.md`).
 pub const WITHIN_MAX_EXTRA_ROWS: f64 = 0.6;
 
 /// Coupled-row analyses a [`SymbolicFactor`] keeps for its factors (a region's frame couples two
@@ -123,19 +120,6 @@ impl Analysis {
     }
 }
 
-/// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
-/// control): `order[new] = old`.
-pub(super) fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
-    let n = structure.nrows();
-    let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
-    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-    let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
-    let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
-    amd::order_maybe_unsorted(&mut forward, &mut inverse, structure, Default::default(), MemStack::new(&mut buffer))
-        .map_err(|e| analysis_error(&e))?;
-    Ok(forward)
-}
-
 /// The analysis of the principal submatrix on one set of coupled rows.
 #[derive(Debug)]
 struct RowsAnalysis {
@@ -177,16 +161,16 @@ impl SymbolicFactor {
     /// factorization needs fewer flops (AMD on a tie), then the elimination tree and supernodes.
     ///
     /// Submatrices of coupled rows stay in AMD's order restricted to them, whichever order the
-    /// whole pattern got: on stress-100k's moving cap, the dissection's restriction gave factors
-    /// 15% costlier and analyses 35% slower, and choosing between the two restrictions for each
-    /// new set of rows (two flop counts) doubled the analysis time (`docs/decisions.md`, Speed).
+    /// whole pattern got: the dissection's restriction gives costlier factors and slower analyses
+    /// on a moving cap, and choosing between the two for each new set of rows costs more than it
+    /// saves (`docs/speed.md`).
     pub fn analyze(pattern: &Arc<SparsePattern>) -> Result<Arc<Self>, SolveError> {
         Self::analyze_in(pattern, FillOrder::FewerFlops)
     }
 
     /// [`Self::analyze`] with the whole pattern in the given kind of order.
     pub fn analyze_in(pattern: &Arc<SparsePattern>, fill_order: FillOrder) -> Result<Arc<Self>, SolveError> {
-        let amd = amd_order(pattern.structure())?;
+        let amd = symbolic::amd_order(pattern.structure())?;
         let n = pattern.num_vertices();
         let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
         // Steps 1–3 of each candidate order; the chosen one is finished, not eliminated again.

@@ -2,12 +2,11 @@
 //! factorizations dominate a frame), the alternative to AMD that [`super::SymbolicFactor`] keeps
 //! when it needs fewer flops.
 //!
-//! **Why.** AMD's greedy choices are poor on closed, round surfaces: on a 10k-vertex icosphere a
-//! factorization in AMD order costs 1.8× the flops of this order, on the bunny 1.16×, on a
-//! 1.5k-vertex UV ball 1.15× (leaves of 128). AMD is better on flat grids and on the faces of a
+//! **Why.** AMD's greedy choices are poor on closed, round surfaces: a factorization in AMD order
+//! costs more flops than in this order there. AMD is better on flat grids and on the faces of a
 //! cube, where level sets of breadth-first searches make long separators. Neither wins
 //! everywhere, so the analysis computes both and keeps the one with fewer flops (measurements in
-//! `docs/decisions.md`, Speed).
+//! `docs/speed.md`).
 //!
 //! **Algorithm** (George's automatic nested dissection, on one connected part at a time): a
 //! pseudo-peripheral vertex (the first reached vertex of the deepest level of a breadth-first
@@ -23,14 +22,12 @@
 //! **Depends on the connectivity only** (not on positions): the order, and so every factor's
 //! bits, is the same whatever frame a region is first analyzed at.
 
-/// Parts of at most this many vertices are not dissected further (their order is the key's).
-/// (On the bunny, its lower half, a 1.5k ball and spheres of 2.5k–10k vertices, leaves of 32 give
-/// 1–6% fewer flops than 128, and 512 4–12% more; 64 is the compromise with the cost of the order.)
+/// Parts of at most this many vertices are not dissected further (their order is the key's): a
+/// compromise between the flops of the factor and the cost of the order (`docs/speed.md`).
 pub(super) const LEAF_SIZE: usize = 64;
 
-/// Breadth-first searches in quest of a pseudo-peripheral vertex, after the first. (Up to 8,
-/// until the eccentricity stops growing, made a 41k icosphere's analysis 1.1–1.8× slower for a
-/// factor 2% larger.)
+/// Breadth-first searches in quest of a pseudo-peripheral vertex, after the first (more searches
+/// cost more than they save: `docs/speed.md`).
 const PERIPHERAL_SEARCHES: usize = 1;
 
 const NONE: u32 = u32::MAX;
@@ -388,7 +385,7 @@ mod tests {
             let pattern = SparsePattern::shared(mesh, &topology).expect("pattern");
             let n = pattern.num_vertices();
             let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-            let amd = crate::linalg::cholesky::amd_order(pattern.structure()).expect("AMD");
+            let amd = crate::linalg::symbolic::amd_order(pattern.structure()).expect("AMD");
             let mut rank = vec![0; n];
             for (r, &v) in amd.iter().enumerate() {
                 rank[v] = r;

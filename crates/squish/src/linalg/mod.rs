@@ -57,7 +57,6 @@ mod pattern;
 mod solve;
 mod supernodal;
 mod symbolic;
-mod timing;
 
 #[cfg(test)]
 pub(crate) mod test_support;
@@ -73,4 +72,3 @@ pub use laplacian::{Operator, cotangent_stiffness, lumped_mass};
 pub use operators::{face_gradients, integrated_divergence};
 pub use pattern::{NO_SLOT, SparsePattern, SymmetricMatrix};
 pub use solve::{ConstrainedSolver, RightHandSide, solve_harmonic};
-pub use timing::{FactorizationTiming, time_laplacian_factorization};

@@ -30,15 +30,11 @@
 //! supernode's contributions to its pattern rows densely and scatters them once, the backward pass
 //! gathers the pattern rows once and takes each column's dot product in four interleaved partial
 //! sums (independent chains instead of one dependent one; the order is fixed, so the result is
-//! too). Against one column at a time with one scatter or gather per entry: 1.4–1.7× faster on a
-//! 1.5k-vertex ball and a 10k-vertex sphere, 1.25× on a 109 × 109 grid.
+//! too).
 //!
-//! Measured against faer's numeric factorization of the same analysis (whole factorizations of
-//! heat operators, fastest of 20): 0.62× its time on a 258-vertex capsule, 0.74× on a 1.5k-vertex
-//! ball, 0.65× on a 109 × 109 grid, 0.86× on a 10k-vertex sphere, 0.89× on a 41k-vertex one. A
-//! contact moving on a static object recomputes the supernodes around it and their ancestors:
-//! 36–56 % of the flops of a whole factorization on the benchmark's ball, grid and spheres (the
-//! top separators, which every change reaches, hold most of the flops).
+//! A contact moving on a static object recomputes the supernodes around it and their ancestors
+//! (the top separators, which every change reaches, hold most of the flops). Timings against
+//! faer's numeric factorization and against one scatter or gather per entry: `docs/speed.md`.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization, cholesky_in_place, cholesky_in_place_scratch};
@@ -49,13 +45,11 @@ use faer::sparse::SparseColMatRef;
 use faer::{Accum, MatMut, MatRef, Par};
 
 /// Supernodes at most this wide are factorized with direct loops; wider ones with faer's dense
-/// Cholesky and triangular solve. (Tuned on spheres of 258–41k vertices and a 109 × 109 grid:
-/// 8 beats 4, 12, 16 and 32.)
+/// Cholesky and triangular solve (tuned: `docs/speed.md`).
 const DIRECT_WIDTH: usize = 8;
 
 /// Descendant updates of at most this many multiply-adds use direct loops; larger ones faer's
-/// matrix product. (faer's product is as fast from a few hundred multiply-adds on: 64 and 0
-/// are within noise, 1024 and more are slower.)
+/// matrix product (tuned: `docs/speed.md`).
 const DIRECT_UPDATE_FLOPS: usize = 64;
 
 /// Right-hand sides solved together in one pass (more are solved in groups of this many).

@@ -21,14 +21,18 @@
 //!    entry of `A`, so that it comes out sorted.
 //!
 //! **Why our own.** A contact that moves changes the coupled rows of a system every frame, and
-//! the submatrix on them ([`super::NumericFactor`]) needs a new analysis each time: about a tenth
-//! of bunny–jelly's frame with faer's analysis, half as much as the numeric factorizations it
-//! served. faer counts the columns by walking every entry of `L`, builds its structure in several
+//! the submatrix on them ([`super::NumericFactor`]) needs a new analysis each time, which with
+//! faer's analysis cost half as much as the numeric factorizations it served. faer counts the columns by walking every entry of `L`, builds its structure in several
 //! passes, and keeps a custom order as given; this one counts in near-linear time, writes the
 //! structure our kernel ([`super::supernodal`]) reads and `A`'s permuted layout directly, and
 //! postorders the restricted order, whose chains then form wider supernodes (a faster numeric
-//! factorization on the same fill). Measurements in `docs/decisions.md` (Speed).
-//! The AMD ordering itself stays faer's; the alternative, nested dissection, is [`super::dissection`].
+//! factorization on the same fill). Measurements in `docs/speed.md`.
+//! The AMD ordering itself stays faer's ([`amd_order`]); the alternative, nested dissection, is
+//! [`super::dissection`].
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::sparse::linalg::amd;
 
 use super::SolveError;
 
@@ -56,6 +60,19 @@ pub(super) struct SupernodalStructure {
     pub a_col_ptr: Vec<usize>,
     pub a_row_idx: Vec<usize>,
     pub a_slot: Vec<usize>,
+}
+
+/// The AMD fill-reducing order of the lower-triangular `structure` (faer's AMD, default
+/// control): `order[new] = old`.
+pub(super) fn amd_order(structure: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, SolveError> {
+    let n = structure.nrows();
+    let analysis_error = |e: &dyn std::fmt::Debug| SolveError::Analysis { reason: format!("{e:?}") };
+    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
+    let scratch = amd::order_maybe_unsorted_scratch::<usize>(n, structure.compute_nnz());
+    let mut buffer = MemBuffer::try_new(scratch).map_err(|e| analysis_error(&e))?;
+    amd::order_maybe_unsorted(&mut forward, &mut inverse, structure, Default::default(), MemStack::new(&mut buffer))
+        .map_err(|e| analysis_error(&e))?;
+    Ok(forward)
 }
 
 #[cfg(test)]

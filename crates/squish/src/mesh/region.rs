@@ -249,9 +249,8 @@ fn settle(
 /// shortest edge farther, so it lands in a later bucket, and no vertex of a bucket can lower
 /// another of the same bucket: the vertices of a bucket are final in any order, and each final
 /// distance is the minimum of the same candidates as in a strictly ordered Dijkstra — the same
-/// bits (tested against the binary heap). O(1) per entry with no reordering: with the scan for the
-/// shortest and longest edges, 1.4× faster than the radix queue on the benchmark's 1.5k-vertex
-/// ball, 1.2× on a 109 × 109 grid. `None` (then [`RadixQueue`]) for a mesh with a
+/// bits (tested against the binary heap). O(1) per entry with no reordering, so faster than the radix queue
+/// (`docs/speed.md`). `None` (then [`RadixQueue`]) for a mesh with a
 /// zero-length edge, whose longest edge or seed spread is more than a few times its vertex count
 /// of shortest edges, or whose distances could reach 2³⁰ buckets.
 struct BucketQueue {
@@ -338,7 +337,7 @@ impl MonotoneQueue for BucketQueue {
 /// popped one. Non-negative finite `f64`s order like their bit patterns, so an entry lives in the
 /// bucket of the highest bit where its key differs from the last key popped; a pop empties the
 /// lowest non-empty bucket into lower ones. Amortized O(1) per entry instead of a binary heap's
-/// O(log n) (Dijkstra over a 11.9k-vertex grid from a circle: 1.0–1.3 ms → 0.67–0.76 ms). The distances
+/// O(log n). The distances
 /// Dijkstra computes do not depend on the order in which equal keys are popped, so the result is
 /// the binary heap's, bit for bit.
 struct RadixQueue {

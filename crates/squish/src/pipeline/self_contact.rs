@@ -1,7 +1,7 @@
 //! The self-contact stage of a frame (thesis ch. 6): every object with articulations
 //! ([`ObjectParams::self_contact`]) has them resolved first, in parallel over objects and
 //! articulations, with one volume-preserving bulge height per articulation solved on the whole
-//! object ([`crate::skinning::self_contact`]). The contacts between objects (ch. 4–5) then run on
+//! object ([`crate::skinning::plan_articulation`], [`crate::skinning::apply_articulations`]). The contacts between objects (ch. 4–5) then run on
 //! the result.
 //!
 //! *Decision (ordering):* a skinned character that folds onto itself and also touches another
@@ -16,9 +16,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{Frame, ObjectParams, PipelineError};
+use super::{Frame, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
-use crate::mesh::{Topology, TriMesh, vertex_normals};
+use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
 use crate::skinning::{
     ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, plan_articulation,
     self_intersection_counts,
@@ -172,6 +172,25 @@ fn resolve_object(
     Ok((SelfContactResult { positions: after.positions, contact, moved, cuts }, stats))
 }
 
-#[cfg(test)]
-#[path = "self_contact_tests.rs"]
-mod tests;
+/// Makes the figures of the objects with articulations relative to the frame's input, not to the
+/// self-contact stage's output that the contacts between objects started from: the volume before,
+/// the relative volume change, the largest displacement, and whether the object was deformed.
+pub(super) fn relative_to_input(
+    stats: &mut [ObjectStats],
+    frame: &Frame,
+    positions: &[Vec<DVec3>],
+    resolved: &[Option<SelfContactResult>],
+) {
+    for ((stats, object), (positions, r)) in stats.iter_mut().zip(&frame.objects).zip(positions.iter().zip(resolved)) {
+        if r.is_none() {
+            continue;
+        }
+        stats.volume_before = signed_volume(object.mesh);
+        if stats.volume_before != 0.0 {
+            stats.relative_volume_change = (stats.volume_after - stats.volume_before) / stats.volume_before.abs();
+        }
+        stats.max_displacement =
+            object.mesh.positions.iter().zip(positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        stats.deformed |= r.as_ref().is_some_and(|r| r.moved.iter().any(|&m| m));
+    }
+}

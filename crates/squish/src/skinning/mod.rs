@@ -1,18 +1,20 @@
-//! Skinning: linear blend skinning of a rest mesh by a skeleton pose ([`lbs`], thesis §2.3.1),
-//! which produces the per-frame input meshes of an animated character, and the self-contact of
-//! skinned articulations (thesis ch. 6): overlapping working regions and their partition of unity
-//! ([`articulation`], [`partition`]), the crease cut and the blended, volume-preserving
-//! deformation ([`self_contact`]).
+//! Skinning: linear blend skinning of a rest mesh by a skeleton pose ([`linear_blend_skinning`],
+//! thesis §2.3.1), which produces the per-frame input meshes of an animated character, and the
+//! self-contact of skinned articulations (thesis ch. 6): overlapping working regions and their
+//! partition of unity ([`Articulation`](crate::params::Articulation), [`SharedRegion`]), the crease cut and the blended,
+//! volume-preserving deformation ([`plan_articulation`], [`apply_articulations`]). One private
+//! module per step, reached through the items below.
 
-pub mod articulation;
-pub mod lbs;
-pub mod partition;
-pub mod self_contact;
+mod articulation;
+mod lbs;
+mod partition;
+mod self_contact;
 
 pub use articulation::{ArticulationError, articulation_direction, joints_direction, regions_from_skin_weights};
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
 pub use partition::{Seed, SharedRegion};
 pub use self_contact::{
-    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, SelfContactError,
-    SelfIntersectionCounts, apply_articulations, plan_articulation, self_intersection_counts,
+    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, CONTACT_THRESHOLD_FLOOR,
+    FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError, SelfIntersectionCounts, apply_articulations, plan_articulation,
+    self_intersection_counts,
 };

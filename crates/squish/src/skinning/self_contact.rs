@@ -37,7 +37,7 @@
 //!   regions use the same extent.
 //! - Automatic extent: `5/3 · max(1.2·r, 1.5·√(A/π)) = max(2·r, 2.5·√(A/π))`, r the RMS radius
 //!   of ℛ on the rest pose (about the limb's radius), A the contact area: the pipeline's rule (see
-//!   [`crate::pipeline::automatic_extent`]) with the limb as both objects, scaled by
+//!   [`crate::deform::automatic_extent`]) with the limb as both objects, scaled by
 //!   [`FOLD_EXTENT_SCALE`]. **Why larger than between objects:** a fold's contact pushes its
 //!   border vertices deep (into the other side of the fold) right next to side-wall faces that
 //!   linear blend skinning has already turned far from their rest orientation, and a short
@@ -571,7 +571,7 @@ pub fn plan_articulation(
     let fields: [Vec<DVec3>; 2] = [0, 1]
         .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
     // The pipeline's rule with the limb as both objects, scaled for a fold (see the module doc).
-    let automatic = FOLD_EXTENT_SCALE * crate::pipeline::automatic_extent(setup.size, setup.size, contact.contact_area);
+    let automatic = FOLD_EXTENT_SCALE * crate::deform::automatic_extent(setup.size, setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     // Fixed by the first extent, so that a clamped second attempt sees the same φ.
     let domain_radius = params.domain_radius_for(extent);

@@ -263,7 +263,7 @@ fn the_automatic_extent_of_a_fold_is_five_thirds_of_the_pipeline_rule() {
         let mesh = capsule.posed(angle);
         let (_, plan, _) = run(&capsule, &mut setup, &mesh, &capsule.articulation(angle));
         assert!(plan.stats.in_contact && !plan.stats.extent_clamped);
-        let rule = crate::pipeline::automatic_extent(setup.size, setup.size, plan.stats.contact_area);
+        let rule = crate::deform::automatic_extent(setup.size, setup.size, plan.stats.contact_area);
         assert_eq!(plan.extent, FOLD_EXTENT_SCALE * rule, "{degrees}°");
         assert!(plan.extent >= 2.0 * setup.size * (1.0 - 1e-12));
     }

@@ -50,8 +50,8 @@ fn c2(x: f64, y: f64) -> Coord<f64> {
 /// `orient3d = (a_k − d_k) · orient2d` of the corners projected along axis k, so its sign is
 /// exact from a comparison and an exact `orient2d`, and the value carries two roundings. This
 /// skips the adaptive stages of `orient3d`, which a point in (or a segment along) such a face
-/// otherwise runs in full to prove an exact zero (a foot's side walls seen along the vertical:
-/// 8% of the feet–plane benchmark's frame).
+/// otherwise runs in full to prove an exact zero (a foot's side walls seen along the vertical;
+/// `docs/speed.md`).
 #[inline(always)]
 pub(crate) fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
     // One vector comparison decides whether any coordinate is shared (the common case: none).

@@ -6,9 +6,8 @@
 //! subtree is a contiguous range of nodes. Each leaf holds one item (a triangle), named by its
 //! index. Layout and order are ours, so the queries can visit children in the order that finds
 //! their answer first — the nearest or farthest crossing of a line, the closest point — and prune
-//! the rest: the mapping's line casts visit ~20 nodes and 1–3 triangles instead of ~70 nodes and 7
-//! triangles with a fixed left-first order (parry's traversal, measured on a 1.5k-vertex ball and
-//! a 10k-vertex sphere).
+//! the rest, where a fixed left-first order (parry's traversal) visits several times as many nodes
+//! and triangles (`docs/speed.md`).
 //!
 //! **Build.** Top-down binned surface-area heuristic (16 bins along the longest axis of the
 //! centroids), a median split when the heuristic cannot separate the items, and always a median

@@ -39,13 +39,3 @@ pub(crate) fn bunny() -> Option<TriMesh> {
     }
     mesh
 }
-
-/// A mesh of the shared data by file name (e.g. `"spot_2930.obj"`), or `None` (with a message).
-pub(crate) fn shared_mesh(name: &str) -> Option<TriMesh> {
-    let path = format!("{}/../../../shared/data/meshes/{name}", env!("CARGO_MANIFEST_DIR"));
-    let mesh = load_obj(&path);
-    if mesh.is_none() {
-        eprintln!("skipping: {path} not found");
-    }
-    mesh
-}

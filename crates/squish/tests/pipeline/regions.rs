@@ -2,16 +2,18 @@
 //! with one contact per finger, regions versus whole objects, automatic regions over an
 //! animation, determinism.
 
-#![allow(clippy::unwrap_used, clippy::expect_used)]
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use squish::contact::ContactError;
+use squish::mesh::{SubMesh, TriMesh, shapes};
+use squish::params::{ObjectParams, PairParams, RegionChoice};
+use squish::pipeline::*;
+use squish::spatial::{penetration_depths, self_intersections};
+use squish::stage::{Stage, StageTimes};
+use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use super::scenes::{self, ProceduralScene};
-use super::tests::{deepest_penetration, deformed};
-use super::*;
-use crate::mesh::{face_normal_unnormalized, shapes};
-use crate::params::RegionChoice;
-use crate::spatial::{penetration_depths, self_intersections, test_meshes};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deepest_penetration, deformed, penetrations};
 
 fn bits(positions: &[DVec3]) -> Vec<u64> {
     positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
@@ -30,10 +32,7 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
     let start = Instant::now();
     let result = Deformer::new().deform(&scene.frame()).expect("frame deforms");
     let elapsed = start.elapsed();
-    let before = deepest_penetration(&scene.objects[0].mesh, &scene.objects[1].mesh);
-    assert!(before > 0.0, "{}: the inputs must intersect", scene.name);
-    let after_meshes: Vec<TriMesh> = (0..2).map(|i| deformed(scene, &result, i)).collect();
-    let after = deepest_penetration(&after_meshes[0], &after_meshes[1]);
+    let (before, after_meshes, after) = penetrations(scene, &result);
     let mut worst_volume = 0.0f64;
     for (i, object) in scene.objects.iter().enumerate() {
         let stats = &result.stats.objects[i];
@@ -42,12 +41,7 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
         worst_volume = worst_volume.max(stats.relative_volume_change.abs());
         let output = &after_meshes[i];
         assert!(output.positions.iter().all(|p| p.is_finite()), "{}: NaN in {}", scene.name, object.name);
-        for t in 0..output.num_triangles() {
-            let [a, b, c] = object.mesh.corners(t);
-            let [a2, b2, c2] = output.corners(t);
-            let (n0, n1) = (face_normal_unnormalized(a, b, c), face_normal_unnormalized(a2, b2, c2));
-            assert!(n0.dot(n1) > 0.0, "{}: face {t} of {} flipped", scene.name, object.name);
-        }
+        assert_no_flipped_face(&object.mesh, output, &format!("{} ({})", object.name, scene.name));
         let mut in_region = vec![false; object.mesh.num_vertices()];
         for summary in result.regions.iter().filter(|s| s.object == i) {
             if summary.whole {
@@ -82,26 +76,27 @@ fn check_regions(scene: &ProceduralScene, max_ratio: f64) -> Checked {
     }
     let contacts = result.stats.pairs.iter().filter(|p| p.in_contact).count();
     let ratio = after / before;
-    let stages = &result.stats.stages;
     println!(
         "{}: {} contacts, volume change {worst_volume:.2e}, penetration {before:.4} → {after:.2e} ({ratio:.2e}); \
-         {:.1} ms (regions {:.1}, intersection {:.1}, mapping {:.1}, zones {:.1}, parametrization {:.1}, \
-         directions {:.1}, guide {:.1}, deformation {:.1})",
+         {:.1} ms ({})",
         scene.name,
         contacts,
         elapsed.as_secs_f64() * 1e3,
-        stages.regions.as_secs_f64() * 1e3,
-        stages.intersection.as_secs_f64() * 1e3,
-        stages.mapping.as_secs_f64() * 1e3,
-        stages.contact_zone.as_secs_f64() * 1e3,
-        stages.parametrization.as_secs_f64() * 1e3,
-        stages.directions.as_secs_f64() * 1e3,
-        stages.guide.as_secs_f64() * 1e3,
-        stages.deformation.as_secs_f64() * 1e3,
+        stage_times(&result.stats.stages),
     );
     assert!(worst_volume <= 1e-9, "{}: relative volume change {worst_volume:.3e}", scene.name);
     assert!(ratio <= max_ratio, "{}: residual penetration {after:.4e} is {ratio:.3e} of {before:.4e}", scene.name);
     Checked { result, contacts }
+}
+
+/// The non-zero stage times in ms, in pipeline order.
+fn stage_times(stages: &StageTimes) -> String {
+    let times: Vec<String> = Stage::ALL
+        .into_iter()
+        .filter(|&s| stages[s] > Duration::ZERO)
+        .map(|s| format!("{s} {:.1}", stages[s].as_secs_f64() * 1e3))
+        .collect();
+    times.join(", ")
 }
 
 /// Prints the wall-clock time of a frame deformed again by a deformer that has seen it (caches
@@ -111,18 +106,11 @@ fn print_steady_timing(scene: &ProceduralScene) {
     deformer.deform(&scene.frame()).unwrap();
     let start = Instant::now();
     let result = deformer.deform(&scene.frame()).unwrap();
-    let ms = |d: Duration| d.as_secs_f64() * 1e3;
-    let s = &result.stats.stages;
     println!(
-        "{}, reused deformer: {:.1} ms (setup {:.1}, regions {:.1}, contact {:.1}, deformation {:.1} of which \
-         factorizations {:.1}); {} regions in parallel",
+        "{}, reused deformer: {:.1} ms ({}); {} regions in parallel",
         scene.name,
-        ms(start.elapsed()),
-        ms(s.setup),
-        ms(s.regions),
-        ms(s.intersection + s.mapping + s.contact_zone),
-        ms(s.parametrization + s.directions + s.guide + s.deformation),
-        ms(s.factorization),
+        start.elapsed().as_secs_f64() * 1e3,
+        stage_times(&result.stats.stages),
         result.stats.regions.len()
     );
 }
@@ -266,8 +254,12 @@ fn regions_holding_the_deformation_match_the_whole_object() {
             let stats = &result.deformations[1].as_ref().unwrap().stats;
             assert_eq!(stats.numeric_factorizations, 3, "{name}: heat, Poisson, guide");
             assert!(stats.factorized_rows > 0 && stats.recomputed_rows <= stats.factorized_rows, "{name}: {stats:?}");
-            assert_eq!(stats.reduced_analyses > 0, stats.timings.analysis > Duration::ZERO, "{name}: {stats:?}");
-            assert!(stats.timings.analysis <= stats.timings.factorization, "{name}: {stats:?}");
+            assert_eq!(
+                stats.reduced_analyses > 0,
+                stats.timings[Stage::Analysis] > Duration::ZERO,
+                "{name}: {stats:?}"
+            );
+            assert!(stats.timings[Stage::Analysis] <= stats.timings[Stage::Factorization], "{name}: {stats:?}");
         }
     }
 }
@@ -454,18 +446,14 @@ fn fingers_pressing_their_own_palm_are_regions_of_one_object() {
     assert!(stats.objects[0].relative_volume_change.abs() <= 1e-9);
     let mesh = &scene.objects[0].mesh;
     let output = deformed(&scene, &result, 0);
-    for t in 0..mesh.num_triangles() {
-        let [a, b, c] = mesh.corners(t);
-        let [a2, b2, c2] = output.corners(t);
-        assert!(face_normal_unnormalized(a, b, c).dot(face_normal_unnormalized(a2, b2, c2)) > 0.0, "face {t} flipped");
-    }
+    assert_no_flipped_face(mesh, &output, "the hand");
     // The palm (first component) and the fingers as separate meshes: clean contact.
     let split = |m: &TriMesh| {
         let faces = result.regions[0].faces.iter().copied();
-        let palm = crate::mesh::SubMesh::from_faces(m, faces).mesh;
+        let palm = SubMesh::from_faces(m, faces).mesh;
         let rest: Vec<u32> =
             (0..m.num_triangles() as u32).filter(|f| result.regions[0].faces.binary_search(f).is_err()).collect();
-        (palm, crate::mesh::SubMesh::from_faces(m, rest).mesh)
+        (palm, SubMesh::from_faces(m, rest).mesh)
     };
     let (palm_before, fingers_before) = split(mesh);
     let (palm_after, fingers_after) = split(&output);

@@ -2,40 +2,24 @@
 //! on the shared meshes: volume, clean contact, no flips, untouched vertices, symmetry,
 //! continuity, γ, bulge maps, determinism.
 
-#![allow(clippy::unwrap_used, clippy::expect_used)]
-
 use glam::DVec3;
+use squish::mesh::{TriMesh, shapes};
+use squish::params::{DirectionFieldMethod, MappingMethod, ObjectParams, PairParams};
+use squish::pipeline::*;
+use squish_scenes::bench::{self, BenchSize};
+use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use super::scenes::{self, ProceduralScene};
-use super::*;
-use crate::mesh::{face_normal_unnormalized, shapes};
-use crate::params::DirectionFieldMethod;
-use crate::params::MappingMethod;
-use crate::spatial::{penetration_depths, test_meshes};
+use crate::common::{self as test_meshes, assert_no_flipped_face, deformed, penetrations};
 
 fn run(scene: &ProceduralScene) -> FrameResult {
     Deformer::new().deform(&scene.frame()).expect("frame deforms")
-}
-
-pub(super) fn deformed(scene: &ProceduralScene, result: &FrameResult, i: usize) -> TriMesh {
-    TriMesh { positions: result.positions[i].clone(), triangles: scene.objects[i].mesh.triangles.clone() }
-}
-
-/// Deepest vertex of either mesh inside the other.
-pub(super) fn deepest_penetration(a: &TriMesh, b: &TriMesh) -> f64 {
-    let ab = penetration_depths(a, b).unwrap();
-    let ba = penetration_depths(b, a).unwrap();
-    ab.iter().chain(&ba).fold(0.0f64, |m, &d| m.max(d))
 }
 
 /// Checks volume, clean contact, orientation, NaN and untouched vertices; returns the largest
 /// relative volume change and the residual penetration ratio.
 fn check_scene(scene: &ProceduralScene) -> (f64, f64) {
     let result = run(scene);
-    let before = deepest_penetration(&scene.objects[0].mesh, &scene.objects[1].mesh);
-    assert!(before > 0.0, "{}: the inputs must intersect", scene.name);
-    let after_meshes: Vec<TriMesh> = (0..2).map(|i| deformed(scene, &result, i)).collect();
-    let after = deepest_penetration(&after_meshes[0], &after_meshes[1]);
+    let (before, after_meshes, after) = penetrations(scene, &result);
     let mut worst_volume = 0.0f64;
     for (i, object) in scene.objects.iter().enumerate() {
         let stats = &result.stats.objects[i];
@@ -47,12 +31,7 @@ fn check_scene(scene: &ProceduralScene) -> (f64, f64) {
         worst_volume = worst_volume.max(stats.relative_volume_change.abs());
         let output = &after_meshes[i];
         assert!(output.positions.iter().all(|p| p.is_finite()), "{}: NaN in {}", scene.name, object.name);
-        for t in 0..output.num_triangles() {
-            let [a, b, c] = object.mesh.corners(t);
-            let [a2, b2, c2] = output.corners(t);
-            let (n0, n1) = (face_normal_unnormalized(a, b, c), face_normal_unnormalized(a2, b2, c2));
-            assert!(n0.dot(n1) > 0.0, "{}: face {t} of {} flipped", scene.name, object.name);
-        }
+        assert_no_flipped_face(&object.mesh, output, &format!("{} ({})", object.name, scene.name));
         let deformation = result.deformations[i].as_ref().unwrap();
         for v in 0..output.num_vertices() {
             if !deformation.deformable[v] && !deformation.contact[v] {
@@ -253,7 +232,7 @@ fn frames_keep_no_trace_of_the_frames_before_them() {
     // A static ball pressed by fingers that move: the ball's systems change only around the
     // contacts, so a reused deformer recomputes part of their factors. Whatever came before — the
     // previous frame, the frames in reverse order, nothing — every frame is the same bit for bit.
-    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let scene = bench::fingers_ball(BenchSize::Quick);
     let times = [0.0, 0.2, 0.4, 0.7, 1.0];
     let bits = |r: &FrameResult| -> Vec<u64> {
         r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
@@ -387,13 +366,44 @@ fn method_a_runs_through_the_deformer() {
     assert!(err.contains("\"ground\"") && err.contains("UVs"), "{err}");
 }
 
+/// Ball testing is a per-pair parameter, so the [`Deformer`] already runs it
+/// (the direction field is not selectable there yet): a rigid ball in the procedural ground.
+#[test]
+fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
+    let mut scene = scenes::ball_on_ground(0.15, 4, 48);
+    scene.objects[0].params = ObjectParams::rigid();
+    // The ground slab is 0.5 thick: the ball (r_s = 0.1) must fit inside it (§4.4.1).
+    scene.pairs[0].params = PairParams::default().with_ball(0.1);
+    let result = Deformer::new().deform(&scene.frame()).unwrap();
+    let ground = &scene.objects[1];
+    let stats = &result.stats.objects[1];
+    let contact = result.contacts[0].as_ref().unwrap();
+    println!(
+        "Deformer with ball testing: zone vertices {:?}, contact area {:.4}, ground volume change {:.2e}",
+        result.stats.pairs[0].zone_vertices, contact.contact_area, stats.relative_volume_change
+    );
+    assert!(stats.deformed && !result.stats.objects[0].deformed);
+    assert!(result.stats.pairs[0].zone_vertices[1] > 0 && result.stats.pairs[0].zone_vertices[0] == 0);
+    assert!(stats.relative_volume_change.abs() < 1e-9);
+    assert_no_flipped_face(&ground.mesh, &deformed(&scene, &result, 1), "the ground");
+    // The zone is pressed onto the ball.
+    let zone = &contact.sides[1].zone;
+    let centre = DVec3::new(0.0, 0.0, 1.0 - 0.15);
+    for v in 0..ground.mesh.num_vertices() {
+        if zone.region.contains(v as u32) {
+            let d = (result.positions[1][v] - centre).length();
+            assert!((d - 1.0).abs() < 5e-3, "vertex {v} at {d} from the ball's centre");
+        }
+    }
+}
+
 /// The zones lent to chapter 5 come back to the pair and side they were found on: four fingers
 /// pressed to unequal depths into one ball give four zones on the ball's one region, and each
 /// pair's zones are the ones its statistics counted, carry its mapping direction and lie under
 /// its own finger.
 #[test]
 fn each_pair_gets_its_own_zones_back_after_the_deformation() {
-    let scene = super::bench_scenes::fingers_ball(super::bench_scenes::BenchSize::Quick);
+    let scene = bench::fingers_ball(BenchSize::Quick);
     let pose = scene.pose(1.0);
     let frame = pose.frame();
     let result = Deformer::new().deform(&frame).unwrap();

@@ -1,17 +1,17 @@
 //! The self-contact stage inside the whole pipeline: a skinned arm folded at its elbow and pressed
 //! by a ball at its hand, in one frame.
 
-#![allow(clippy::unwrap_used, clippy::expect_used)]
-
 use glam::DVec3;
+use squish::mesh::{TriMesh, shapes, signed_volume};
+use squish::params::{ObjectParams, PairParams};
+use squish::pipeline::*;
+use squish_scenes::procedural;
 
-use super::super::tests::deepest_penetration;
-use super::super::*;
-use crate::mesh::shapes;
+use crate::common::deepest_penetration;
 
-/// The arm of [`super::super::scenes::bent_arm`] at `degrees`.
+/// The arm of [`procedural::bent_arm`] at `degrees`.
 fn bent_arm(degrees: f64) -> (TriMesh, ObjectParams) {
-    let mut scene = super::super::scenes::bent_arm(degrees, 32);
+    let mut scene = procedural::bent_arm(degrees, 32);
     let arm = scene.objects.remove(0);
     (arm.mesh, arm.params)
 }
@@ -38,7 +38,7 @@ fn a_folded_arm_pressed_by_a_ball_is_clean_at_the_elbow_and_at_the_hand_with_its
             FrameObject { name: "arm", mesh: &arm, params: &arm_params },
             FrameObject { name: "ball", mesh: &ball, params: &ball_params },
         ],
-        pairs: vec![FramePair { objects: [0, 1], params: crate::params::PairParams::default() }],
+        pairs: vec![FramePair { objects: [0, 1], params: PairParams::default() }],
     };
     let before = deepest_penetration(&arm, &ball);
     assert!(before > 0.1);
@@ -65,8 +65,7 @@ fn a_folded_arm_pressed_by_a_ball_is_clean_at_the_elbow_and_at_the_hand_with_its
     for (i, object) in result.stats.objects.iter().enumerate() {
         assert!(object.relative_volume_change.abs() < 1e-9, "object {i}: {}", object.relative_volume_change);
     }
-    let relative =
-        (crate::mesh::signed_volume(&arm_out) - crate::mesh::signed_volume(&arm)) / crate::mesh::signed_volume(&arm);
+    let relative = (signed_volume(&arm_out) - signed_volume(&arm)) / signed_volume(&arm);
     assert!(relative.abs() < 1e-9, "{relative}");
 
     // Deterministic whatever the thread count.

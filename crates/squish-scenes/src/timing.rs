@@ -3,8 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use super::{NumericFactor, Operator, SolveError, SparsePattern, SymbolicFactor};
-use crate::mesh::{Topology, TriMesh, mean_edge_length};
+use squish::linalg::{NumericFactor, Operator, SolveError, SparsePattern, SymbolicFactor};
+use squish::mesh::{Topology, TriMesh, mean_edge_length};
 
 /// Timings and sizes of the factorization of one region's heat operator.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,7 +74,7 @@ pub fn time_laplacian_factorization(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::mesh::shapes;
+    use squish::mesh::shapes;
 
     #[test]
     fn timing_reports_the_sizes_of_the_system() {

@@ -6,9 +6,9 @@
 
 use glam::{DQuat, DVec3};
 
-use super::{Frame, FrameObject, FramePair, ObjectParams};
-use crate::mesh::{TriMesh, shapes};
-use crate::params::PairParams;
+use squish::mesh::{TriMesh, shapes};
+use squish::params::{ObjectParams, PairParams, RegionChoice};
+use squish::pipeline::{Frame, FrameObject, FramePair};
 
 /// An object of a procedural scene.
 #[derive(Clone, Debug)]
@@ -27,7 +27,7 @@ pub struct ProceduralScene {
 }
 
 impl ProceduralScene {
-    /// The scene as a frame for the [`super::Deformer`].
+    /// The scene as a frame for the [`squish::pipeline::Deformer`].
     pub fn frame(&self) -> Frame<'_> {
         Frame {
             objects: self
@@ -130,10 +130,10 @@ pub fn crossed_capsules(depth: f64, segments: u32) -> ProceduralScene {
 /// origin (its elbow) by `degrees` toward +y by linear blend skinning of two bones (weights
 /// blended smoothly over |z| ≤ 1, two radii each side), with the elbow's articulation (regions
 /// from the weights at 0.05, d̂ from the joints at (0, 0, −3), the origin and the hand) and its
-/// rest pose; anisotropic bulge (thesis ch. 6; see [`crate::skinning::self_contact`]). Past about
+/// rest pose; anisotropic bulge (thesis ch. 6; see [`squish::skinning::plan_articulation`]). Past about
 /// 105° the inner skin passes through itself. No pair.
 pub fn bent_arm(degrees: f64, segments: u32) -> ProceduralScene {
-    use crate::params::{Articulation, ArticulationParams};
+    use squish::params::{Articulation, ArticulationParams};
     let segments = segments.max(8);
     let rest = shapes::capsule(0.5, 6.0, segments, segments / 4, segments * 3 / 2);
     let weight: Vec<f64> = rest
@@ -222,7 +222,7 @@ pub fn fingers_on_ball(depth: f64, subdivisions: u32, segments: u32) -> Procedur
         on_ball * (1.0 + FINGER_RADIUS - depth * factor)
     });
     let h = scene.push("hand", fingers(&tips, segments));
-    scene.objects[h].params.region = crate::params::RegionChoice::Components;
+    scene.objects[h].params.region = RegionChoice::Components;
     let b = scene.push("ball", shapes::icosphere(1.0, subdivisions));
     scene.pair(h, b);
     scene
@@ -236,11 +236,11 @@ pub fn fingers_on_slab(depth: f64, cells: u32, segments: u32) -> ProceduralScene
     let mut scene = ProceduralScene { name: "fingers on a slab".into(), ..Default::default() };
     let tips = FINGERS.map(|((x, y), _, factor, _)| DVec3::new(x, y, FINGER_RADIUS - depth * factor));
     let h = scene.push("hand", fingers(&tips, segments));
-    scene.objects[h].params.region = crate::params::RegionChoice::Components;
+    scene.objects[h].params.region = RegionChoice::Components;
     let mut slab = shapes::cuboid(DVec3::new(2.0, 2.0, 0.4), cells);
     slab.map_positions(|p| p - DVec3::new(0.0, 0.0, 0.2));
     let s = scene.push("slab", slab);
-    scene.objects[s].params.region = crate::params::RegionChoice::Distance;
+    scene.objects[s].params.region = RegionChoice::Distance;
     scene.pair(h, s);
     scene
 }
@@ -254,7 +254,7 @@ pub fn fingers_on_own_palm(depth: f64, cells: u32, segments: u32) -> ProceduralS
     hand.append(&two.objects[0].mesh);
     let mut scene = ProceduralScene { name: "fingers on their own palm".into(), ..Default::default() };
     let h = scene.push("hand", hand);
-    scene.objects[h].params.region = crate::params::RegionChoice::Components;
+    scene.objects[h].params.region = RegionChoice::Components;
     scene.pair(h, h);
     scene
 }

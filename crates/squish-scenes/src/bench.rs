@@ -4,7 +4,7 @@
 //! Each [`BenchScene`] is a rest pose (objects, pairs, parameters) plus rigid translations of
 //! some objects over the animation parameter `t ∈ [0, 1]` ([`BenchScene::pose`]): the contact
 //! moves and deepens from frame to frame while the connectivity stays, as in an animation, so a
-//! reused [`super::Deformer`] keeps its caches. Meshes are procedural except two that come from
+//! reused [`squish::pipeline::Deformer`] keeps its caches. Meshes are procedural except two that come from
 //! files (the bunny and the hand): the library reads no files, so those builders take the mesh.
 //!
 //! The sizes follow table 7.3 (working regions 𝒲) and, through fixed extents φ_max, roughly the
@@ -16,10 +16,12 @@
 
 use glam::{DQuat, DVec3};
 
-use super::FramePair;
-use super::scenes::{ProceduralScene, SceneObject};
-use crate::mesh::{SubMesh, TriMesh, shapes};
-use crate::params::{ObjectParams, PairParams, RegionChoice};
+use squish::mesh::{SubMesh, TriMesh, shapes};
+use squish::params::{ObjectParams, PairParams, RegionChoice};
+use squish::pipeline::FramePair;
+use squish::stage::{PerStage, Stage};
+
+use crate::procedural::{ProceduralScene, SceneObject};
 
 /// Full thesis-size scenes, or smaller ones for a quick smoke run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,9 +53,8 @@ pub struct ThesisRow {
     pub deformable: [usize; 2],
     /// Average time per frame of the C++ prototype (one core of an i7-4790K), ms.
     pub ms: f64,
-    /// The row's breakdown, % of `ms`: intersection (i.), mapping (m.), contact zone (c.),
-    /// parametrization (p.), directions (di.), guiding fields (g.), deformation (de.). The
-    /// table's own rounding: a row sums to 99–101.
+    /// The row's breakdown, % of `ms`, column by column ([`ThesisRow::columns`]: i., m., c., p.,
+    /// di., g., de.). The table's own rounding: a row sums to 99–101.
     pub stages: [f64; 7],
     /// % of `ms` spent in factorizations (table 7.2's s., part of p., di. and g.; table 7.1
     /// has no such column).
@@ -61,9 +62,21 @@ pub struct ThesisRow {
 }
 
 impl ThesisRow {
-    /// The thesis' stage times in ms, in the order of [`Self::stages`].
-    pub fn stage_ms(&self) -> [f64; 7] {
-        self.stages.map(|percent| self.ms * percent / 100.0)
+    /// The stages of the columns of [`Self::stages`], in order: the [spans](Stage::spans) that
+    /// the thesis' tables time.
+    pub fn columns() -> impl Iterator<Item = Stage> {
+        Stage::spans().filter(|s| s.in_thesis_tables())
+    }
+
+    /// The thesis' time of each stage in ms: its columns and, for table 7.2, the factorizations;
+    /// `None` for a stage the table has no column for.
+    pub fn stage_ms(&self) -> PerStage<Option<f64>> {
+        let mut ms = PerStage::default();
+        for (stage, percent) in Self::columns().zip(self.stages) {
+            ms[stage] = Some(self.ms * percent / 100.0);
+        }
+        ms[Stage::Factorization] = self.factorizations.map(|percent| self.ms * percent / 100.0);
+        ms
     }
 }
 
@@ -527,6 +540,7 @@ pub fn procedural_scenes(size: BenchSize) -> Vec<BenchScene> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use squish::pipeline::Deformer;
 
     #[test]
     fn poses_move_only_the_moving_objects_and_keep_the_connectivity() {
@@ -548,7 +562,7 @@ mod tests {
             // The tables' rounding: rows sum to 99–101 %.
             let sum: f64 = row.stages.iter().sum();
             assert!((99.0..=101.05).contains(&sum), "{}: {sum}", row.scene);
-            let ms: f64 = row.stage_ms().iter().sum();
+            let ms: f64 = ThesisRow::columns().filter_map(|s| row.stage_ms()[s]).sum();
             assert!((ms - row.ms * sum / 100.0).abs() < 1e-9, "{}", row.scene);
             // Table 7.2 (method B) has the factorization column, table 7.1 does not.
             assert_eq!(row.factorizations.is_some(), row.table == "7.2", "{}", row.scene);
@@ -556,7 +570,9 @@ mod tests {
         }
         // Spot checks against the tables: hand – pillow's c., fingers – ball's g.
         assert_eq!(HAND_PILLOW.stages[2], 32.0);
-        assert!((FINGERS_BALL.stage_ms()[5] - 1.68).abs() < 1e-12);
+        assert_eq!(ThesisRow::columns().count(), HAND_PILLOW.stages.len());
+        assert!(FINGERS_BALL.stage_ms()[Stage::Guide].is_some_and(|ms| (ms - 1.68).abs() < 1e-12));
+        assert_eq!(PLANE_SPHERE.stage_ms()[Stage::Factorization], None);
     }
 
     #[test]
@@ -574,7 +590,8 @@ mod tests {
 
     #[test]
     fn the_bunny_working_region_is_a_valid_open_region_of_the_thesis_size() {
-        let Some(bunny) = crate::spatial::test_meshes::shared_mesh("bunny_29834.obj") else {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/bunny_29834.obj");
+        let Ok(bunny) = squish_io::read_obj(std::path::Path::new(path)) else {
             eprintln!("skipped: ../shared/data/meshes/bunny_29834.obj is absent");
             return;
         };
@@ -590,7 +607,7 @@ mod tests {
     #[test]
     fn the_automatic_press_gives_the_whole_press_up_to_round_off() {
         let (whole, automatic) = (press_100k(BenchSize::Quick), press_100k_automatic(BenchSize::Quick));
-        let (mut a, mut b) = (super::super::Deformer::new(), super::super::Deformer::new());
+        let (mut a, mut b) = (Deformer::new(), Deformer::new());
         for t in [0.0, 0.5, 1.0] {
             let (pose_a, pose_b) = (whole.pose(t), automatic.pose(t));
             let (ra, rb) = (a.deform(&pose_a.frame()).unwrap(), b.deform(&pose_b.frame()).unwrap());
@@ -618,7 +635,7 @@ mod tests {
         let topology = mesh.check_for_deformation().unwrap();
         assert!(topology.is_closed());
         // Outward orientation: a shell's volume is positive and ≈ ⅔π(1.1³ − 0.9³).
-        let volume = crate::mesh::signed_volume(&mesh);
+        let volume = squish::mesh::signed_volume(&mesh);
         let expected = 2.0 / 3.0 * std::f64::consts::PI * (1.1f64.powi(3) - 0.9f64.powi(3));
         assert!((volume - expected).abs() < 0.1 * expected, "{volume} vs {expected}");
     }

@@ -1,0 +1,15 @@
+//! # Squish scenes — procedural and benchmark scenes, outside the core
+//!
+//! Scenes built from the core's own shapes, for `squish demo`, `squish bench`, the criterion
+//! benchmarks and the pipeline's tests; none of them is part of the core library's API.
+//! - [`procedural`]: small scenes of closed objects (a ball pressed into soft ground, crossed
+//!   capsules, fingers, an arm folding at its elbow), each a function of the penetration depth or
+//!   the angle, so that an animation is a sweep;
+//! - [`bench`]: animated scenes at the sizes of the thesis' performance tables (ch. 7 §5,
+//!   tables 7.1–7.3), each with the thesis row it is compared with;
+//! - [`timing`]: the timing of one region's factorizations, the reference a frame is measured
+//!   against.
+
+pub mod bench;
+pub mod procedural;
+pub mod timing;

@@ -1,0 +1,273 @@
+//! The deformation stage of a frame (thesis ch. 5, §5.2.2, §7.1.2): every working region with
+//! contact zones is deformed with all its zones at once (regions in parallel, objects in
+//! parallel), then each object's regions are written back into one object-sized result.
+//!
+//! Inputs: the object caches (each region's sub-mesh and [`RegionSolver`]), the frame, the
+//! [`RegionContacts`] of the contact stage, the component figures and region sizes of the setup.
+//! Output: per object and region, a [`RegionOutcome`] (`None` for a region without zones).
+//!
+//! Conventions:
+//! - each region's extent φ_max is the object's or [`automatic_extent`] of the region's size, its
+//!   partners' sizes and its largest contact area; its length scale h is the mean edge length of
+//!   the components it touches, so the result does not depend on where a cut falls;
+//! - a cut region's border must not move (faces outside would deform without being part of the
+//!   volume balance): a zone reaching the cut is [`PipelineError::RegionTooSmall`], and when 𝒟
+//!   reaches it the extent is clamped to 0.95 × the smallest φ on the cut and the region solved
+//!   again (φ does not depend on φ_max, so 𝒟 then stops short of the cut);
+//! - an automatic region's factorizations eliminate in AMD's order (its face set, hence its
+//!   analysis, changes every few frames); the others keep the order of fewer flops.
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::cache::{ComponentFigures, ObjectCache, RegionCache};
+use super::contacts::RegionContacts;
+use super::{Frame, FrameObject, PipelineError};
+use crate::contact::ContactZone;
+use crate::deform::{
+    DeformError, DeformParams, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, automatic_extent,
+    deform_region_with,
+};
+use crate::linalg::FillOrder;
+use crate::mesh::Topology;
+
+/// The deformation of one region.
+pub(super) struct RegionOutcome {
+    pub deformation: RegionDeformation,
+    /// φ_max used (after clamping).
+    pub extent: f64,
+    /// Whether φ_max was clamped to keep 𝒟 inside the region.
+    pub clamped: bool,
+    /// Whether 𝒫 reached the region's cut.
+    pub domain_reaches_cut: bool,
+    /// Wall-clock time of the region's deformation.
+    pub time: Duration,
+    /// Whether this frame built the region's solver (one symbolic analysis).
+    pub new_solver: bool,
+}
+
+/// Chapter 5 on every region with zones (in parallel). `sizes`: each region's size (of the
+/// components it touches); `normals`: each object's vertex normals when the contact stage
+/// computed them.
+pub(super) fn deform_regions(
+    caches: &mut [Option<ObjectCache>],
+    frame: &Frame,
+    contacts: &RegionContacts,
+    figures: &[ComponentFigures],
+    sizes: &[Vec<f64>],
+    normals: &[Option<Vec<DVec3>>],
+) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
+    let RegionContacts { zones, partner_size, contact_area, .. } = contacts;
+    caches
+        .par_iter_mut()
+        .zip(&frame.objects)
+        .zip(zones)
+        .enumerate()
+        .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
+            let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
+            let ObjectCache { regions, topology, closed, .. } = cache;
+            let (topology, closed) = (&*topology, *closed);
+            regions
+                .par_iter_mut()
+                .zip(zones)
+                .enumerate()
+                .map(|(r, (region, zones))| {
+                    if zones.is_empty() {
+                        return Ok(None);
+                    }
+                    let extent = object
+                        .params
+                        .extent
+                        .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
+                    let scale = Scale { extent, edge_length: figures[i].mean_edge_length(&region.components) };
+                    deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale).map(Some)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Fraction of the smallest φ on a region's cut border that a clamped extent keeps.
+const CLAMP_FRACTION: f64 = 0.95;
+
+/// The scales of a region's deformation: φ_max and the mean edge length h of the components it
+/// touches.
+#[derive(Clone, Copy, Debug)]
+struct Scale {
+    extent: f64,
+    edge_length: f64,
+}
+
+/// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see the
+/// module doc). `object_normals`: the object's vertex normals when the contact stage computed
+/// them (it does for objects with a region processed whole).
+#[allow(clippy::too_many_arguments)]
+fn deform_one(
+    object: &FrameObject,
+    topology: &Topology,
+    closed: bool,
+    region: &mut RegionCache,
+    index: usize,
+    zones: &[ContactZone],
+    object_normals: Option<&[DVec3]>,
+    scale: Scale,
+) -> Result<RegionOutcome, PipelineError> {
+    let Scale { extent, edge_length: object_edge_length } = scale;
+    let start = Instant::now();
+    let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
+    let too_small =
+        |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
+    let (mesh, topology, border) = match region.sub.as_deref() {
+        None => (object.mesh, topology, None),
+        Some(sub) => (&sub.sub.mesh, &sub.topology, (sub.border_count > 0).then_some(sub.border.as_slice())),
+    };
+    // A region processed whole reuses the object's normals of the contact stage (the same
+    // `vertex_normals` of the same mesh); a cut region's own are its sub-mesh's.
+    let overrides =
+        RegionOverrides { normals: object_normals.filter(|_| region.sub.is_none()), ..RegionOverrides::default() };
+    let new_solver = region.solver.is_none();
+    if new_solver {
+        // An automatic region is cut again whenever its faces change: its analysis, then paid
+        // every few frames, stays AMD's alone; the others are analyzed once per shot.
+        let fill_order = if object.params.region.is_automatic() { FillOrder::Amd } else { FillOrder::FewerFlops };
+        region.solver = Some(RegionSolver::with_fill_order(mesh, topology, fill_order).map_err(err)?);
+    }
+    let Some(solver) = region.solver.as_mut() else {
+        return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
+    };
+    let mut params = DeformParams::of(object.params, extent, object.params.preserve_volume.unwrap_or(closed));
+    if let Some(map) = object.params.bulge_map.as_ref() {
+        params.bulge_map = Some(match region.sub.as_deref() {
+            None => map.clone(),
+            Some(sub) => {
+                if map.len() != object.mesh.num_vertices() {
+                    return Err(err(DeformError::BulgeMapLength {
+                        expected: object.mesh.num_vertices(),
+                        actual: map.len(),
+                    }));
+                }
+                sub.sub.gather(map)
+            }
+        });
+    }
+    if object_edge_length > 0.0 {
+        // The length scale h (heat time, slope confidence) is the object's (of the components
+        // the region touches, from the frame's figures), whole or cut: the result must not
+        // depend on where a cut falls, which automatic regions move from frame to frame.
+        params.edge_length = Some(object_edge_length);
+    }
+    let mut deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
+    let mut clamped = false;
+    if let Some(border) = border {
+        if let Some(v) = (0..border.len()).find(|&v| border[v] && deformation.contact[v]) {
+            return Err(too_small(format!("its contact zone reaches vertex {v} on the cut border")));
+        }
+        if (0..border.len()).any(|v| border[v] && deformation.deformable[v]) {
+            // φ does not depend on φ_max: the smallest φ on the cut bounds the extent that fits.
+            let reach = (0..border.len())
+                .filter(|&v| border[v])
+                .map(|v| deformation.u[v] * params.extent)
+                .fold(f64::INFINITY, f64::min);
+            let fitted = CLAMP_FRACTION * reach;
+            if !(fitted.is_finite() && fitted > 0.0) {
+                return Err(too_small(format!("its deformable region reaches the cut border at φ = {reach:.3e}")));
+            }
+            // The same domain as the first solve, so the same φ.
+            params.domain_radius = Some(params.domain_radius());
+            params.extent = fitted;
+            deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
+            clamped = true;
+            if let Some(v) =
+                (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v]))
+            {
+                return Err(too_small(format!("vertex {v} on the cut border still moves after clamping the extent")));
+            }
+        }
+    }
+    let domain_reaches_cut = border.is_some_and(|border| {
+        // Every vertex within the radius in the whole object is in the region, at the same
+        // distance, unless a shortest path crosses the cut: then a cut vertex is within it.
+        border.iter().zip(&deformation.domain).any(|(&on_cut, &within)| on_cut && within)
+    });
+    Ok(RegionOutcome {
+        deformation,
+        extent: params.extent,
+        clamped,
+        domain_reaches_cut,
+        time: start.elapsed(),
+        new_solver,
+    })
+}
+
+/// Writes the regions' deformations into one object-sized deformation (`None` if none).
+pub(super) fn combine(
+    input: &[DVec3],
+    regions: &[RegionCache],
+    outcomes: Vec<Option<RegionOutcome>>,
+) -> Option<RegionDeformation> {
+    let deformed = outcomes.iter().filter(|o| o.is_some()).count();
+    if deformed == 0 {
+        return None;
+    }
+    let mut parts = regions.iter().zip(outcomes).filter_map(|(r, o)| o.map(|o| (r, o.deformation)));
+    if regions.len() == 1 && regions[0].sub.is_none() {
+        return parts.next().map(|(_, d)| d);
+    }
+    let n = input.len();
+    let mut out = RegionDeformation {
+        positions: input.to_vec(),
+        u: vec![f64::INFINITY; n],
+        domain: vec![false; n],
+        deformable: vec![false; n],
+        contact: vec![false; n],
+        directions: vec![DVec3::ZERO; n],
+        heights: vec![0.0; n],
+        amplitude: vec![0.0; n],
+        slope: vec![0.0; n],
+        bulge_map: vec![1.0; n],
+        stats: DeformStats::default(),
+    };
+    let mut first = true;
+    for (region, d) in parts {
+        let Some(sub) = region.sub.as_deref() else { continue };
+        let map = &sub.sub;
+        map.scatter(&d.positions, &mut out.positions);
+        map.scatter(&d.u, &mut out.u);
+        map.scatter(&d.domain, &mut out.domain);
+        map.scatter(&d.deformable, &mut out.deformable);
+        map.scatter(&d.contact, &mut out.contact);
+        map.scatter(&d.directions, &mut out.directions);
+        map.scatter(&d.heights, &mut out.heights);
+        map.scatter(&d.amplitude, &mut out.amplitude);
+        map.scatter(&d.slope, &mut out.slope);
+        map.scatter(&d.bulge_map, &mut out.bulge_map);
+        let (s, t) = (&d.stats, &mut out.stats);
+        if first {
+            t.bulge_height = s.bulge_height;
+            t.applied_bulge_height = s.applied_bulge_height;
+            t.volume_exact = s.volume_exact;
+            first = false;
+        }
+        t.volume_exact &= s.volume_exact;
+        t.volume_residual += s.volume_residual;
+        t.volume_before += s.volume_before;
+        t.volume_after += s.volume_after;
+        t.num_deformable += s.num_deformable;
+        t.num_contact += s.num_contact;
+        t.num_boundary_points += s.num_boundary_points;
+        t.outer_boundary_moved += s.outer_boundary_moved;
+        t.numeric_factorizations += s.numeric_factorizations;
+        t.factorized_rows += s.factorized_rows;
+        t.recomputed_rows += s.recomputed_rows;
+        t.reduced_analyses += s.reduced_analyses;
+        t.timings += &s.timings;
+        t.time += s.time;
+        t.fallbacks.direction_blend += s.fallbacks.direction_blend;
+        t.fallbacks.bulge_map += s.fallbacks.bulge_map;
+        t.fallbacks.volume_without_root += s.fallbacks.volume_without_root;
+        t.fallbacks.clamped_slopes += s.fallbacks.clamped_slopes;
+    }
+    Some(out)
+}

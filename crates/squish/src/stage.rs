@@ -1,0 +1,285 @@
+//! The stages of a frame (thesis ch. 3, Fig. 3.1) and their wall-clock times: the one list of
+//! stages that the pipeline, the contact and deformation stages, reports and benchmarks share.
+//!
+//! [`Stage::ALL`] is in pipeline order. The stages that are not [nested](Stage::is_nested) are
+//! disjoint spans of a frame's time (summed over region pairs and regions); the nested ones are
+//! shares of others (the factorizations of §5.1–5.3 and, within them, the analyses of coupled-row
+//! submatrices). The columns of the thesis' tables 7.1–7.2 are the stages
+//! [`in_thesis_tables`](Stage::in_thesis_tables).
+//!
+//! [`PerStage`] holds one value per stage, indexed by [`Stage`]; [`StageTimes`] is its durations.
+//! Serde writes it as a map from [`Stage::name`] to the value, in the order of [`Stage::ALL`]
+//! (missing names read as the default value, unknown ones are an error).
+
+use std::fmt;
+use std::marker::PhantomData;
+use std::ops::{AddAssign, Index, IndexMut};
+use std::time::Duration;
+
+use serde::de::{MapAccess, Visitor};
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+/// One stage of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Stage {
+    /// Topology checks, normals, triangle trees of the objects.
+    Setup,
+    /// Choosing the working regions and updating their caches.
+    Regions,
+    /// Intersection regions.
+    Intersection,
+    /// Mapping direction and mapping regions.
+    Mapping,
+    /// Potential contact surface and contact zones.
+    ContactZone,
+    /// Radial parametrization: contact set, cut weights, heat step and Poisson solve.
+    Parametrization,
+    /// Direction field: normals, mapping-field diffusion and blend (or parallel transport).
+    Directions,
+    /// Amplitude and slope fields: estimation at ∂𝒞 and diffusion.
+    Guide,
+    /// Bulge map, profiles, volume cubic and final positions.
+    Deformation,
+    /// Of parametrization, directions and guide: assembling and numerically factorizing systems.
+    Factorization,
+    /// Of the factorizations: symbolic analyses of coupled-row submatrices.
+    Analysis,
+}
+
+impl Stage {
+    /// Number of stages.
+    pub const COUNT: usize = 11;
+
+    /// Every stage, in pipeline order.
+    pub const ALL: [Stage; Self::COUNT] = [
+        Self::Setup,
+        Self::Regions,
+        Self::Intersection,
+        Self::Mapping,
+        Self::ContactZone,
+        Self::Parametrization,
+        Self::Directions,
+        Self::Guide,
+        Self::Deformation,
+        Self::Factorization,
+        Self::Analysis,
+    ];
+
+    /// The key of reports (`snake_case`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Setup => "setup",
+            Self::Regions => "regions",
+            Self::Intersection => "intersection",
+            Self::Mapping => "mapping",
+            Self::ContactZone => "contact_zone",
+            Self::Parametrization => "parametrization",
+            Self::Directions => "directions",
+            Self::Guide => "guide",
+            Self::Deformation => "deformation",
+            Self::Factorization => "factorization",
+            Self::Analysis => "analysis",
+        }
+    }
+
+    /// A short column label: the thesis' abbreviations (tables 7.1–7.2) for its columns.
+    pub const fn label(self) -> &'static str {
+        match self {
+            Self::Setup => "setup",
+            Self::Regions => "reg.",
+            Self::Intersection => "i.",
+            Self::Mapping => "m.",
+            Self::ContactZone => "c.",
+            Self::Parametrization => "p.",
+            Self::Directions => "di.",
+            Self::Guide => "g.",
+            Self::Deformation => "de.",
+            Self::Factorization => "s.",
+            Self::Analysis => "an.",
+        }
+    }
+
+    /// The thesis section the stage follows.
+    pub const fn thesis_section(self) -> &'static str {
+        match self {
+            Self::Setup => "ch. 3",
+            Self::Regions => "§4.5",
+            Self::Intersection => "§4.1",
+            Self::Mapping => "§4.2",
+            Self::ContactZone => "§4.3–4.4",
+            Self::Parametrization => "§5.1",
+            Self::Directions => "§5.2",
+            Self::Guide => "§5.3",
+            Self::Deformation => "§5.4–5.5",
+            Self::Factorization | Self::Analysis => "App. B",
+        }
+    }
+
+    /// True for a share of other stages' time rather than a span of its own: the factorizations
+    /// (within parametrization, directions and guide) and the analyses (within the
+    /// factorizations).
+    pub const fn is_nested(self) -> bool {
+        matches!(self, Self::Factorization | Self::Analysis)
+    }
+
+    /// True for the columns of the thesis' tables 7.1–7.2 (table 7.2's s. is the factorizations).
+    pub const fn in_thesis_tables(self) -> bool {
+        !matches!(self, Self::Setup | Self::Regions | Self::Analysis)
+    }
+
+    /// The stage of a report key.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// The stages that are spans of their own (not [nested](Self::is_nested)), in order: together
+    /// they take at most the frame's time on one thread.
+    pub fn spans() -> impl Iterator<Item = Stage> {
+        Self::ALL.into_iter().filter(|s| !s.is_nested())
+    }
+}
+
+impl fmt::Display for Stage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One value per [`Stage`], indexed by it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PerStage<T>([T; Stage::COUNT]);
+
+/// Wall-clock time spent in each stage, summed over region pairs (ch. 4) and regions (ch. 5): the
+/// breakdown of the thesis' tables 7.1–7.2.
+pub type StageTimes = PerStage<Duration>;
+
+impl<T: Default> Default for PerStage<T> {
+    fn default() -> Self {
+        Self(std::array::from_fn(|_| T::default()))
+    }
+}
+
+impl<T> PerStage<T> {
+    /// The value of each stage from `value`.
+    pub fn from_fn(mut value: impl FnMut(Stage) -> T) -> Self {
+        Self(std::array::from_fn(|i| value(Stage::ALL[i])))
+    }
+
+    /// Every stage with its value, in the order of [`Stage::ALL`].
+    pub fn iter(&self) -> impl Iterator<Item = (Stage, &T)> {
+        Stage::ALL.into_iter().zip(&self.0)
+    }
+
+    /// The values mapped by `f`.
+    pub fn map<U>(&self, mut f: impl FnMut(Stage, &T) -> U) -> PerStage<U> {
+        PerStage::from_fn(|stage| f(stage, &self[stage]))
+    }
+}
+
+impl StageTimes {
+    /// The times in milliseconds.
+    pub fn millis(&self) -> PerStage<f64> {
+        self.map(|_, d| d.as_secs_f64() * 1e3)
+    }
+}
+
+impl<T> Index<Stage> for PerStage<T> {
+    type Output = T;
+    fn index(&self, stage: Stage) -> &T {
+        &self.0[stage as usize]
+    }
+}
+
+impl<T> IndexMut<Stage> for PerStage<T> {
+    fn index_mut(&mut self, stage: Stage) -> &mut T {
+        &mut self.0[stage as usize]
+    }
+}
+
+impl<T: AddAssign + Copy> AddAssign<&PerStage<T>> for PerStage<T> {
+    fn add_assign(&mut self, other: &PerStage<T>) {
+        for (a, b) in self.0.iter_mut().zip(&other.0) {
+            *a += *b;
+        }
+    }
+}
+
+impl<T: Serialize> Serialize for PerStage<T> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(Stage::COUNT))?;
+        for (stage, value) in self.iter() {
+            map.serialize_entry(stage.name(), value)?;
+        }
+        map.end()
+    }
+}
+
+impl<'de, T: Deserialize<'de> + Default> Deserialize<'de> for PerStage<T> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct StageMap<T>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + Default> Visitor<'de> for StageMap<T> {
+            type Value = PerStage<T>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a map from stage names to values")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut access: A) -> Result<Self::Value, A::Error> {
+                let mut values = PerStage::default();
+                while let Some(name) = access.next_key::<String>()? {
+                    let stage = Stage::from_name(&name).ok_or_else(|| {
+                        serde::de::Error::custom(format!(
+                            "unknown stage \"{name}\"; the stages are {}",
+                            Stage::ALL.map(Stage::name).join(", ")
+                        ))
+                    })?;
+                    values[stage] = access.next_value()?;
+                }
+                Ok(values)
+            }
+        }
+        deserializer.deserialize_map(StageMap(PhantomData))
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_list_is_in_declaration_order_and_names_are_unique() {
+        for (i, stage) in Stage::ALL.into_iter().enumerate() {
+            assert_eq!(stage as usize, i, "{stage}");
+            assert_eq!(Stage::from_name(stage.name()), Some(stage));
+        }
+        let mut names = Stage::ALL.map(Stage::name).to_vec();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), Stage::COUNT);
+    }
+
+    #[test]
+    fn nested_stages_are_shares_of_earlier_ones() {
+        // A nested stage is timed within stages listed before it.
+        let first_nested = Stage::ALL.iter().position(|s| s.is_nested()).unwrap_or(Stage::COUNT);
+        assert!(Stage::ALL[first_nested..].iter().all(|s| s.is_nested()));
+        assert_eq!(Stage::spans().count(), first_nested);
+    }
+
+    #[test]
+    fn times_serialize_as_a_map_of_names_and_read_back() {
+        let mut times = StageTimes::default();
+        times[Stage::Regions] = Duration::from_millis(3);
+        times += &times.clone();
+        assert_eq!(times[Stage::Regions], Duration::from_millis(6));
+        let json = serde_json::to_string(&times.millis()).unwrap();
+        let keys: Vec<&str> = json.split('"').skip(1).step_by(2).collect();
+        assert_eq!(keys, Stage::ALL.map(Stage::name), "{json}");
+        assert!(json.contains(r#""regions":6.0"#), "{json}");
+        let back: StageTimes = serde_json::from_str(&serde_json::to_string(&times).unwrap()).unwrap();
+        assert_eq!(back, times);
+        let missing: StageTimes = serde_json::from_str("{}").unwrap();
+        assert_eq!(missing, StageTimes::default());
+        assert!(serde_json::from_str::<StageTimes>(r#"{"warp": {"secs": 1, "nanos": 0}}"#).is_err());
+    }
+}
