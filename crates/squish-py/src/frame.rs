@@ -131,6 +131,9 @@ pub fn contact<'py>(
     Ok(report)
 }
 
+/// Every object's deformed vertices and the frame's report.
+type FrameOutput<'py> = (Vec<Bound<'py, PyArray2<f64>>>, Bound<'py, PyAny>);
+
 /// One frame of any number of objects, pairs and self-contact articulations.
 ///
 /// ```python
@@ -279,7 +282,7 @@ impl Frame {
         &self,
         py: Python<'py>,
         threads: Option<usize>,
-    ) -> PyResult<(Vec<Bound<'py, PyArray2<f64>>>, Bound<'py, PyAny>)> {
+    ) -> PyResult<FrameOutput<'py>> {
         let pool = worker_pool(threads).map_err(cli_error)?;
         let shot = &self.frame;
         let (result, record) = py.detach(|| {

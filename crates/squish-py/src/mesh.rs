@@ -94,7 +94,7 @@ impl Mesh {
     #[pyo3(signature = (size, n=8))]
     fn cuboid(size: (f64, f64, f64), n: u32) -> PyResult<Self> {
         let size = DVec3::new(size.0, size.1, size.2);
-        if !(size.is_finite() && size.min_element() > 0.0) || !(1..=256).contains(&n) {
+        if !(size.is_finite() && size.min_element() > 0.0 && (1..=256).contains(&n)) {
             return Err(input_error(format!("cuboid(size={size}, n={n}): give sizes > 0 and n from 1 to 256")));
         }
         Ok(Self { mesh: squish::mesh::shapes::cuboid(size, n) })
@@ -240,7 +240,8 @@ pub fn write_mesh(py: Python<'_>, path: PathBuf, mesh: &Mesh, like: Option<PathB
 pub fn source_topology<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     let document = py.detach(|| squish_io::MeshDocument::read(&path)).map_err(io_error)?;
     let result = pyo3::types::PyDict::new(py);
-    let (counts, indices, uv): (Vec<i64>, Vec<i64>, Option<(Vec<[f64; 2]>, Vec<i64>)>) = match &document {
+    type Uv = Option<(Vec<[f64; 2]>, Vec<i64>)>;
+    let (counts, indices, uv): (Vec<i64>, Vec<i64>, Uv) = match &document {
         squish_io::MeshDocument::Obj(obj) => {
             let counts = obj.faces().iter().map(|f| f.len() as i64).collect();
             let indices = obj.faces().iter().flatten().map(|&(v, _)| i64::from(v)).collect();

@@ -49,7 +49,7 @@ fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyRe
         format!("{frame}")
     } else if let Ok((a, b)) = frames.extract::<(i64, i64)>() {
         format!("{a}:{b}")
-    } else if frames.get_type().name()?.to_string() == "range" {
+    } else if frames.get_type().name()? == "range" {
         let (start, stop, step): (i64, i64, i64) =
             (frames.getattr("start")?.extract()?, frames.getattr("stop")?.extract()?, frames.getattr("step")?.extract()?);
         if step != 1 || stop <= start {
