@@ -67,6 +67,10 @@ pub(super) struct EditState {
     pub sizes: Vec<Vec<f64>>,
     /// Per object and region: what its deformation reuses (`None` without zones).
     pub regions: Vec<Vec<Option<KeptRegion>>>,
+    /// Per region pair: which side lies inside the other (for the warnings, which an edit keeps).
+    pub contained: Vec<Option<[usize; 2]>>,
+    /// Per object: whether its mesh is closed.
+    pub closed: Vec<bool>,
 }
 
 impl EditState {
@@ -76,8 +80,10 @@ impl EditState {
         region_pairs: Vec<RegionPair>,
         sizes: Vec<Vec<f64>>,
         regions: Vec<Vec<Option<KeptRegion>>>,
+        contained: Vec<Option<[usize; 2]>>,
+        closed: Vec<bool>,
     ) -> Self {
-        Self { key: FrameKey::of(frame), contacts, region_pairs, sizes, regions }
+        Self { key: FrameKey::of(frame), contacts, region_pairs, sizes, regions, contained, closed }
     }
 
     /// True if `frame` is an edit of the kept frame (see the module doc).

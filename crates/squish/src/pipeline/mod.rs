@@ -45,6 +45,7 @@ mod results;
 mod self_contact;
 mod setup;
 mod stats;
+mod warnings;
 
 use std::time::Instant;
 
@@ -54,6 +55,7 @@ pub use edits::{DOWNSTREAM_KEYS, is_downstream};
 pub use error::PipelineError;
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
+pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
 
 use crate::contact::PairContact;
 use crate::deform::RegionDeformation;
@@ -235,6 +237,8 @@ impl Deformer {
             .collect();
         let region_pairs = contacts::region_pairs(frame, &caches);
         let mut contacts = contacts::contact_region_pairs(frame, &caches, &inputs, &region_pairs)?;
+        let contained = warnings::contained_sides(frame, &caches, &region_pairs, &contacts);
+        let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
         let mut region_contacts = RegionContacts::gather(frame, &caches, &region_pairs, &mut contacts, &sizes);
         drop(caches);
 
@@ -253,12 +257,22 @@ impl Deformer {
         if keep {
             let kept =
                 outcomes.iter_mut().map(|o| o.iter_mut().map(|o| o.as_mut().and_then(|o| o.kept.take())).collect());
-            self.edits = Some(EditState::new(frame, contacts.clone(), region_pairs.clone(), sizes, kept.collect()));
+            self.edits = Some(EditState::new(
+                frame,
+                contacts.clone(),
+                region_pairs.clone(),
+                sizes,
+                kept.collect(),
+                contained.clone(),
+                closed.clone(),
+            ));
         }
 
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
+        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
+        let warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
@@ -273,6 +287,7 @@ impl Deformer {
                 regions: objects.regions,
                 articulations: Vec::new(),
                 edit: false,
+                warnings,
             },
         })
     }
@@ -291,6 +306,9 @@ impl Deformer {
         let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
         let mut stages = StageTimes::default();
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
+        let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
+        let warnings =
+            warnings::frame_warnings(&pairs, &contacts, &params, &state.contained, &objects.stats, &state.closed);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
@@ -305,6 +323,7 @@ impl Deformer {
                 regions: objects.regions,
                 articulations: Vec::new(),
                 edit: true,
+                warnings,
             },
         })
     }

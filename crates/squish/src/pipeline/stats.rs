@@ -152,6 +152,9 @@ pub struct FrameStats {
     /// computation's.
     #[serde(default)]
     pub edit: bool,
+    /// What the frame did not do that it was asked to (see [`super::FrameWarning`]).
+    #[serde(default)]
+    pub warnings: Vec<super::FrameWarning>,
 }
 
 /// Which part of its object a working region is (same order as [`FrameStats::regions`]).

@@ -9,3 +9,4 @@ mod edits;
 mod frames;
 mod regions;
 mod self_contact;
+mod warnings;
