@@ -542,8 +542,15 @@ impl RegionFields {
             exponent: params.object.anisotropy_exponent,
             offset: params.object.anisotropy_offset,
         });
-        let eta =
-            bulge_map(mesh, zones, &contact, &deformable, params.bulge_map.as_deref(), anisotropy.as_ref(), params.extent);
+        let eta = bulge_map(
+            mesh,
+            zones,
+            &contact,
+            &deformable,
+            params.bulge_map.as_deref(),
+            anisotropy.as_ref(),
+            params.extent,
+        );
         stats.fallbacks.bulge_map = usize::from(eta.fallback);
 
         let mut displacement = AffineDisplacement::none(n);

@@ -30,9 +30,9 @@ use crate::deform::{
     DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver,
     automatic_extent, deform_with_fields, region_fields,
 };
-use crate::stage::Stage;
 use crate::linalg::FillOrder;
 use crate::mesh::Topology;
+use crate::stage::Stage;
 
 /// The deformation of one region.
 pub(super) struct RegionOutcome {
@@ -174,7 +174,8 @@ fn deform_one(
     let mut fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
     let mut clamped = false;
     if let Some(border) = border {
-        if let Some(v) = (0..border.len()).find(|&v| border[v] && fields.contact.vertex_zone[v] != crate::deform::NO_ZONE)
+        if let Some(v) =
+            (0..border.len()).find(|&v| border[v] && fields.contact.vertex_zone[v] != crate::deform::NO_ZONE)
         {
             return Err(too_small(format!("its contact zone reaches vertex {v} on the cut border")));
         }
@@ -234,7 +235,10 @@ fn region_params<'a>(
             None => map.clone(),
             Some(sub) => {
                 if map.len() != object.mesh.num_vertices() {
-                    return Err(DeformError::BulgeMapLength { expected: object.mesh.num_vertices(), actual: map.len() });
+                    return Err(DeformError::BulgeMapLength {
+                        expected: object.mesh.num_vertices(),
+                        actual: map.len(),
+                    });
                 }
                 sub.sub.gather(map)
             }
@@ -272,19 +276,15 @@ pub(super) fn finish_kept_regions(
                     let Some(kept) = kept else { return Ok(None) };
                     let start = Instant::now();
                     let mesh = region.sub.as_deref().map_or(object.mesh, |sub| &sub.sub.mesh);
-                    let params = region_params(object, cache.closed, region.sub.as_deref(), kept.scales).map_err(err)?;
-                    let mut deformation =
-                        deform_with_fields(mesh, zones, kept.fields.clone(), &params).map_err(err)?;
+                    let params =
+                        region_params(object, cache.closed, region.sub.as_deref(), kept.scales).map_err(err)?;
+                    let mut deformation = deform_with_fields(mesh, zones, kept.fields.clone(), &params).map_err(err)?;
                     let stats = &mut deformation.stats;
                     (stats.numeric_factorizations, stats.factorized_rows, stats.recomputed_rows) = (0, 0, 0);
                     stats.reduced_analyses = 0;
-                    for stage in [
-                        Stage::Parametrization,
-                        Stage::Directions,
-                        Stage::Guide,
-                        Stage::Factorization,
-                        Stage::Analysis,
-                    ] {
+                    for stage in
+                        [Stage::Parametrization, Stage::Directions, Stage::Guide, Stage::Factorization, Stage::Analysis]
+                    {
                         stats.timings[stage] = Duration::ZERO;
                     }
                     stats.time = start.elapsed();

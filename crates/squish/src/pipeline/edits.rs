@@ -165,9 +165,11 @@ impl FrameKey {
             });
         objects
             && self.pairs.len() == frame.pairs.len()
-            && self.pairs.iter().zip(&frame.pairs).all(|((objects, values), p)| {
-                *objects == p.objects && same_values(values, &pair_values(&p.params))
-            })
+            && self
+                .pairs
+                .iter()
+                .zip(&frame.pairs)
+                .all(|((objects, values), p)| *objects == p.objects && same_values(values, &pair_values(&p.params)))
     }
 }
 

@@ -17,7 +17,16 @@ fn figures(result: &FrameResult) -> String {
         let s = &d.stats;
         text += &format!(
             "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}\n",
-            d.positions, d.u, d.domain, d.deformable, d.contact, d.directions, d.heights, d.amplitude, d.slope, d.bulge_map
+            d.positions,
+            d.u,
+            d.domain,
+            d.deformable,
+            d.contact,
+            d.directions,
+            d.heights,
+            d.amplitude,
+            d.slope,
+            d.bulge_map
         );
         text += &format!(
             "h {:?} {:?} exact {} residual {:?} volumes {:?} {:?} counts {} {} {} moved {} fallbacks {:?}\n",
@@ -137,8 +146,7 @@ fn an_edit_of_each_downstream_parameter_equals_a_full_computation() {
 fn an_edit_on_a_clamped_cut_region_equals_a_full_computation() {
     let mut scene = scenes::ball_on_ground(0.2, 3, 32);
     let ground = &scene.objects[1].mesh;
-    let mask: Vec<bool> =
-        ground.positions.iter().map(|p| p.z > -1e-9 && p.x * p.x + p.y * p.y < 1.6 * 1.6).collect();
+    let mask: Vec<bool> = ground.positions.iter().map(|p| p.z > -1e-9 && p.x * p.x + p.y * p.y < 1.6 * 1.6).collect();
     scene.objects[1].params = scene.objects[1].params.clone().with_region_masks(std::slice::from_ref(&mask));
     let result = Deformer::new().deform(&scene.frame()).unwrap();
     assert!(result.stats.objects[1].extent_clamped, "the mask must clamp the ground's extent");
