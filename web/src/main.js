@@ -27,6 +27,7 @@ const profile = new ProfileEditor($('profile'), (edits) => {
   for (const [key, value] of Object.entries(edits)) send({ type: 'set', target: state.target, key, value });
 });
 state.view = view;
+state.send = send;
 state.profile = profile;
 
 function receive(message) {
