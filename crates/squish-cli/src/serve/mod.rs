@@ -289,41 +289,55 @@ async fn handle(app: &Arc<App>, text: &[u8]) -> Result<Reply, String> {
         .await
         .map_err(|e| format!("the export failed: {e}"))?;
     }
-    let changed = messages::apply(&mut lock(&app.session), &request)?;
-    let version = if changed {
+    // The version changes with the edits, under the session's lock (see `compute_latest`).
+    let mut session = lock(&app.session);
+    if messages::apply(&mut session, &request)? {
         app.edits_version.send_modify(|v| *v += 1);
-        *app.edits_version.borrow()
-    } else {
-        *app.edits_version.borrow()
-    };
+    }
+    let version = *app.edits_version.borrow();
+    drop(session);
     Ok(Reply::Wait(version))
 }
 
 /// The one compute worker: whenever the edits change, computes the latest of them (any versions
 /// that arrived meanwhile are skipped) and publishes the outcome.
 async fn compute_worker(app: Arc<App>, mut versions: watch::Receiver<u64>) {
+    let mut done: Option<u64> = None;
     loop {
-        let version = *versions.borrow_and_update();
+        versions.borrow_and_update();
         let task_app = app.clone();
-        let outcome = tokio::task::spawn_blocking(move || compute_latest(&task_app, version)).await;
-        let outcome = outcome.unwrap_or_else(|e| Outcome {
-            version,
-            json: error_json(&format!("the computation failed: {e}")),
-            ok: false,
-        });
-        app.latest.send_replace(Some(Arc::new(outcome)));
+        let outcome = tokio::task::spawn_blocking(move || compute_latest(&task_app, done)).await;
+        let outcome = match outcome {
+            Ok(Some(outcome)) => Some(outcome),
+            Ok(None) => None,
+            Err(e) => Some(Outcome {
+                version: done.map_or(0, |v| v + 1),
+                json: error_json(&format!("the computation failed: {e}")),
+                ok: false,
+            }),
+        };
+        if let Some(outcome) = outcome {
+            done = Some(outcome.version);
+            app.latest.send_replace(Some(Arc::new(outcome)));
+        }
         if versions.changed().await.is_err() {
             return;
         }
     }
 }
 
-fn compute_latest(app: &App, version: u64) -> Outcome {
-    let (edits, shot) = {
+/// Computes the current edits, unless they are version `done`, already computed. The version is
+/// read with the edits, under the session's lock (messages change both under it).
+fn compute_latest(app: &App, done: Option<u64>) -> Option<Outcome> {
+    let (version, edits, shot) = {
         let session = lock(&app.session);
-        (session.edits.clone(), session.frame(&session.edits))
+        let version = *app.edits_version.borrow();
+        if done == Some(version) {
+            return None;
+        }
+        (version, session.edits.clone(), session.frame(&session.edits))
     };
-    let fail = |message: String| Outcome { version, json: error_json(&message), ok: false };
+    let fail = |message: String| Some(Outcome { version, json: error_json(&message), ok: false });
     let shot = match shot {
         Ok(shot) => shot,
         Err(message) => return fail(message),
@@ -344,7 +358,7 @@ fn compute_latest(app: &App, version: u64) -> Outcome {
     drop(session);
     *last = Some(computed);
     match serde_json::to_string(&serde_json::json!({ "type": "frame", "frame": view })) {
-        Ok(json) => Outcome { version, json, ok: true },
+        Ok(json) => Some(Outcome { version, json, ok: true }),
         Err(e) => fail(format!("cannot write the frame as JSON: {e}")),
     }
 }
