@@ -16,11 +16,13 @@ export class Connection {
       setTimeout(() => this.open(), 1000);
     };
     this.socket.onmessage = (event) => {
+      let message;
       try {
-        this.onMessage(JSON.parse(event.data));
+        message = JSON.parse(event.data);
       } catch (e) {
-        this.onMessage({ type: 'error', message: `unreadable message from the server: ${e}` });
+        message = { type: 'error', message: `unreadable message from the server: ${e}` };
       }
+      this.onMessage(message);
     };
   }
 

@@ -42,6 +42,11 @@ function receive(message) {
     return;
   }
   if (message.type !== 'frame') return;
+  // A frame that arrives before the scene is kept for when the meshes are built.
+  if (!state.scene) {
+    state.pending = message;
+    return;
+  }
   showError(null);
   const first = state.frame === null;
   state.frame = message.frame;
@@ -116,6 +121,7 @@ async function start() {
   scrub.max = String(scene.frames.end);
   scrub.oninput = () => send({ type: 'frame', frame: Number(scrub.value) });
   selectTarget({ object: 0 });
+  if (state.pending) receive(state.pending);
   send({ type: 'refresh' });
 }
 

@@ -91,9 +91,13 @@ export class ParamPanel {
     if (entry.keyframable) {
       const key = document.createElement('button');
       key.textContent = '◆';
-      key.title = 'set a key at the current frame with the current value';
       key.className = 'key';
+      key.title = 'set a key at the current frame with the current value (on a key: remove it)';
       key.onclick = () => {
+        if (key.classList.contains('on')) {
+          this.send({ type: 'unkey', target: this.target, key: entry.key });
+          return;
+        }
         const value = controls.box ? controls.box.checked : Number(controls.number.value);
         set(value, true);
       };

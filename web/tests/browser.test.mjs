@@ -113,7 +113,7 @@ test('the page loads the press scene and shows its first frame', async () => {
   assert.deepEqual(f.objects.map((o) => o.name), ['ball', 'ground']);
   assert.equal(await page.locator('#status').textContent(), 'connected');
   assert.equal(await page.locator('.param[data-key="stiffness"]').count(), 1, 'a control per parameter from the schema');
-  assert.ok(await page.locator('#error').isHidden());
+  assert.ok(await page.locator('#error').isHidden(), await page.locator('#error').textContent());
 });
 
 test('the timeline scrubs to the deepest press', async () => {
@@ -192,6 +192,17 @@ test('a painted stroke changes the bulge map', async () => {
   await page.locator('#overlay').selectOption('bulge');
   await saveScreenshot('serve-paint.png');
   await page.locator('#overlay').selectOption('none');
+});
+
+test('a key set on the timeline and removed again', async () => {
+  const row = page.locator('.param[data-key="bulge_height"]');
+  await row.locator('.name').click();
+  await row.locator('button.key').click();
+  await waitFor((f) => f.values.objects[0].bulge_height.keys.includes(FRAME), 'a key at the current frame');
+  assert.equal(await page.locator('#keys span').count(), 1, 'the key is marked on the timeline');
+  await row.locator('button.key').click();
+  await waitFor((f) => f.values.objects[0].bulge_height.keys.length === 0, 'the key removed');
+  assert.equal(await page.locator('#keys span').count(), 0);
 });
 
 test('a malformed message is rejected with an error shown on the page', async () => {

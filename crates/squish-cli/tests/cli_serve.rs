@@ -149,6 +149,13 @@ fn a_downstream_edit_is_fast_and_the_export_renders_the_same_with_squish_run() {
         "{\"type\": \"set\", \"target\": {\"object\": 1}, \"key\": \"stiffness\", \"value\": 2, \"keyframe\": true}",
     );
     assert_eq!(keyed["frame"]["values"]["objects"][1]["stiffness"]["keys"], serde_json::json!([24.0]));
+    let (_, unkeyed) = server.message("{\"type\": \"unkey\", \"target\": {\"object\": 1}, \"key\": \"stiffness\"}");
+    assert_eq!(unkeyed["frame"]["values"]["objects"][1]["stiffness"]["edited"], false, "the last key removed");
+    let (status, _) = server.message("{\"type\": \"unkey\", \"target\": {\"object\": 1}, \"key\": \"stiffness\"}");
+    assert_eq!(status, 400, "no key left to remove");
+    server.message(
+        "{\"type\": \"set\", \"target\": {\"object\": 1}, \"key\": \"stiffness\", \"value\": 2, \"keyframe\": true}",
+    );
     let (status, exported) = server.message("{\"type\": \"export\", \"name\": \"edited\"}");
     assert_eq!(status, 200, "{exported}");
     let (_, shown) = server.message("{\"type\": \"refresh\"}");

@@ -7,6 +7,7 @@
 //!   a parameter's value (a number, a boolean, a list, or `"auto"`), constant or, with
 //!   `keyframe`, as a key at the current frame;
 //! - `{"type": "revert", "target": …, "key": K}`: back to the scene file's value;
+//! - `{"type": "unkey", "target": …, "key": K}`: removes K's key at the current frame;
 //! - `{"type": "paint", "object": i, "stroke": {center, radius, operation, strength}}`: a local
 //!   brush stroke on the object's bulge map (§5.5.1);
 //! - `{"type": "clear_paint", "object": i}`: back to the scene's bulge map;
@@ -37,6 +38,10 @@ pub enum Request {
         target: Target,
         key: String,
     },
+    Unkey {
+        target: Target,
+        key: String,
+    },
     Paint {
         object: usize,
         stroke: Stroke,
@@ -63,7 +68,7 @@ pub fn parse(text: &[u8]) -> Result<Request, String> {
     let text = std::str::from_utf8(text).map_err(|_| "a message must be UTF-8 JSON text".to_string())?;
     serde_json::from_str(text).map_err(|e| {
         format!(
-            "malformed message ({e}); send a JSON object with \"type\": frame, set, revert, paint, clear_paint, refresh or export"
+            "malformed message ({e}); send a JSON object with \"type\": frame, set, revert, unkey, paint, clear_paint, refresh or export"
         )
     })
 }
@@ -88,6 +93,11 @@ pub fn apply(session: &mut Session, request: &Request) -> Result<bool, String> {
         Request::Revert { target, key } => {
             check_key(*target, key)?;
             session.revert(*target, key)?;
+            Ok(true)
+        }
+        Request::Unkey { target, key } => {
+            check_key(*target, key)?;
+            session.unkey(*target, key)?;
             Ok(true)
         }
         Request::Paint { object, stroke } => {

@@ -110,11 +110,14 @@ impl Session {
     /// Checked at once: on error nothing changes.
     pub fn set(&mut self, target: Target, key: &str, value: &ParamValue, keyframe: bool) -> Result<(), String> {
         let frame = self.edits.frame;
+        let scene_value = self.scene_value(target, key);
         let table = self.table(target)?;
         let mut raw = table.clone();
         let written = toml_value(value);
         let new = if keyframe {
-            let mut keys: Vec<Value> = match raw.get(key).and_then(|v| v.get("keys")).and_then(Value::as_array) {
+            // A key joins the curve edited so far, or the scene file's.
+            let curve = raw.get(key).cloned().or(scene_value);
+            let mut keys: Vec<Value> = match curve.as_ref().and_then(|v| v.get("keys")).and_then(Value::as_array) {
                 Some(keys) => keys.clone(),
                 None => Vec::new(),
             };
@@ -126,7 +129,7 @@ impl Session {
                 let at = |k: &Value| k.as_array().and_then(|k| k.first()).and_then(Value::as_float_or_int);
                 at(a).unwrap_or(0.0).total_cmp(&at(b).unwrap_or(0.0))
             });
-            let mut table = toml::map::Map::new();
+            let mut table = curve.and_then(|c| c.as_table().cloned()).unwrap_or_default();
             table.insert("keys".into(), Value::Array(keys));
             Value::Table(table)
         } else {
@@ -141,10 +144,46 @@ impl Session {
         Ok(())
     }
 
+    /// Removes the key of `key` at the current frame (the last key removed: back to the scene
+    /// file's value). Keys the scene file set are edited the same way: the edit starts from them.
+    pub fn unkey(&mut self, target: Target, key: &str) -> Result<(), String> {
+        let frame = self.edits.frame as f64;
+        let scene_value = self.scene_value(target, key);
+        let table = self.table(target)?;
+        let Some(raw) = table.get(key).cloned().or(scene_value) else {
+            return Err(format!("{key} has no key at frame {frame}"));
+        };
+        let Some(mut keys) = raw.get("keys").and_then(Value::as_array).cloned() else {
+            return Err(format!("{key} has no key at frame {frame}"));
+        };
+        let before = keys.len();
+        keys.retain(|k| k.as_array().and_then(|k| k.first()).and_then(Value::as_float_or_int) != Some(frame));
+        if keys.len() == before {
+            return Err(format!("{key} has no key at frame {frame}"));
+        }
+        if keys.is_empty() {
+            table.remove(key);
+        } else {
+            let mut edited = raw.as_table().cloned().unwrap_or_default();
+            edited.insert("keys".into(), Value::Array(keys));
+            table.insert(key.to_string(), Value::Table(edited));
+        }
+        Ok(())
+    }
+
     /// Back to the scene file's value of `key` (its default when the file does not set it).
     pub fn revert(&mut self, target: Target, key: &str) -> Result<(), String> {
         self.table(target)?.remove(key);
         Ok(())
+    }
+
+    /// The scene file's value of `key` (as written), if it sets it.
+    fn scene_value(&self, target: Target, key: &str) -> Option<Value> {
+        let description = self.scene.description();
+        match target {
+            Target::Object(i) => description.objects.get(i).and_then(|o| o.params.get(key)).cloned(),
+            Target::Pair(i) => description.pairs.get(i).and_then(|p| p.params.get(key)).cloned(),
+        }
     }
 
     fn table(&mut self, target: Target) -> Result<&mut RawParams, String> {
@@ -158,7 +197,7 @@ impl Session {
 
     /// The edits' value of every key as the page shows it: per object and pair, key → the
     /// value at the current frame and the frames of its keys (none for a constant).
-    pub fn values(&self, frame: &ShotFrame) -> (Vec<BTreeMap<String, ShownValue>>, Vec<BTreeMap<String, ShownValue>>) {
+    pub fn values(&self, frame: &ShotFrame) -> (Vec<ShownValues>, Vec<ShownValues>) {
         let objects = frame
             .objects
             .iter()
@@ -181,6 +220,9 @@ impl Session {
     }
 }
 
+/// Every parameter of one object or pair as the page shows it, by key.
+pub type ShownValues = BTreeMap<String, ShownValue>;
+
 /// A parameter's value as the page shows it.
 #[derive(Clone, Debug, Serialize)]
 pub struct ShownValue {
@@ -191,7 +233,7 @@ pub struct ShownValue {
     pub edited: bool,
 }
 
-fn shown<P: Params>(params: &P, scene: Option<&RawParams>, edits: Option<&RawParams>) -> BTreeMap<String, ShownValue> {
+fn shown<P: Params>(params: &P, scene: Option<&RawParams>, edits: Option<&RawParams>) -> ShownValues {
     P::schema()
         .iter()
         .filter_map(|info| {

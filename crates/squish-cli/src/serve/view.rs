@@ -7,7 +7,7 @@ use serde::Serialize;
 use squish::deform::{Profile, Wrinkles};
 use squish::params::SchemaEntry;
 
-use super::session::{Computed, Session, ShownValue};
+use super::session::{Computed, Session, ShownValues};
 
 /// The scene as the page builds its view and controls from.
 #[derive(Serialize)]
@@ -93,8 +93,8 @@ pub struct FrameView {
 
 #[derive(Serialize)]
 pub struct ValuesView {
-    pub objects: Vec<std::collections::BTreeMap<String, ShownValue>>,
-    pub pairs: Vec<std::collections::BTreeMap<String, ShownValue>>,
+    pub objects: Vec<ShownValues>,
+    pub pairs: Vec<ShownValues>,
 }
 
 #[derive(Serialize)]
@@ -186,7 +186,7 @@ impl FrameView {
             .collect();
         let (objects_values, pairs_values) = session.values(&computed.shot);
         let stats = &result.stats;
-        let stages = stage_milliseconds(serde_json::to_value(&stats.stages).unwrap_or_default());
+        let stages = stage_milliseconds(serde_json::to_value(stats.stages).unwrap_or_default());
         Self {
             version,
             frame,

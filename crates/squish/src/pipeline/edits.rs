@@ -95,8 +95,11 @@ impl EditState {
 /// Everything of a frame that the kept results depend on.
 struct FrameKey {
     objects: Vec<ObjectKey>,
-    pairs: Vec<([usize; 2], Vec<(&'static str, ParamValue)>)>,
+    pairs: Vec<PairKey>,
 }
+
+/// A pair's objects and parameter values.
+type PairKey = ([usize; 2], Vec<(&'static str, ParamValue)>);
 
 struct ObjectKey {
     name: String,
