@@ -205,3 +205,21 @@ fn ctrl_c_stops_the_server_cleanly() {
         std::thread::sleep(Duration::from_millis(50));
     }
 }
+
+#[test]
+fn listening_beyond_this_machine_warns() {
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/press");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["serve", "press.toml", "--port", "0", "--listen", "0.0.0.0"])
+        .current_dir(&examples)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut warning = String::new();
+    BufReader::new(child.stderr.take().unwrap()).read_line(&mut warning).unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(warning.starts_with("warning: listening on 0.0.0.0:"), "{warning}");
+    assert!(warning.contains("127.0.0.1"), "the warning says what to use instead: {warning}");
+}
