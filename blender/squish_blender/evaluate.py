@@ -1,0 +1,294 @@
+"""One frame of the Blender scene as a `squish.Frame`, and its result back in object space.
+
+The input of every object is its evaluated mesh (armature and other modifiers applied) in world
+space, read at the scene's current frame with the add-on's properties as animated at that
+frame (read from the evaluated copies, which carry Blender's keyframes). The deformer needs
+triangles: Blender's loop triangles of each mesh are passed, so the vertices, their count and
+their order are the mesh's own.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+import squish
+
+from . import schema_props
+
+# The attribute the live-mode modifier stores its input positions in (the evaluated mesh before
+# the add-on's own Set Position), so that live mode reads the modifier stack's result without
+# switching its own modifier off.
+INPUT_ATTRIBUTE = "squish_input"
+LIVE_MODIFIER = "Squish live"
+CACHE_MODIFIER = "Squish cache"
+
+
+class SetupError(Exception):
+    """A problem with the user's setup, as one line: the object, the problem, the fix."""
+
+
+def _world(matrix: Matrix) -> np.ndarray:
+    return np.array(matrix, dtype=np.float64)
+
+
+@dataclass
+class ObjectInput:
+    name: str
+    matrix_world: np.ndarray  # (4, 4)
+    positions: np.ndarray  # world space, float64 (n, 3)
+    triangles: np.ndarray  # int64 (m, 3)
+    params: dict
+    closed: bool
+
+
+@dataclass
+class FrameInput:
+    """Everything one frame's deformation needs, gathered on Blender's main thread; `deform` can
+    then run on any thread (it touches no Blender data)."""
+
+    frame: int
+    objects: list[ObjectInput]
+    pairs: list[tuple[str, str, dict]]
+    articulations: list[tuple[str, str, tuple[np.ndarray, np.ndarray], np.ndarray | None, dict]]
+    fingerprint: int = 0
+
+    def build(self) -> squish.Frame:
+        frame = squish.Frame()
+        for obj in self.objects:
+            frame.add_object(obj.name, squish.Mesh(obj.positions, obj.triangles), obj.params)
+        for a, b, params in self.pairs:
+            frame.add_pair(a, b, params)
+        for name, articulation, regions, joints, params in self.articulations:
+            frame.add_articulation(name, articulation, regions, joints, params)
+        return frame
+
+
+@dataclass
+class FrameResult:
+    frame: int
+    local_positions: dict[str, np.ndarray] = field(default_factory=dict)  # object space, float64
+    world_positions: dict[str, np.ndarray] = field(default_factory=dict)
+    report: dict = field(default_factory=dict)
+    seconds: float = 0.0
+
+
+def participants(scene) -> list[bpy.types.Object]:
+    """The objects of the enabled setup, in a stable order: pairs' objects, then articulated ones."""
+    ordered = []
+    for pair in scene.squish.pairs:
+        for obj in (pair.object_a, pair.object_b):
+            if obj is not None and obj not in ordered:
+                ordered.append(obj)
+    for obj in scene.objects:
+        if obj.type == "MESH" and len(obj.squish.articulations) and obj not in ordered:
+            ordered.append(obj)
+    return ordered
+
+
+def check_setup(scene) -> list[bpy.types.Object]:
+    """The objects to deform; raises SetupError for a setup that cannot be evaluated."""
+    for index, pair in enumerate(scene.squish.pairs, start=1):
+        if pair.object_a is None or pair.object_b is None:
+            raise SetupError(f"Pair {index}: has no {'first' if pair.object_a is None else 'second'} object; "
+                             "pick two mesh objects or remove the pair")
+        if pair.object_a == pair.object_b:
+            raise SetupError(f"{pair.object_a.name}: is both objects of pair {index}; pick two different "
+                             "objects (self-contact is set up as an articulation)")
+    objects = participants(scene)
+    if not objects:
+        raise SetupError("Scene: no contact pair or articulation; add a pair of two mesh objects in the Squish tab")
+    for obj in objects:
+        if obj.type != "MESH":
+            raise SetupError(f"{obj.name}: is an object of type {obj.type.lower()}, not a mesh; pick a mesh object "
+                             "(or convert it to a mesh)")
+    return objects
+
+
+def _vertex_group_weights(obj: bpy.types.Object, mesh, key: str, group_name: str) -> np.ndarray:
+    """Per-vertex weights of a vertex group (0 outside it), read from the evaluated mesh's
+    weights when it carries them, else from the original's (same vertex order)."""
+    group = obj.vertex_groups.get(group_name)
+    if group is None:
+        names = ", ".join(g.name for g in obj.vertex_groups) or "none"
+        raise SetupError(f"{obj.name}: vertex group \"{group_name}\" ({key}) does not exist; pick one of its "
+                         f"groups ({names}) or clear the field")
+    weights = np.zeros(len(mesh.vertices), dtype=np.float64)
+    index = group.index
+    for vertex in mesh.vertices:
+        for element in vertex.groups:
+            if element.group == index:
+                weights[vertex.index] = element.weight
+                break
+    return weights
+
+
+def _mesh_arrays(obj_eval, original_count: int, name: str) -> tuple[np.ndarray, np.ndarray, bool, object]:
+    """Positions (object space) and loop triangles of an evaluated object."""
+    mesh = obj_eval.to_mesh()
+    count = len(mesh.vertices)
+    if count != original_count:
+        obj_eval.to_mesh_clear()
+        raise SetupError(f"{name}: its modifiers change the vertex count ({original_count} → {count}); apply them, "
+                         "or keep only modifiers that move vertices (armature, shape keys)")
+    positions = np.empty(count * 3, dtype=np.float32)
+    stored = mesh.attributes.get(INPUT_ATTRIBUTE)
+    if stored is not None and stored.domain == "POINT" and stored.data_type == "FLOAT_VECTOR":
+        stored.data.foreach_get("vector", positions)
+    else:
+        mesh.vertices.foreach_get("co", positions)
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    edges_per_face = {}
+    for polygon in mesh.polygons:
+        for edge in polygon.edge_keys:
+            edges_per_face[edge] = edges_per_face.get(edge, 0) + 1
+    closed = bool(edges_per_face) and all(n == 2 for n in edges_per_face.values())
+    return positions.reshape(-1, 3).astype(np.float64), triangles.reshape(-1, 3), closed, mesh
+
+
+def _pair_direction(pair, name: str):
+    """The pair's mapping direction: None (auto), the vector, or an object's world axis."""
+    if not pair.use_direction:
+        return None
+    if pair.direction_object is not None:
+        axis = {"X": 0, "Y": 1, "Z": 2}[pair.direction_axis.lstrip("-")]
+        vector = np.array(pair.direction_object.matrix_world.to_3x3().col[axis], dtype=np.float64)
+        if pair.direction_axis.startswith("-"):
+            vector = -vector
+    else:
+        vector = np.array(pair.direction, dtype=np.float64)
+    if not np.all(np.isfinite(vector)) or np.linalg.norm(vector) == 0.0:
+        raise SetupError(f"{name}: the mapping direction is zero; give a non-zero vector or an object whose axis "
+                         "is not scaled to zero")
+    return [float(v) for v in vector]
+
+
+def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
+    """The two regions (vertex indices) and the joints (3 world points, or None) of an articulation."""
+    label = f"{obj.name}, articulation \"{articulation.name}\""
+    if articulation.source == "GROUPS":
+        masks = []
+        for key in ("group_1", "group_2"):
+            group = getattr(articulation, key)
+            if not group:
+                raise SetupError(f"{label}: has no vertex group for region {key[-1]}; pick one")
+            weights = _vertex_group_weights(obj, mesh, f"region {key[-1]}", group)
+            masks.append(np.flatnonzero(weights >= 0.5).astype(np.uint32))
+        return (masks[0], masks[1]), None
+    armature = articulation.armature
+    if armature is None:
+        armature = next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+    if armature is None or armature.type != "ARMATURE":
+        raise SetupError(f"{label}: no armature; pick the armature whose bones bend here (or use vertex groups)")
+    bones = armature.data.bones
+    parent, child = bones.get(articulation.parent_bone), bones.get(articulation.child_bone)
+    for role, bone, name in (("parent", parent, articulation.parent_bone), ("child", child, articulation.child_bone)):
+        if bone is None:
+            raise SetupError(f"{label}: {armature.name} has no bone \"{name}\" ({role}); pick one of its bones")
+    if child.parent != parent:
+        children = ", ".join(b.name for b in parent.children) or "none"
+        raise SetupError(f"{label}: \"{child.name}\" is not a child of \"{parent.name}\"; pick one of its children "
+                         f"({children})")
+    min_weight = articulation.min_weight
+    region_1 = _vertex_group_weights(obj, mesh, "parent bone's group", parent.name)
+    region_2 = np.zeros_like(region_1)
+    for bone in [child, *child.children_recursive]:
+        if obj.vertex_groups.get(bone.name) is not None:
+            region_2 += _vertex_group_weights(obj, mesh, "child bone's group", bone.name)
+    regions = (np.flatnonzero(region_1 >= min_weight).astype(np.uint32),
+               np.flatnonzero(region_2 >= min_weight).astype(np.uint32))
+    posed = armature.evaluated_get(scene_eval_depsgraph)
+    to_world = posed.matrix_world
+    parent_pose, child_pose = posed.pose.bones[parent.name], posed.pose.bones[child.name]
+    joints = np.array([to_world @ parent_pose.head, to_world @ child_pose.head, to_world @ child_pose.tail],
+                      dtype=np.float64)
+    return regions, joints
+
+
+def gather(scene, depsgraph) -> FrameInput:
+    """The current frame's input (raises SetupError)."""
+    objects = check_setup(scene)
+    inputs, meshes = [], []
+    try:
+        for obj in objects:
+            obj_eval = obj.evaluated_get(depsgraph)
+            local, triangles, closed, _ = _mesh_arrays(obj_eval, len(obj.data.vertices), obj.name)
+            meshes.append(obj_eval)
+            # Vertex groups are read from the original mesh: the vertex order is the same (checked).
+            mesh = obj.data
+            matrix = _world(obj_eval.matrix_world)
+            world = local @ matrix[:3, :3].T + matrix[:3, 3]
+            settings = obj_eval.squish
+
+            def weights(key, group, obj=obj, mesh=mesh):
+                return _vertex_group_weights(obj, mesh, key, group)
+
+            params = schema_props.parameters_from(settings, "object", weights)
+            if params.get("preserve_volume") is True and not closed:
+                raise SetupError(f"{obj.name}: is an open mesh, so its volume cannot be preserved; switch "
+                                 "\"Preserve volume\" off (or close the mesh)")
+            inputs.append(ObjectInput(obj.name, matrix, world, triangles, params, closed))
+        scene_eval = scene.evaluated_get(depsgraph)
+        pairs = []
+        for pair in scene_eval.squish.pairs:
+            params = schema_props.parameters_from(pair, "pair")
+            if "direction" in params:
+                params["direction"] = _pair_direction(pair, f"Pair {pair.object_a.name}/{pair.object_b.name}")
+            pairs.append((pair.object_a.name, pair.object_b.name, params))
+        articulations = []
+        for obj, obj_eval in zip(objects, meshes):
+            for articulation in obj_eval.squish.articulations:
+                regions, joints = _articulation_regions(obj, obj.data, articulation, depsgraph)
+                params = schema_props.parameters_from(articulation, "articulation")
+                articulations.append((obj.name, articulation.name, regions, joints, params))
+    finally:
+        for obj_eval in meshes:
+            obj_eval.to_mesh_clear()
+    frame_input = FrameInput(scene.frame_current, inputs, pairs, articulations)
+    frame_input.fingerprint = fingerprint(frame_input)
+    return frame_input
+
+
+def fingerprint(frame_input: FrameInput) -> int:
+    """A hash of everything the result depends on: live mode evaluates once per change."""
+    parts = []
+    for obj in frame_input.objects:
+        parts += [obj.name, obj.positions.tobytes(), obj.triangles.tobytes(), repr(_hashable(obj.params))]
+    parts.append(repr(_hashable(frame_input.pairs)))
+    for name, articulation, regions, joints, params in frame_input.articulations:
+        parts += [name, articulation, regions[0].tobytes(), regions[1].tobytes(),
+                  b"" if joints is None else joints.tobytes(), repr(_hashable(params))]
+    return hash(tuple(parts))
+
+
+def _hashable(value):
+    if isinstance(value, np.ndarray):
+        return value.tobytes()
+    if isinstance(value, dict):
+        return tuple(sorted((k, _hashable(v)) for k, v in value.items()))
+    if isinstance(value, (list, tuple)):
+        return tuple(_hashable(v) for v in value)
+    return value
+
+
+def deform(frame_input: FrameInput, threads: int | None = None) -> FrameResult:
+    """Deforms one frame (any thread; the GIL is released while squish computes). Raises
+    SetupError with squish's one-line message."""
+    start = time.perf_counter()
+    try:
+        vertices, report = frame_input.build().deform(threads=threads)
+    except squish.SquishError as error:
+        raise SetupError(str(error)) from None
+    result = FrameResult(frame_input.frame, report=report)
+    for obj, world in zip(frame_input.objects, vertices):
+        result.world_positions[obj.name] = world
+        inverse = np.linalg.inv(obj.matrix_world)
+        result.local_positions[obj.name] = world @ inverse[:3, :3].T + inverse[:3, 3]
+    result.seconds = time.perf_counter() - start
+    return result
