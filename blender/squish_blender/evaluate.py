@@ -2,7 +2,9 @@
 
 The input of every object is its evaluated mesh (armature and other modifiers applied) in world
 space, read at the scene's current frame with the add-on's properties as animated at that
-frame (read from the evaluated copies, which carry Blender's keyframes). The deformer needs
+frame. The properties are read from the original data: the active depsgraph writes animated and
+driven values back to it at each frame change, and a user's edit is there at once (an evaluated
+copy would still hold the value of its last evaluation). The deformer needs
 triangles: Blender's loop triangles of each mesh are passed, so the vertices, their count and
 their order are the mesh's own.
 """
@@ -44,6 +46,7 @@ class ObjectInput:
     triangles: np.ndarray  # int64 (m, 3)
     params: dict
     closed: bool
+    rest: np.ndarray | None = None  # world space: the mesh's own positions (bind pose), for articulations
 
 
 @dataclass
@@ -61,6 +64,8 @@ class FrameInput:
         frame = squish.Frame()
         for obj in self.objects:
             frame.add_object(obj.name, squish.Mesh(obj.positions, obj.triangles), obj.params)
+            if obj.rest is not None:
+                frame.set_rest_positions(obj.name, obj.rest)
         for a, b, params in self.pairs:
             frame.add_pair(a, b, params)
         for name, articulation, regions, joints, params in self.articulations:
@@ -224,7 +229,7 @@ def gather(scene, depsgraph) -> FrameInput:
             mesh = obj.data
             matrix = _world(obj_eval.matrix_world)
             world = local @ matrix[:3, :3].T + matrix[:3, 3]
-            settings = obj_eval.squish
+            settings = obj.squish
 
             def weights(key, group, obj=obj, mesh=mesh):
                 return _vertex_group_weights(obj, mesh, key, group)
@@ -233,17 +238,23 @@ def gather(scene, depsgraph) -> FrameInput:
             if params.get("preserve_volume") is True and not closed:
                 raise SetupError(f"{obj.name}: is an open mesh, so its volume cannot be preserved; switch "
                                  "\"Preserve volume\" off (or close the mesh)")
-            inputs.append(ObjectInput(obj.name, matrix, world, triangles, params, closed))
-        scene_eval = scene.evaluated_get(depsgraph)
+            rest = None
+            if len(obj.squish.articulations):
+                # The articulations' partition of unity is computed on the rest pose: the mesh's
+                # own positions before its modifiers (a skin's bind pose), placed like the frame.
+                own = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
+                obj.data.vertices.foreach_get("co", own)
+                rest = own.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+            inputs.append(ObjectInput(obj.name, matrix, world, triangles, params, closed, rest))
         pairs = []
-        for pair in scene_eval.squish.pairs:
+        for pair in scene.squish.pairs:
             params = schema_props.parameters_from(pair, "pair")
             if "direction" in params:
                 params["direction"] = _pair_direction(pair, f"Pair {pair.object_a.name}/{pair.object_b.name}")
             pairs.append((pair.object_a.name, pair.object_b.name, params))
         articulations = []
-        for obj, obj_eval in zip(objects, meshes):
-            for articulation in obj_eval.squish.articulations:
+        for obj in objects:
+            for articulation in obj.squish.articulations:
                 regions, joints = _articulation_regions(obj, obj.data, articulation, depsgraph)
                 params = schema_props.parameters_from(articulation, "articulation")
                 articulations.append((obj.name, articulation.name, regions, joints, params))
@@ -259,7 +270,8 @@ def fingerprint(frame_input: FrameInput) -> int:
     """A hash of everything the result depends on: live mode evaluates once per change."""
     parts = []
     for obj in frame_input.objects:
-        parts += [obj.name, obj.positions.tobytes(), obj.triangles.tobytes(), repr(_hashable(obj.params))]
+        parts += [obj.name, obj.positions.tobytes(), obj.triangles.tobytes(), repr(_hashable(obj.params)),
+                  b"" if obj.rest is None else obj.rest.tobytes()]
     parts.append(repr(_hashable(frame_input.pairs)))
     for name, articulation, regions, joints, params in frame_input.articulations:
         parts += [name, articulation, regions[0].tobytes(), regions[1].tobytes(),

@@ -109,9 +109,11 @@ class SQUISH_OT_live(bpy.types.Operator):
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         depsgraph = context.evaluated_depsgraph_get()
+        # Evaluating the new modifiers may already run the update handler, which evaluates the
+        # frame; refresh then finds nothing changed and the result is the handler's.
         depsgraph.update()
-        result = live.refresh(scene, depsgraph, force=True)
-        if result is None:
+        live.refresh(scene, depsgraph)
+        if scene.name not in live.last_result:
             message = live.status.get(scene.name, "")
             live.disable(scene)
             self.report({"ERROR"}, message.removeprefix("Error: ") or "Squish: live mode could not evaluate the frame")

@@ -1,0 +1,83 @@
+"""Renders the README's before/after pictures of the Blender add-on with bpy (Workbench, headless).
+
+    python blender/render_readme.py [OUT_DIR]     # default docs/images; needs bpy and squish
+
+A ball pressed into a subdivided box and two intersecting balls, the add-on's live mode off
+(before) and on (after), seen from the same camera.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import bmesh
+import bpy
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "blender"))
+
+import squish_blender  # noqa: E402 - after the path is set
+
+
+def _object(name: str, build, location) -> bpy.types.Object:
+    mesh = bpy.data.meshes.new(name)
+    built = bmesh.new()
+    build(built)
+    built.to_mesh(mesh)
+    built.free()
+    for polygon in mesh.polygons:
+        polygon.use_smooth = True
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = location
+    return obj
+
+
+def build_scene() -> bpy.types.Scene:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    squish_blender.register()
+    scene = bpy.context.scene
+    ball = _object("Ball", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.6), (0.0, 0.0, 1.3))
+    box = _object("Box", lambda b: (bmesh.ops.create_cube(b, size=2.0),
+                                     bmesh.ops.subdivide_edges(b, edges=b.edges[:], cuts=16, use_grid_fill=True)),
+                  (0.0, 0.0, 0.0))
+    left = _object("Left", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.5), (2.6, 0.0, 0.2))
+    right = _object("Right", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.5), (3.35, 0.0, 0.2))
+    box.squish.stiffness = 1.0
+    ball.squish.stiffness = 3.0
+    for a, b in ((ball, box), (left, right)):
+        pair = scene.squish.pairs.add()
+        pair.object_a, pair.object_b = a, b
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (1.3, -6.2, 2.6)
+    camera.rotation_euler = (1.2, 0.0, 0.0)
+    scene.camera = camera
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.light = "STUDIO"
+    scene.display.shading.show_cavity = True
+    scene.display.shading.color_type = "SINGLE"
+    scene.render.resolution_x, scene.render.resolution_y = 800, 450
+    scene.render.film_transparent = False
+    return scene
+
+
+def render(scene, path: Path) -> None:
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+
+
+def main() -> None:
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs" / "images"
+    out.mkdir(parents=True, exist_ok=True)
+    scene = build_scene()
+    render(scene, out / "blender_before.png")
+    if bpy.ops.squish.live(enable=True) != {"FINISHED"}:
+        sys.exit("render_readme.py: live mode failed (see the report above)")
+    render(scene, out / "blender_after.png")
+    bpy.ops.squish.live(enable=False)
+
+
+if __name__ == "__main__":
+    main()
