@@ -11,8 +11,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import bpy  # first: bmesh and mathutils come with it
 import bmesh
-import bpy
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "blender"))
@@ -51,13 +51,18 @@ def build_scene() -> bpy.types.Scene:
         pair.object_a, pair.object_b = a, b
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     scene.collection.objects.link(camera)
-    camera.location = (1.3, -6.2, 2.6)
-    camera.rotation_euler = (1.2, 0.0, 0.0)
+    camera.location = (1.4, -8.0, 3.0)
+    camera.rotation_euler = (1.24, 0.0, 0.0)
     scene.camera = camera
+    scene.world = bpy.data.worlds.new("Backdrop")
+    scene.world.color = (0.05, 0.055, 0.06)
+    for obj, colour in ((ball, (0.9, 0.45, 0.2, 1.0)), (box, (0.35, 0.55, 0.8, 1.0)),
+                        (left, (0.5, 0.75, 0.4, 1.0)), (right, (0.85, 0.75, 0.35, 1.0))):
+        obj.color = colour
     scene.render.engine = "BLENDER_WORKBENCH"
     scene.display.shading.light = "STUDIO"
     scene.display.shading.show_cavity = True
-    scene.display.shading.color_type = "SINGLE"
+    scene.display.shading.color_type = "OBJECT"
     scene.render.resolution_x, scene.render.resolution_y = 800, 450
     scene.render.film_transparent = False
     return scene

@@ -281,3 +281,22 @@ def test_every_operator_is_undoable(addon):
     for name in dir(bpy.ops.squish):
         operator = getattr(bpy.types, f"SQUISH_OT_{name}")
         assert {"REGISTER", "UNDO"} <= set(operator.bl_options), name
+
+
+def test_profile_curve_widget_sets_the_profile_abscissas(addon, scene, capfd):
+    ball = scene.objects["Ball"]
+    bpy.context.view_layer.objects.active = ball
+    assert bpy.ops.squish.profile_curve_reset() == {"FINISHED"}
+    curve = addon.profile_curve.curve_node(ball).mapping.curves[0]
+    xs = [p.location[0] for p in curve.points]
+    assert xs == pytest.approx([0.0, 1 / 3, 5 / 6, 11 / 12, 1.0], abs=1e-6)
+    for point, x in zip(list(curve.points)[1:4], (0.4, 0.7, 0.95)):
+        point.location = (x, point.location[1])
+    assert bpy.ops.squish.profile_curve_apply() == {"FINISHED"}
+    assert (ball.squish.profile_v2, ball.squish.profile_v3, ball.squish.profile_v4) == pytest.approx((0.4, 0.7, 0.95))
+    # The profile's abscissas are keyable like any property, and reach the deformer.
+    ball.squish.keyframe_insert("profile_v2", frame=1)
+    assert addon.schema_props.parameters_from(ball.squish, "object")["profile_v2"] == pytest.approx(0.4)
+    list(curve.points)[1].location = (0.1, 1.0)
+    message = _error_of(lambda: bpy.ops.squish.profile_curve_apply(), capfd)
+    assert message.startswith("Ball: the profile's middle points are at x = 0.100")
