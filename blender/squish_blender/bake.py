@@ -56,21 +56,28 @@ def remove_bake(obj) -> None:
     if len(keys.key_blocks) == 1 and keys.key_blocks[0] == keys.reference_key and obj.get("squish_added_basis"):
         obj.shape_key_remove(keys.reference_key)
         del obj["squish_added_basis"]
-    if obj.data.shape_keys is not None and obj.data.shape_keys.animation_data is not None:
-        action = obj.data.shape_keys.animation_data.action
-        if action is not None and not any(True for _ in _fcurves(action)):
+    animation = obj.data.shape_keys.animation_data if obj.data.shape_keys is not None else None
+    if animation is not None and animation.action is not None:
+        # The keys' F-curves would be left pointing at keys that no longer exist.
+        for owner, curve in list(_fcurves(animation.action)):
+            if curve.data_path.startswith(f'key_blocks["{SHAPE_KEY_PREFIX}'):
+                owner.fcurves.remove(curve)
+        if not any(True for _ in _fcurves(animation.action)):
             obj.data.shape_keys.animation_data_clear()
 
 
 def _fcurves(action):
-    """The F-curves of an action (Blender 4.4+ keeps them in layers, strips and channel bags)."""
+    """(owner, F-curve) pairs of an action: Blender 4.4+ keeps them in channel bags of layered
+    actions, older versions on the action."""
     if hasattr(action, "layers"):
         for layer in action.layers:
             for strip in layer.strips:
                 for bag in strip.channelbags:
-                    yield from bag.fcurves
+                    for curve in bag.fcurves:
+                        yield bag, curve
     else:
-        yield from action.fcurves
+        for curve in action.fcurves:
+            yield action, curve
 
 
 @dataclass

@@ -180,13 +180,29 @@ def on_depsgraph_update(scene, depsgraph) -> None:
         _refresh_from_handler(scene, depsgraph)
 
 
+@persistent
+def on_data_replaced(*_args) -> None:
+    # Undo, redo and file loads put back data whose result attribute may belong to other
+    # inputs than the fingerprint remembers: the next update evaluates again.
+    _last_fingerprint.clear()
+
+
+_HANDLERS = (
+    ("frame_change_post", on_frame_change),
+    ("depsgraph_update_post", on_depsgraph_update),
+    ("undo_post", on_data_replaced),
+    ("redo_post", on_data_replaced),
+    ("load_post", on_data_replaced),
+)
+
+
 def register() -> None:
-    bpy.app.handlers.frame_change_post.append(on_frame_change)
-    bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    for name, handler in _HANDLERS:
+        getattr(bpy.app.handlers, name).append(handler)
 
 
 def unregister() -> None:
-    for handlers, handler in ((bpy.app.handlers.frame_change_post, on_frame_change),
-                              (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update)):
+    for name, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
         if handler in handlers:
             handlers.remove(handler)
