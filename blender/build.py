@@ -58,10 +58,12 @@ def platform_of(wheel: Path) -> str:
 def manifest_with(wheel: Path, platform: str) -> str:
     text = (ADDON / "blender_manifest.toml").read_text()
     # The source manifest lists no wheel (it is built here): fill the list and add the platform.
-    filled, count = re.subn(r"wheels = \[\s*\]", f'wheels = [\n  "./wheels/{wheel.name}",\n]', text)
+    # Both keys go where the empty list is, before the manifest's tables ([permissions]).
+    listed = f'wheels = [\n  "./wheels/{wheel.name}",\n]\nplatforms = ["{platform}"]'
+    filled, count = re.subn(r"wheels = \[\s*\]", lambda _: listed, text)
     if count != 1:
         sys.exit("build.py: blender_manifest.toml must hold one empty `wheels = [ ]` list")
-    return filled + f'\nplatforms = ["{platform}"]\n'
+    return filled
 
 
 def build_zip(wheel: Path, out: Path) -> Path:

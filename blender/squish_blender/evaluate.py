@@ -211,8 +211,15 @@ def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
     posed = armature.evaluated_get(scene_eval_depsgraph)
     to_world = posed.matrix_world
     parent_pose, child_pose = posed.pose.bones[parent.name], posed.pose.bones[child.name]
-    joints = np.array([to_world @ parent_pose.head, to_world @ child_pose.head, to_world @ child_pose.tail],
-                      dtype=np.float64)
+    # The end of the child bone, by the scene file's rule for skins (not the bone's tail, whose
+    # direction an importer chooses): the child's first child joint, or for a leaf the point
+    # continuing the parent bone beyond the joint at rest, carried by the child bone's pose.
+    if child.children:
+        end = posed.pose.bones[child.children[0].name].head
+    else:
+        rest_end = child.head_local + (child.head_local - parent.head_local)
+        end = child_pose.matrix @ child.matrix_local.inverted() @ rest_end
+    joints = np.array([to_world @ parent_pose.head, to_world @ child_pose.head, to_world @ end], dtype=np.float64)
     return regions, joints
 
 

@@ -18,15 +18,20 @@ KNEES = {"left knee": ("leg_joint_L_1", "leg_joint_L_2"), "right knee": ("leg_jo
 
 
 def _knee_faces(obj, tris: np.ndarray) -> np.ndarray:
-    """The faces of the knees' two regions (thigh and shin-side skinning weights ≥ 0.05): where
-    the articulations act, as the report of `squish run` counts them."""
-    weights = np.zeros(len(obj.data.vertices))
-    names = {name for bones in KNEES.values() for name in bones} | {"leg_joint_L_3", "leg_joint_L_5",
-                                                                    "leg_joint_R_3", "leg_joint_R_5"}
-    indices = {obj.vertex_groups[n].index for n in names}
+    """The faces of the knees' regions, by the add-on's rule (docs/blender.md): region 1 the
+    thigh's skinning weight ≥ 0.05, region 2 the summed weights of the shin and the bones below
+    it ≥ 0.05; where the articulations act, as `squish run`'s report counts them."""
+    weights = {g.name: np.zeros(len(obj.data.vertices)) for g in obj.vertex_groups}
+    names = {g.index: g.name for g in obj.vertex_groups}
     for vertex in obj.data.vertices:
-        weights[vertex.index] = sum(g.weight for g in vertex.groups if g.group in indices)
-    inside = weights >= 0.05
+        for element in vertex.groups:
+            weights[names[element.group]][vertex.index] = element.weight
+    armature = obj.find_armature()
+    inside = np.zeros(len(obj.data.vertices), dtype=bool)
+    for parent, child in KNEES.values():
+        bone = armature.data.bones[child]
+        below = sum(weights[b.name] for b in [bone, *bone.children_recursive] if b.name in weights)
+        inside |= (weights[parent] >= 0.05) | (below >= 0.05)
     return tris[inside[tris].all(axis=1)]
 
 
