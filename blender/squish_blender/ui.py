@@ -11,12 +11,25 @@ from . import live, profile_curve, schema_props
 _PER_VERTEX = ("bulge_map", "region_mask")
 
 
-class SQUISH_PT_scene(bpy.types.Panel):
-    bl_label = "Squish"
-    bl_idname = "SQUISH_PT_scene"
+class _Sidebar:
+    """Where the scene's panels live: the 3D view's sidebar, tab "Squish"."""
+
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Squish"
+
+
+class _ObjectProperties:
+    """Where the object's panels live: the Properties editor's Object tab."""
+
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+
+
+class SQUISH_PT_scene(_Sidebar, bpy.types.Panel):
+    bl_label = "Squish"
+    bl_idname = "SQUISH_PT_scene"
 
     def draw(self, context):
         layout = self.layout
@@ -49,13 +62,10 @@ class SQUISH_PT_scene(bpy.types.Panel):
                     axis.prop(pair, "direction_axis", text="")
 
 
-class SQUISH_PT_bake(bpy.types.Panel):
+class SQUISH_PT_bake(_Sidebar, bpy.types.Panel):
     bl_label = "Bake"
     bl_idname = "SQUISH_PT_bake"
     bl_parent_id = "SQUISH_PT_scene"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Squish"
 
     def draw(self, context):
         layout = self.layout
@@ -72,12 +82,9 @@ class SQUISH_PT_bake(bpy.types.Panel):
         row.operator("squish.bake_clear", icon="TRASH")
 
 
-class SQUISH_PT_object(bpy.types.Panel):
+class SQUISH_PT_object(_ObjectProperties, bpy.types.Panel):
     bl_label = "Squish"
     bl_idname = "SQUISH_PT_object"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "object"
 
     @classmethod
     def poll(cls, context):
@@ -101,13 +108,10 @@ class SQUISH_PT_object(bpy.types.Panel):
             row.operator("squish.profile_curve_apply", text="Apply")
 
 
-class SQUISH_PT_articulations(bpy.types.Panel):
+class SQUISH_PT_articulations(_ObjectProperties, bpy.types.Panel):
     bl_label = "Articulations (self-contact)"
     bl_idname = "SQUISH_PT_articulations"
     bl_parent_id = "SQUISH_PT_object"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "object"
 
     def draw(self, context):
         layout = self.layout

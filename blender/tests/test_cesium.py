@@ -39,8 +39,11 @@ def _self_intersecting(local: np.ndarray, faces: np.ndarray) -> int:
     return squish.Mesh(local, faces).self_intersecting_faces()
 
 
-@pytest.mark.skipif(not CESIUM_MAN.is_file(), reason=f"{CESIUM_MAN} is absent (shared test data)")
-def test_cesium_man_knees_baked_over_the_walk(addon, tmp_path):
+@pytest.fixture
+def cesium_man(addon):
+    """CesiumMan imported, welded, with both knees set from its bones; returns the mesh object."""
+    if not CESIUM_MAN.is_file():
+        pytest.skip(f"{CESIUM_MAN} is absent (shared test data)")
     clear_scene(addon)
     assert bpy.ops.import_scene.gltf(filepath=str(CESIUM_MAN)) == {"FINISHED"}
     man = next(o for o in bpy.data.objects if o.type == "MESH")
@@ -58,6 +61,11 @@ def test_cesium_man_knees_baked_over_the_walk(addon, tmp_path):
         articulation = man.squish.articulations[-1]
         articulation.name, articulation.parent_bone, articulation.child_bone = name, parent, child
         assert articulation.source == "BONES" and articulation.armature.type == "ARMATURE"
+    return man
+
+
+def test_cesium_man_knees_baked_over_the_walk(cesium_man, tmp_path):
+    man = cesium_man
     scene = bpy.context.scene
     scene.squish.bake_start, scene.squish.bake_end = 1, 48
     scene.squish.bake_target = "POINT_CACHE"
@@ -83,3 +91,35 @@ def test_cesium_man_knees_baked_over_the_walk(addon, tmp_path):
     for entry in report["per_frame"]:
         for name, (_, faces_after) in entry["self_intersecting_faces"].items():
             assert faces_after == 0, (entry["frame"], name)
+
+
+def test_cesium_man_live_after_the_armature(addon, cesium_man):
+    """Live mode on a skinned mesh: the result is shown after the armature (not deformed again),
+    and switching it off gives back the armature's pose exactly."""
+    man = cesium_man
+    scene = bpy.context.scene
+    scene.frame_set(9)  # the left knee folds furthest
+    posed = positions(man, evaluated=True)
+    knee_faces = _knee_faces(man, triangles(man))
+    assert _self_intersecting(posed, knee_faces) > 0
+    assert bpy.ops.squish.live(enable=True) == {"FINISHED"}
+    result = addon.live.last_result[scene.name].local_positions[man.name]
+    shown = positions(man, evaluated=True)
+    assert np.abs(shown - result).max() < 1e-5
+    assert _self_intersecting(shown, knee_faces) == 0
+    assert bpy.ops.squish.live(enable=False) == {"FINISHED"}
+    assert np.array_equal(positions(man, evaluated=True), posed)
+
+
+def test_cesium_man_bad_articulations_are_reported(addon, cesium_man):
+    articulation = cesium_man.squish.articulations[0]
+    articulation.child_bone = "leg_joint_L_3"
+    with pytest.raises(RuntimeError, match='"leg_joint_L_3" is not a child of "leg_joint_L_1"; pick one of its '
+                                           "children \\(leg_joint_L_2\\)"):
+        bpy.ops.squish.live(enable=True)
+    articulation.child_bone = "leg_joint_L_2"
+    articulation.source = "GROUPS"
+    articulation.group_1, articulation.group_2 = "leg_joint_L_1", "knee pads"
+    with pytest.raises(RuntimeError, match='vertex group "knee pads" \\(region 2\\) does not exist'):
+        bpy.ops.squish.live(enable=True)
+    assert not bpy.context.scene.squish.live
