@@ -3,7 +3,8 @@
     python blender/render_readme.py [OUT_DIR]     # default docs/images; needs bpy and squish
 
 A ball pressed into a subdivided box and two intersecting balls, the add-on's live mode off
-(before) and on (after), seen from the same camera.
+(before) and on (after), seen from the same camera; and, when the shared test data is next to
+the repository, CesiumMan's left knee at the walk's deepest bend with its knee articulations.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import bpy  # first: bmesh and mathutils come with it
 import bmesh
 
 ROOT = Path(__file__).resolve().parent.parent
+CESIUM_MAN = ROOT.parent / "shared" / "data" / "rigged" / "CesiumMan.glb"
 sys.path.insert(0, str(ROOT / "blender"))
 
 import squish_blender  # noqa: E402 - after the path is set
@@ -68,6 +70,46 @@ def build_scene() -> bpy.types.Scene:
     return scene
 
 
+def cesium_man_scene() -> bpy.types.Scene:
+    """CesiumMan at frame 9 (left knee bent furthest), both knees set from the bones, the camera
+    on the inside of the bend."""
+    # A factory reset keeps registered classes (the add-on is not enabled as an add-on here).
+    squish_blender.unregister()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    squish_blender.register()
+    scene = bpy.context.scene
+    bpy.ops.import_scene.gltf(filepath=str(CESIUM_MAN))
+    man = next(o for o in bpy.data.objects if o.type == "MESH")
+    built = bmesh.new()
+    built.from_mesh(man.data)
+    # glTF splits vertices along UV seams: Merge by Distance makes the skin one closed surface.
+    bmesh.ops.remove_doubles(built, verts=built.verts[:], dist=1e-6)
+    built.to_mesh(man.data)
+    built.free()
+    bpy.context.view_layer.objects.active = man
+    for name, parent, child in (("left knee", "leg_joint_L_1", "leg_joint_L_2"),
+                                ("right knee", "leg_joint_R_1", "leg_joint_R_2")):
+        bpy.ops.squish.articulation_add()
+        articulation = man.squish.articulations[-1]
+        articulation.name, articulation.parent_bone, articulation.child_bone = name, parent, child
+    scene.frame_set(9)
+    armature = man.find_armature()
+    knee = armature.matrix_world @ armature.pose.bones["leg_joint_L_2"].head
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (knee.x + 0.55, knee.y - 0.1, knee.z + 0.05)
+    direction = knee - camera.location
+    camera.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
+    scene.camera = camera
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.light = "STUDIO"
+    scene.display.shading.show_cavity = True
+    scene.world = bpy.data.worlds.new("Backdrop")
+    scene.world.color = (0.05, 0.055, 0.06)
+    scene.render.resolution_x, scene.render.resolution_y = 600, 450
+    return scene
+
+
 def render(scene, path: Path) -> None:
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True)
@@ -82,6 +124,12 @@ def main() -> None:
         sys.exit("render_readme.py: live mode failed (see the report above)")
     render(scene, out / "blender_after.png")
     bpy.ops.squish.live(enable=False)
+    if CESIUM_MAN.is_file():
+        scene = cesium_man_scene()
+        render(scene, out / "blender_knee_before.png")
+        if bpy.ops.squish.live(enable=True) != {"FINISHED"}:
+            sys.exit("render_readme.py: live mode failed on CesiumMan (see the report above)")
+        render(scene, out / "blender_knee_after.png")
 
 
 if __name__ == "__main__":
