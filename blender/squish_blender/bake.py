@@ -87,6 +87,7 @@ class FrameFigures:
     volumes: dict[str, tuple[float, float]] = field(default_factory=dict)  # before, after (world space)
     penetration: dict[str, tuple] = field(default_factory=dict)  # pair → (before, after)
     self_intersections: dict[str, tuple[int, int]] = field(default_factory=dict)  # articulation → (before, after)
+    warnings: list[str] = field(default_factory=list)
     error: str = ""
 
 
@@ -174,7 +175,7 @@ class Bake:
     def _figures_of(self, frame: int, result: evaluate.FrameResult) -> FrameFigures:
         """Volumes before and after (float64, world space) and each pair's deepest penetration
         before and after (squish's report; None for open meshes)."""
-        figures = FrameFigures(frame, seconds=result.seconds)
+        figures = FrameFigures(frame, seconds=result.seconds, warnings=result.warnings)
         for name, (before, triangles) in self.inputs[frame].items():
             after = result.world_positions[name]
             figures.volumes[name] = (squish.Mesh(before, triangles).volume(), squish.Mesh(after, triangles).volume())
@@ -285,7 +286,8 @@ class Bake:
             "failed_frames": failed,
             "per_frame": [
                 {"frame": fig.frame, "seconds": fig.seconds, "volumes": fig.volumes, "penetration": fig.penetration,
-                 "self_intersecting_faces": fig.self_intersections, **({"error": fig.error} if fig.error else {})}
+                 "self_intersecting_faces": fig.self_intersections, "warnings": fig.warnings,
+                 **({"error": fig.error} if fig.error else {})}
                 for _, fig in sorted(self.figures.items())
             ],
             "squish_version": squish.__version__,
@@ -298,4 +300,7 @@ class Bake:
         if failed:
             first = self.figures[min(failed)].error
             text += f"; {len(failed)} frames failed ({min(failed)}: {first})"
+        warned = sorted(f for f, fig in self.figures.items() if fig.warnings)
+        if warned:
+            text += f"; {len(warned)} frames with warnings ({warned[0]}: {self.figures[warned[0]].warnings[0]})"
         return text + f"; details in the text \"{REPORT_TEXT}\""

@@ -81,6 +81,12 @@ class FrameResult:
     report: dict = field(default_factory=dict)
     seconds: float = 0.0
 
+    @property
+    def warnings(self) -> list[str]:
+        """squish's warnings for the frame (a contact left unresolved, a clamped τ…): what
+        happened and what to change, one line each."""
+        return [w["message"] for w in self.report.get("stats", {}).get("warnings", [])]
+
 
 def participants(scene) -> list[bpy.types.Object]:
     """The objects of the enabled setup, in a stable order: pairs' objects, then articulated ones."""

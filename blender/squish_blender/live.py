@@ -152,6 +152,9 @@ def refresh(scene, depsgraph, force: bool = False) -> evaluate.FrameResult | Non
         for name, positions in result.local_positions.items():
             _write_result(scene.objects[name], positions)
         status[scene.name] = f"Frame {result.frame}: {result.seconds * 1000:.0f} ms"
+        if result.warnings:
+            count = len(result.warnings)
+            status[scene.name] += f"; {count} warning{'s' if count > 1 else ''}: {result.warnings[0]}"
         last_result[scene.name] = result
         return result
     finally:

@@ -3,12 +3,42 @@ one-line report (object, problem, fix); every operator is undoable."""
 
 from __future__ import annotations
 
+import functools
+
 import bpy
 
 from . import bake, evaluate, live, profile_curve
 from .evaluate import SetupError
 
 UNDOABLE = {"REGISTER", "UNDO"}
+
+
+def _report_failure(operator, call) -> set[str]:
+    try:
+        return call()
+    except SetupError as error:
+        operator.report({"ERROR"}, str(error))
+    except Exception as error:  # noqa: BLE001 - reported to the user, never swallowed
+        operator.report({"ERROR"}, f"Squish: unexpected {type(error).__name__}: {error}; please report it "
+                        "with the .blend file")
+    return {"CANCELLED"}
+
+
+def reported(method):
+    """Wraps an operator's execute or invoke: an unexpected exception becomes a one-line error
+    report (the operator is cancelled) instead of a traceback in Blender's interface. Blender
+    checks the number of arguments of these methods, so each arity has its own wrapper."""
+    if method.__code__.co_argcount == 2:
+
+        def execute(self, context):
+            return _report_failure(self, lambda: method(self, context))
+
+        return functools.wraps(method)(execute)
+
+    def invoke(self, context, event):
+        return _report_failure(self, lambda: method(self, context, event))
+
+    return functools.wraps(method)(invoke)
 
 
 class SQUISH_OT_pair_add(bpy.types.Operator):
@@ -18,6 +48,7 @@ class SQUISH_OT_pair_add(bpy.types.Operator):
     bl_label = "Add Pair"
     bl_options = UNDOABLE
 
+    @reported
     def execute(self, context):
         pair = context.scene.squish.pairs.add()
         selected = [o for o in context.selected_objects if o.type == "MESH"]
@@ -38,6 +69,7 @@ class SQUISH_OT_pair_remove(bpy.types.Operator):
 
     index: bpy.props.IntProperty(name="Index", min=0)
 
+    @reported
     def execute(self, context):
         pairs = context.scene.squish.pairs
         if self.index >= len(pairs):
@@ -54,6 +86,7 @@ class SQUISH_OT_articulation_add(bpy.types.Operator):
     bl_label = "Add Articulation"
     bl_options = UNDOABLE
 
+    @reported
     def execute(self, context):
         obj = context.active_object
         if obj is None or obj.type != "MESH":
@@ -80,6 +113,7 @@ class SQUISH_OT_articulation_remove(bpy.types.Operator):
 
     index: bpy.props.IntProperty(name="Index", min=0)
 
+    @reported
     def execute(self, context):
         obj = context.active_object
         if obj is None or obj.type != "MESH" or self.index >= len(obj.squish.articulations):
@@ -98,6 +132,7 @@ class SQUISH_OT_live(bpy.types.Operator):
 
     enable: bpy.props.BoolProperty(name="Enable", default=True)
 
+    @reported
     def execute(self, context):
         scene = context.scene
         if not self.enable:
@@ -118,7 +153,8 @@ class SQUISH_OT_live(bpy.types.Operator):
             live.disable(scene)
             self.report({"ERROR"}, message.removeprefix("Error: ") or "Squish: live mode could not evaluate the frame")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Squish live: {live.status[scene.name]}")
+        warned = bool(live.last_result[scene.name].warnings)
+        self.report({"WARNING"} if warned else {"INFO"}, f"Squish live: {live.status[scene.name]}")
         return {"FINISHED"}
 
 
@@ -142,10 +178,12 @@ class SQUISH_OT_bake(bpy.types.Operator):
 
     def _finish(self, context):
         report = self._bake.finish()
-        level = {"WARNING"} if report["failed_frames"] else {"INFO"}
+        warned = report["failed_frames"] or any(entry["warnings"] for entry in report["per_frame"])
+        level = {"WARNING"} if warned else {"INFO"}
         self.report(level, self._bake.summary())
         return {"FINISHED"}
 
+    @reported
     def execute(self, context):
         # Whole bake at once: scripts, tests, and Blender run in the background.
         if not self._start(context):
@@ -153,6 +191,7 @@ class SQUISH_OT_bake(bpy.types.Operator):
         self._bake.run()
         return self._finish(context)
 
+    @reported
     def invoke(self, context, event):
         if not self._start(context):
             return {"CANCELLED"}
@@ -163,6 +202,17 @@ class SQUISH_OT_bake(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
+        try:
+            return self._modal_step(context, event)
+        except Exception as error:  # noqa: BLE001 - reported to the user, never swallowed
+            # The timer and progress bar go with the bake; nothing was written.
+            self._stop(context)
+            self._bake.cancel()
+            self.report({"ERROR"}, f"Squish: bake stopped by an unexpected {type(error).__name__}: {error}; "
+                        "nothing was written; please report it with the .blend file")
+            return {"CANCELLED"}
+
+    def _modal_step(self, context, event):
         window_manager = context.window_manager
         if event.type == "ESC":
             self._stop(context)
@@ -198,6 +248,7 @@ class SQUISH_OT_bake_clear(bpy.types.Operator):
     bl_label = "Clear Bake"
     bl_options = UNDOABLE
 
+    @reported
     def execute(self, context):
         for obj in evaluate.participants(context.scene):
             if obj.type == "MESH":

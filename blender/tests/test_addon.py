@@ -312,3 +312,19 @@ def test_profile_curve_widget_sets_the_profile_abscissas(addon, scene, capfd):
     list(curve.points)[1].location = (0.1, 1.0)
     message = _error_of(lambda: bpy.ops.squish.profile_curve_apply(), capfd)
     assert message.startswith("Ball: the profile's middle points are at x = 0.100")
+
+
+def test_a_failed_frame_is_reported_and_the_others_baked(addon, scene):
+    ball = _press_over_ten_frames(scene)
+    # Stiffness must be > 0: keyed to 0 at frame 5 only (1 at frames 4 and 6).
+    for frame, value in ((4, 1.0), (5, 0.0), (6, 1.0)):
+        ball.squish.stiffness = value
+        ball.squish.keyframe_insert("stiffness", frame=frame)
+    scene.frame_set(1)
+    scene.squish.bake_target = "SHAPE_KEYS"
+    assert bpy.ops.squish.bake() == {"FINISHED"}
+    report = json.loads(bpy.data.texts["Squish bake report"].as_string())
+    assert list(report["failed_frames"]) == ["5"]
+    assert "stiffness" in report["failed_frames"]["5"]
+    names = [k.name for k in ball.data.shape_keys.key_blocks][1:]
+    assert names == [f"squish {f:05d}" for f in range(1, 11) if f != 5]
