@@ -12,40 +12,27 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import bpy  # first: bmesh and mathutils come with it
-import bmesh
+import bpy
 
 ROOT = Path(__file__).resolve().parent.parent
 CESIUM_MAN = ROOT.parent / "shared" / "data" / "rigged" / "CesiumMan.glb"
 sys.path.insert(0, str(ROOT / "blender"))
 
-import squish_blender  # noqa: E402 - after the path is set
-
-
-def _object(name: str, build, location) -> bpy.types.Object:
-    mesh = bpy.data.meshes.new(name)
-    built = bmesh.new()
-    build(built)
-    built.to_mesh(mesh)
-    built.free()
-    for polygon in mesh.polygons:
-        polygon.use_smooth = True
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = location
-    return obj
+import demo_scenes  # noqa: E402 - after the path is set
+import squish_blender  # noqa: E402
 
 
 def build_scene() -> bpy.types.Scene:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     squish_blender.register()
     scene = bpy.context.scene
-    ball = _object("Ball", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.6), (0.0, 0.0, 1.3))
-    box = _object("Box", lambda b: (bmesh.ops.create_cube(b, size=2.0),
-                                     bmesh.ops.subdivide_edges(b, edges=b.edges[:], cuts=16, use_grid_fill=True)),
-                  (0.0, 0.0, 0.0))
-    left = _object("Left", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.5), (2.6, 0.0, 0.2))
-    right = _object("Right", lambda b: bmesh.ops.create_icosphere(b, subdivisions=4, radius=0.5), (3.35, 0.0, 0.2))
+    ball = demo_scenes.sphere("Ball", 0.6, (0.0, 0.0, 1.3), subdivisions=5)
+    box = demo_scenes.subdivided_cube("Box", 2.0, (0.0, 0.0, 0.0), cuts=16)
+    left = demo_scenes.sphere("Left", 0.5, (2.6, 0.0, 0.2), subdivisions=5)
+    right = demo_scenes.sphere("Right", 0.5, (3.35, 0.0, 0.2), subdivisions=5)
+    for obj in (ball, box, left, right):
+        for polygon in obj.data.polygons:
+            polygon.use_smooth = True
     box.squish.stiffness = 1.0
     ball.squish.stiffness = 3.0
     for a, b in ((ball, box), (left, right)):
@@ -78,20 +65,7 @@ def cesium_man_scene() -> bpy.types.Scene:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     squish_blender.register()
     scene = bpy.context.scene
-    bpy.ops.import_scene.gltf(filepath=str(CESIUM_MAN))
-    man = next(o for o in bpy.data.objects if o.type == "MESH")
-    built = bmesh.new()
-    built.from_mesh(man.data)
-    # glTF splits vertices along UV seams: Merge by Distance makes the skin one closed surface.
-    bmesh.ops.remove_doubles(built, verts=built.verts[:], dist=1e-6)
-    built.to_mesh(man.data)
-    built.free()
-    bpy.context.view_layer.objects.active = man
-    for name, parent, child in (("left knee", "leg_joint_L_1", "leg_joint_L_2"),
-                                ("right knee", "leg_joint_R_1", "leg_joint_R_2")):
-        bpy.ops.squish.articulation_add()
-        articulation = man.squish.articulations[-1]
-        articulation.name, articulation.parent_bone, articulation.child_bone = name, parent, child
+    man = demo_scenes.cesium_man(CESIUM_MAN)
     scene.frame_set(9)
     armature = man.find_armature()
     knee = armature.matrix_world @ armature.pose.bones["leg_joint_L_2"].head

@@ -18,6 +18,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED_DATA = ROOT.parent / "shared" / "data"
+sys.path.insert(0, str(ROOT / "blender"))
+
+from demo_scenes import sphere, subdivided_cube  # noqa: E402,F401 - the tests' scene builders
 
 
 def _install(zip_path: str):
@@ -34,7 +37,6 @@ def addon():
     if zip_path:
         module = _install(zip_path)
     else:
-        sys.path.insert(0, str(ROOT / "blender"))
         import squish_blender as module
 
         module.register()
@@ -54,39 +56,6 @@ def clear_scene(addon) -> None:
     scene.squish.pairs.clear()
     scene.frame_start, scene.frame_end = 1, 250
     scene.frame_set(1)
-
-
-def mesh_object(name: str, mesh: bpy.types.Mesh) -> bpy.types.Object:
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
-def sphere(name: str, radius: float, location, subdivisions: int = 3) -> bpy.types.Object:
-    import bmesh
-
-    mesh = bpy.data.meshes.new(name)
-    built = bmesh.new()
-    bmesh.ops.create_icosphere(built, subdivisions=subdivisions, radius=radius)
-    built.to_mesh(mesh)
-    built.free()
-    obj = mesh_object(name, mesh)
-    obj.location = location
-    return obj
-
-
-def subdivided_cube(name: str, size: float, location, cuts: int = 6) -> bpy.types.Object:
-    import bmesh
-
-    mesh = bpy.data.meshes.new(name)
-    built = bmesh.new()
-    bmesh.ops.create_cube(built, size=size)
-    bmesh.ops.subdivide_edges(built, edges=built.edges[:], cuts=cuts, use_grid_fill=True)
-    built.to_mesh(mesh)
-    built.free()
-    obj = mesh_object(name, mesh)
-    obj.location = location
-    return obj
 
 
 def positions(obj, evaluated: bool = False) -> np.ndarray:

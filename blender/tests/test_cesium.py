@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import json
 
-import bmesh
 import bpy
+import demo_scenes
 import numpy as np
 import pytest
 import squish
 from conftest import SHARED_DATA, clear_scene, positions, triangles
+from demo_scenes import KNEES
 
 CESIUM_MAN = SHARED_DATA / "rigged" / "CesiumMan.glb"
-KNEES = {"left knee": ("leg_joint_L_1", "leg_joint_L_2"), "right knee": ("leg_joint_R_1", "leg_joint_R_2")}
 
 
 def _knee_faces(obj, tris: np.ndarray) -> np.ndarray:
@@ -45,22 +45,9 @@ def cesium_man(addon):
     if not CESIUM_MAN.is_file():
         pytest.skip(f"{CESIUM_MAN} is absent (shared test data)")
     clear_scene(addon)
-    assert bpy.ops.import_scene.gltf(filepath=str(CESIUM_MAN)) == {"FINISHED"}
-    man = next(o for o in bpy.data.objects if o.type == "MESH")
-    # glTF splits vertices along UV seams; "Merge by Distance" makes the skin one closed surface
-    # (as `squish run` welds it).
-    built = bmesh.new()
-    built.from_mesh(man.data)
-    bmesh.ops.remove_doubles(built, verts=built.verts[:], dist=1e-6)
-    built.to_mesh(man.data)
-    built.free()
+    man = demo_scenes.cesium_man(CESIUM_MAN)
     assert len(man.data.vertices) == 2338
-    bpy.context.view_layer.objects.active = man
-    for name, (parent, child) in KNEES.items():
-        assert bpy.ops.squish.articulation_add() == {"FINISHED"}
-        articulation = man.squish.articulations[-1]
-        articulation.name, articulation.parent_bone, articulation.child_bone = name, parent, child
-        assert articulation.source == "BONES" and articulation.armature.type == "ARMATURE"
+    assert all(a.source == "BONES" and a.armature.type == "ARMATURE" for a in man.squish.articulations)
     return man
 
 
