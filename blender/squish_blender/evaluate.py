@@ -180,6 +180,11 @@ def _pair_direction(pair, name: str):
     return [float(v) for v in vector]
 
 
+def object_armature(obj):
+    """The armature of an object's first Armature modifier that has one (None without)."""
+    return next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+
+
 def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
     """The two regions (vertex indices) and the joints (3 world points, or None) of an articulation."""
     label = f"{obj.name}, articulation \"{articulation.name}\""
@@ -192,9 +197,7 @@ def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
             weights = _vertex_group_weights(obj, mesh, f"region {key[-1]}", group)
             masks.append(np.flatnonzero(weights >= 0.5).astype(np.uint32))
         return (masks[0], masks[1]), None
-    armature = articulation.armature
-    if armature is None:
-        armature = next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+    armature = articulation.armature or object_armature(obj)
     if armature is None or armature.type != "ARMATURE":
         raise SetupError(f"{label}: no armature; pick the armature whose bones bend here (or use vertex groups)")
     bones = armature.data.bones

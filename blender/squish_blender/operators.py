@@ -95,7 +95,7 @@ class SQUISH_OT_articulation_add(bpy.types.Operator):
             return {"CANCELLED"}
         articulation = obj.squish.articulations.add()
         articulation.name = f"Articulation {len(obj.squish.articulations)}"
-        armature = next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+        armature = evaluate.object_armature(obj)
         if armature is not None:
             articulation.armature = armature
         else:

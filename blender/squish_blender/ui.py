@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import live, profile_curve, schema_props
+from . import evaluate, live, profile_curve, schema_props
 
 # Drawn by hand beside the generic schema rows: the object pickers and the vertex-group keys.
 _PER_VERTEX = ("bulge_map", "region_mask")
@@ -125,8 +125,7 @@ class SQUISH_PT_articulations(_ObjectProperties, bpy.types.Panel):
             box.prop(articulation, "source")
             if articulation.source == "BONES":
                 box.prop(articulation, "armature")
-                armature = articulation.armature or next(
-                    (m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+                armature = articulation.armature or evaluate.object_armature(obj)
                 if armature is not None and armature.type == "ARMATURE":
                     box.prop_search(articulation, "parent_bone", armature.data, "bones")
                     box.prop_search(articulation, "child_bone", armature.data, "bones")
