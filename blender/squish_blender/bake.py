@@ -21,9 +21,8 @@ import numpy as np
 import squish
 
 from . import evaluate, live
+from .evaluate import BAKED_KEY_PREFIX as SHAPE_KEY_PREFIX
 from .evaluate import CACHE_MODIFIER, SetupError
-
-SHAPE_KEY_PREFIX = "squish "
 REPORT_TEXT = "Squish bake report"
 
 
@@ -218,8 +217,7 @@ class Bake:
         report = self.report()
         text = bpy.data.texts.get(REPORT_TEXT) or bpy.data.texts.new(REPORT_TEXT)
         text.from_string(json.dumps(report, indent=2))
-        if self.live_was_on:
-            live.enable(self.scene)
+        # Live mode stays off: the objects now show the bake, which live mode would take as input.
         return report
 
     def _write_shape_keys(self) -> None:
@@ -297,6 +295,8 @@ class Bake:
         failed = [f for f, fig in self.figures.items() if fig.error]
         text = f"Squish: baked frames {self.frames[0]}–{self.frames[-1]} to "
         text += "shape keys" if self.target == "SHAPE_KEYS" else f"point caches in {self.directory}"
+        if self.live_was_on:
+            text += "; live mode was switched off (the objects show the bake)"
         if failed:
             first = self.figures[min(failed)].error
             text += f"; {len(failed)} frames failed ({min(failed)}: {first})"

@@ -28,6 +28,8 @@ from . import schema_props
 INPUT_ATTRIBUTE = "squish_input"
 LIVE_MODIFIER = "Squish live"
 CACHE_MODIFIER = "Squish cache"
+# Baked shape keys are named "squish 00012" (the frame).
+BAKED_KEY_PREFIX = "squish "
 
 
 class SetupError(Exception):
@@ -178,6 +180,15 @@ def _pair_direction(pair, name: str):
         raise SetupError(f"{name}: the mapping direction is zero; give a non-zero vector or an object whose axis "
                          "is not scaled to zero")
     return [float(v) for v in vector]
+
+
+def baked_by_squish(obj) -> bool:
+    """Whether an object shows a bake of the add-on (its input would then be a result)."""
+    modifier = obj.modifiers.get(CACHE_MODIFIER)
+    if modifier is not None and modifier.type == "MESH_CACHE" and modifier.show_viewport:
+        return True
+    keys = obj.data.shape_keys if obj.type == "MESH" else None
+    return keys is not None and any(b.name.startswith(BAKED_KEY_PREFIX) for b in keys.key_blocks)
 
 
 def object_armature(obj):

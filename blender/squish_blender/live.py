@@ -72,6 +72,10 @@ def _has_live_modifier(obj) -> bool:
 def enable(scene) -> list[bpy.types.Object]:
     """Adds the live modifier to every object of the setup (raises SetupError)."""
     objects = evaluate.check_setup(scene)
+    for obj in objects:
+        if evaluate.baked_by_squish(obj):
+            raise SetupError(f"{obj.name}: shows a Squish bake, which live mode would deform again; press Clear "
+                             "Bake first")
     group = _node_group()
     for obj in objects:
         if not _has_live_modifier(obj):

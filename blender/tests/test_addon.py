@@ -204,8 +204,12 @@ def test_bake_ten_frames_to_shape_keys(addon, scene):
         volume_in = squish.Mesh(world(ball, positions(ball)), tris).volume()
         assert abs(squish.Mesh(world(ball, shown), tris).volume() - volume_in) < 1e-5 * volume_in
     _assert_bake_report(report)
+    # Live mode would take the bake as its input: refused until the bake is cleared.
+    with pytest.raises(RuntimeError, match="Ball: shows a Squish bake"):
+        bpy.ops.squish.live(enable=True)
     bpy.ops.squish.bake_clear()
     assert ball.data.shape_keys is None
+    assert bpy.ops.squish.live(enable=True) == {"FINISHED"}
 
 
 def test_bake_ten_frames_to_point_cache(addon, scene, tmp_path):
