@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import os
 import struct
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import bpy
@@ -125,6 +125,8 @@ class Bake:
         self.figures: dict[int, FrameFigures] = {}
         self.inputs: dict[int, dict[str, np.ndarray]] = {}
         self.next_index = 0
+        # Vertex-group weights (bulge maps, regions) do not change while the bake runs.
+        self.groups = evaluate.GroupWeights()
 
     @staticmethod
     def _check_shape_key_target(obj) -> None:
@@ -150,7 +152,7 @@ class Bake:
         self.scene.frame_set(frame)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         try:
-            frame_input = evaluate.gather(self.scene, depsgraph)
+            frame_input = evaluate.gather(self.scene, depsgraph, self.groups)
         except SetupError as error:
             # A setup error at one frame (a keyed value out of range) fails that frame only.
             self.figures[frame] = FrameFigures(frame, error=str(error))
@@ -186,16 +188,23 @@ class Bake:
                 articulation["self_intersecting_faces_before"], articulation["self_intersecting_faces_after"])
         return figures
 
+    def _queue_full(self) -> bool:
+        # Two frames per worker: one computing, one gathered and waiting.
+        return self.next_index >= len(self.frames) or len(self.pending) >= 2 * self.threads
+
     def step(self) -> bool:
-        """Gathers one frame and collects finished ones; True when every frame is done."""
-        if self.next_index < len(self.frames) and len(self.pending) < 2 * self.threads:
+        """Gathers one frame if a worker will want it and collects finished ones (never blocks);
+        True when every frame is done."""
+        if not self._queue_full():
             self._gather_next()
-        self._collect(wait=self.next_index >= len(self.frames))
+        self._collect(wait=False)
         return self.done == len(self.frames)
 
     def run(self) -> None:
         while not self.step():
-            pass
+            if self._queue_full() and self.pending:
+                # Nothing to gather until a frame finishes: sleep on the workers, not spin.
+                wait(list(self.pending.values()), return_when=FIRST_COMPLETED)
 
     def cancel(self) -> None:
         """Stops: frames not started are dropped, running ones finish; nothing is written."""

@@ -122,22 +122,49 @@ def check_setup(scene) -> list[bpy.types.Object]:
     return objects
 
 
-def _vertex_group_weights(obj: bpy.types.Object, mesh, key: str, group_name: str) -> np.ndarray:
-    """Per-vertex weights of a vertex group (0 outside it), read from the evaluated mesh's
-    weights when it carries them, else from the original's (same vertex order)."""
-    group = obj.vertex_groups.get(group_name)
-    if group is None:
-        names = ", ".join(g.name for g in obj.vertex_groups) or "none"
-        raise SetupError(f"{obj.name}: vertex group \"{group_name}\" ({key}) does not exist; pick one of its "
-                         f"groups ({names}) or clear the field")
-    weights = np.zeros(len(mesh.vertices), dtype=np.float64)
-    index = group.index
-    for vertex in mesh.vertices:
-        for element in vertex.groups:
-            if element.group == index:
-                weights[vertex.index] = element.weight
-                break
-    return weights
+class GroupWeights:
+    """Vertex-group weights per object. Blender has no bulk access to them, so each object's
+    vertices are read once, for all its groups, and kept for one gather (live mode: a brush
+    stroke changes them) or for a whole bake."""
+
+    def __init__(self):
+        self._objects: dict[str, dict[int, np.ndarray]] = {}
+
+    def weights(self, obj: bpy.types.Object, key: str, group_name: str) -> np.ndarray:
+        """Per-vertex weights of a group (0 outside it); `key` names the setting in the error."""
+        group = obj.vertex_groups.get(group_name)
+        if group is None:
+            names = ", ".join(g.name for g in obj.vertex_groups) or "none"
+            raise SetupError(f"{obj.name}: vertex group \"{group_name}\" ({key}) does not exist; pick one of its "
+                             f"groups ({names}) or clear the field")
+        table = self._objects.get(obj.name)
+        if table is None:
+            table = self._objects[obj.name] = self._read(obj.data)
+        column = table.get(group.index)
+        return column if column is not None else np.zeros(len(obj.data.vertices), dtype=np.float64)
+
+    @staticmethod
+    def _read(mesh) -> dict[int, np.ndarray]:
+        count = len(mesh.vertices)
+        table: dict[int, np.ndarray] = {}
+        for vertex in mesh.vertices:
+            for element in vertex.groups:
+                column = table.get(element.group)
+                if column is None:
+                    column = table[element.group] = np.zeros(count, dtype=np.float64)
+                column[vertex.index] = element.weight
+        return table
+
+
+def _is_closed(triangles: np.ndarray) -> bool:
+    """Every edge of the triangulated surface has exactly two faces (a quad's diagonal too)."""
+    if len(triangles) == 0:
+        return False
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    # One integer per undirected edge: a 1-D unique is far faster than a row-wise one.
+    keys = edges[:, 0] * (int(triangles.max()) + 1) + edges[:, 1]
+    _, counts = np.unique(keys, return_counts=True)
+    return bool(np.all(counts == 2))
 
 
 def _mesh_arrays(obj_eval, original_count: int, name: str) -> tuple[np.ndarray, np.ndarray, bool, object]:
@@ -157,12 +184,8 @@ def _mesh_arrays(obj_eval, original_count: int, name: str) -> tuple[np.ndarray, 
     mesh.calc_loop_triangles()
     triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
     mesh.loop_triangles.foreach_get("vertices", triangles)
-    edges_per_face = {}
-    for polygon in mesh.polygons:
-        for edge in polygon.edge_keys:
-            edges_per_face[edge] = edges_per_face.get(edge, 0) + 1
-    closed = bool(edges_per_face) and all(n == 2 for n in edges_per_face.values())
-    return positions.reshape(-1, 3).astype(np.float64), triangles.reshape(-1, 3), closed, mesh
+    triangles = triangles.reshape(-1, 3)
+    return positions.reshape(-1, 3).astype(np.float64), triangles, _is_closed(triangles), mesh
 
 
 def _pair_direction(pair, name: str):
@@ -196,7 +219,7 @@ def object_armature(obj):
     return next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
 
 
-def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
+def _articulation_regions(obj, articulation, depsgraph, groups: GroupWeights):
     """The two regions (vertex indices) and the joints (3 world points, or None) of an articulation."""
     label = f"{obj.name}, articulation \"{articulation.name}\""
     if articulation.source == "GROUPS":
@@ -205,7 +228,7 @@ def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
             group = getattr(articulation, key)
             if not group:
                 raise SetupError(f"{label}: has no vertex group for region {key[-1]}; pick one")
-            weights = _vertex_group_weights(obj, mesh, f"region {key[-1]}", group)
+            weights = groups.weights(obj, f"region {key[-1]}", group)
             masks.append(np.flatnonzero(weights >= 0.5).astype(np.uint32))
         return (masks[0], masks[1]), None
     armature = articulation.armature or object_armature(obj)
@@ -221,14 +244,14 @@ def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
         raise SetupError(f"{label}: \"{child.name}\" is not a child of \"{parent.name}\"; pick one of its children "
                          f"({children})")
     min_weight = articulation.min_weight
-    region_1 = _vertex_group_weights(obj, mesh, "parent bone's group", parent.name)
+    region_1 = groups.weights(obj, "parent bone's group", parent.name)
     region_2 = np.zeros_like(region_1)
     for bone in [child, *child.children_recursive]:
         if obj.vertex_groups.get(bone.name) is not None:
-            region_2 += _vertex_group_weights(obj, mesh, "child bone's group", bone.name)
+            region_2 += groups.weights(obj, "child bone's group", bone.name)
     regions = (np.flatnonzero(region_1 >= min_weight).astype(np.uint32),
                np.flatnonzero(region_2 >= min_weight).astype(np.uint32))
-    posed = armature.evaluated_get(scene_eval_depsgraph)
+    posed = armature.evaluated_get(depsgraph)
     to_world = posed.matrix_world
     parent_pose, child_pose = posed.pose.bones[parent.name], posed.pose.bones[child.name]
     # The end of the child bone, by the scene file's rule for skins (not the bone's tail, whose
@@ -243,8 +266,10 @@ def _articulation_regions(obj, mesh, articulation, scene_eval_depsgraph):
     return regions, joints
 
 
-def gather(scene, depsgraph) -> FrameInput:
-    """The current frame's input (raises SetupError)."""
+def gather(scene, depsgraph, groups: GroupWeights | None = None) -> FrameInput:
+    """The current frame's input (raises SetupError). `groups`: vertex-group weights read before
+    (a bake's frames share them); by default they are read anew."""
+    groups = groups if groups is not None else GroupWeights()
     objects = check_setup(scene)
     inputs, meshes = [], []
     try:
@@ -253,13 +278,12 @@ def gather(scene, depsgraph) -> FrameInput:
             local, triangles, closed, _ = _mesh_arrays(obj_eval, len(obj.data.vertices), obj.name)
             meshes.append(obj_eval)
             # Vertex groups are read from the original mesh: the vertex order is the same (checked).
-            mesh = obj.data
             matrix = _world(obj_eval.matrix_world)
             world = local @ matrix[:3, :3].T + matrix[:3, 3]
             settings = obj.squish
 
-            def weights(key, group, obj=obj, mesh=mesh):
-                return _vertex_group_weights(obj, mesh, key, group)
+            def weights(key, group, obj=obj):
+                return groups.weights(obj, key, group)
 
             params = schema_props.parameters_from(settings, "object", weights)
             if params.get("preserve_volume") is True and not closed:
@@ -282,7 +306,7 @@ def gather(scene, depsgraph) -> FrameInput:
         articulations = []
         for obj in objects:
             for articulation in obj.squish.articulations:
-                regions, joints = _articulation_regions(obj, obj.data, articulation, depsgraph)
+                regions, joints = _articulation_regions(obj, articulation, depsgraph, groups)
                 params = schema_props.parameters_from(articulation, "articulation")
                 articulations.append((obj.name, articulation.name, regions, joints, params))
     finally:

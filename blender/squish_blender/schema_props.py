@@ -17,6 +17,7 @@ Mapping from a schema row to properties (`key` is the schema's key):
 
 from __future__ import annotations
 
+import functools
 import math
 
 import bpy
@@ -32,9 +33,11 @@ _OPTIONAL_START = 1.0
 _VECTOR_START = (0.0, 0.0, 1.0)
 
 
-def schema_rows(level: str) -> list[dict]:
-    """The schema's rows of one level ("object", "pair", "articulation"), in schema order."""
-    return [row for row in squish.params_schema() if row["level"] == level]
+@functools.cache
+def schema_rows(level: str) -> tuple[dict, ...]:
+    """The schema's rows of one level ("object", "pair", "articulation"), in schema order (the
+    schema is fixed for the loaded squish package: read once, not at every frame)."""
+    return tuple(row for row in squish.params_schema() if row["level"] == level)
 
 
 def _label(key: str) -> str:
