@@ -115,10 +115,16 @@ def check_setup(scene) -> list[bpy.types.Object]:
     objects = participants(scene)
     if not objects:
         raise SetupError("Scene: no contact pair or articulation; add a pair of two mesh objects in the Squish tab")
+    owners = {}
     for obj in objects:
         if obj.type != "MESH":
             raise SetupError(f"{obj.name}: is an object of type {obj.type.lower()}, not a mesh; pick a mesh object "
                              "(or convert it to a mesh)")
+        # Results are stored on the mesh data (live attribute, shape keys): one mesh, one result.
+        other = owners.setdefault(obj.data.name, obj)
+        if other != obj:
+            raise SetupError(f"{obj.name}: shares its mesh data with {other.name}; make it single-user (Object > "
+                             "Relations > Make Single User) so each can deform on its own")
     return objects
 
 

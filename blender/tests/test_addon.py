@@ -282,6 +282,14 @@ def test_bad_setups_give_one_line_reports(addon, scene, capfd):
     with pytest.raises(addon.evaluate.SetupError, match="Empty: is an object of type empty, not a mesh"):
         addon.evaluate.check_setup(scene)
     assert _error_of(lambda: bpy.ops.squish.bake(), capfd).startswith("Empty: is an object of type empty")
+    # Two objects of the setup sharing one mesh (their results would overwrite each other).
+    pairs[0].object_a = ball
+    twin = bpy.data.objects.new("Twin", ball.data)
+    scene.collection.objects.link(twin)
+    extra = pairs.add()
+    extra.object_a, extra.object_b = twin, scene.objects["Box"]
+    assert _error_of(lambda: bpy.ops.squish.live(enable=True), capfd).startswith("Twin: shares its mesh data with Ball")
+    pairs.remove(len(pairs) - 1)
     # A parameter out of its range: squish's one-line message, as a report.
     pairs[0].object_a = ball
     ball.squish.stiffness = 0.0
