@@ -5,8 +5,9 @@
 #
 #   blender/test.sh                 # builds the wheel (dev profile), the zip, runs the tests
 #   SQUISH_WHEEL=path.whl blender/test.sh   # reuses a wheel built before
+#   BPY_VERSION="4.2.*" blender/test.sh      # another bpy (4.2, the manifest's minimum, passes too)
 #
-# bpy 5.0 supports CPython 3.11 only: PYTHON (default python3.11) must be one.
+# bpy 4.2–5.0 support CPython 3.11 only: PYTHON (default python3.11) must be one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python="${PYTHON:-python3.11}"
@@ -14,7 +15,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 "$python" -m venv "$work/venv"
 "$work/venv/bin/pip" install --quiet --upgrade pip
-"$work/venv/bin/pip" install --quiet "bpy==5.0.*" "pytest>=7"
+"$work/venv/bin/pip" install --quiet "bpy==${BPY_VERSION:-5.0.*}" "pytest>=7"
 wheel="${SQUISH_WHEEL:-}"
 if [ -z "$wheel" ]; then
     MATURIN_PEP517_ARGS="--profile dev" "$work/venv/bin/pip" wheel --quiet --no-deps -w "$work/wheels" ./crates/squish-py
