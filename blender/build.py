@@ -37,8 +37,8 @@ def build_wheel(profile: str, out: Path) -> Path:
     env = dict(os.environ)
     if profile != "release":
         env["MATURIN_PEP517_ARGS"] = f"--profile {profile}"
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-w", str(out), str(ROOT / "crates" / "squish-py")],
-                   check=True, env=env)
+    crate = ROOT / "crates" / "squish-py"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-w", str(out), str(crate)], check=True, env=env)
     wheels = sorted(out.glob("squish-*.whl"))
     if not wheels:
         sys.exit(f"build.py: pip wrote no squish wheel into {out}")

@@ -175,6 +175,13 @@ def _refresh_from_handler(scene, depsgraph) -> None:
         print(f"Squish live mode: {status[scene.name]}")
 
 
+def setting_changed(context) -> None:
+    """A Squish setting was edited: evaluate the frame again if live mode is on."""
+    scene = context.scene
+    if scene is not None and scene.squish.live:
+        _refresh_from_handler(scene, context.evaluated_depsgraph_get())
+
+
 @persistent
 def on_frame_change(scene, depsgraph) -> None:
     if scene.squish.live:

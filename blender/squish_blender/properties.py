@@ -31,15 +31,16 @@ _AXES = [(axis, axis, f"The object's {axis} axis (world space, at each frame)")
 
 SquishPair = _with_schema("SquishPair", "pair", {
     "object_a": bpy.props.PointerProperty(
-        name="Object A", type=bpy.types.Object, poll=_is_mesh,
+        name="Object A", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_mesh,
         description="First mesh object of the pair (pushed along the mapping direction)"),
     "object_b": bpy.props.PointerProperty(
-        name="Object B", type=bpy.types.Object, poll=_is_mesh,
+        name="Object B", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_mesh,
         description="Second mesh object of the pair; the mapping direction is oriented along its normals"),
     "direction_object": bpy.props.PointerProperty(
-        name="Axis of", type=bpy.types.Object,
+        name="Axis of", update=schema_props.refresh_live, type=bpy.types.Object,
         description="With Set Direction on: take the direction from this object's axis (empty: the vector)"),
     "direction_axis": bpy.props.EnumProperty(name="Axis", items=_AXES, default="Z",
+                                             update=schema_props.refresh_live,
                                              description="Which axis of the object gives the mapping direction"),
     "show_expanded": bpy.props.BoolProperty(name="Show settings", default=True),
 })
@@ -48,17 +49,21 @@ SquishArticulation = _with_schema("SquishArticulation", "articulation", {
     "name": bpy.props.StringProperty(name="Name", default="Articulation",
                                      description="Names the articulation in reports"),
     "source": bpy.props.EnumProperty(
-        name="Regions from", default="BONES",
+        name="Regions from", default="BONES", update=schema_props.refresh_live,
         items=[("BONES", "Bones", "Region 1: the parent bone's vertex group; region 2: the child bone's and its "
                 "descendants' groups (skinning weights ≥ Min weight); direction from the posed bones"),
                ("GROUPS", "Vertex groups", "Regions from two vertex groups (weights ≥ 0.5); needs a direction")]),
     "armature": bpy.props.PointerProperty(
-        name="Armature", type=bpy.types.Object, poll=_is_armature,
+        name="Armature", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_armature,
         description="The armature whose bones bend here (empty: the object's Armature modifier's)"),
-    "parent_bone": bpy.props.StringProperty(name="Parent bone", description="The bone before the joint (thigh)"),
-    "child_bone": bpy.props.StringProperty(name="Child bone", description="The bone after the joint (shin)"),
-    "group_1": bpy.props.StringProperty(name="Region 1 group", description="Vertex group of the parent side"),
-    "group_2": bpy.props.StringProperty(name="Region 2 group", description="Vertex group of the child side"),
+    "parent_bone": bpy.props.StringProperty(name="Parent bone", update=schema_props.refresh_live,
+                                          description="The bone before the joint (thigh)"),
+    "child_bone": bpy.props.StringProperty(name="Child bone", update=schema_props.refresh_live,
+                                         description="The bone after the joint (shin)"),
+    "group_1": bpy.props.StringProperty(name="Region 1 group", update=schema_props.refresh_live,
+                                      description="Vertex group of the parent side"),
+    "group_2": bpy.props.StringProperty(name="Region 2 group", update=schema_props.refresh_live,
+                                      description="Vertex group of the child side"),
 })
 
 SquishObject = _with_schema("SquishObject", "object", {

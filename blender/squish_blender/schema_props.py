@@ -33,6 +33,14 @@ _OPTIONAL_START = 1.0
 _VECTOR_START = (0.0, 0.0, 1.0)
 
 
+def refresh_live(_settings, context) -> None:
+    """Update callback of every setting: Blender runs no depsgraph update when an add-on's
+    property changes, so live mode is told here (it evaluates once per change)."""
+    from . import live  # imported here: live imports this module through evaluate
+
+    live.setting_changed(context)
+
+
 @functools.cache
 def schema_rows(level: str) -> tuple[dict, ...]:
     """The schema's rows of one level ("object", "pair", "articulation"), in schema order (the
@@ -91,46 +99,36 @@ def properties_of(level: str) -> dict[str, bpy.props._PropertyDeferred]:
     """Blender property definitions (annotations) for every key of one schema level."""
     annotations = {}
     for row in schema_rows(level):
-        key, kind, tooltip = row["key"], row["kind"], _tooltip(row)
+        key, kind = row["key"], row["kind"]
         optional = row["optional"]
         default = row["default"]
-        name = _label(key)
+        # What every property of a key shares: its label, tooltip and the live-mode refresh.
+        common = {"name": _label(key), "description": _tooltip(row), "update": refresh_live}
         if optional and kind != "per_vertex":
-            word = row["word"]
             auto = f": {row['auto']}" if row.get("auto") else ""
             annotations[f"use_{key}"] = bpy.props.BoolProperty(
-                name=f"Set {name}",
-                description=f"Off: {word}{auto}. On: the value below",
-                default=False,
+                name=f"Set {_label(key)}", description=f"Off: {row['word']}{auto}. On: the value below",
+                default=False, update=refresh_live,
             )
         if kind == "bool":
-            annotations[key] = bpy.props.BoolProperty(
-                name=name, description=tooltip, default=bool(default) if not optional else False
-            )
+            annotations[key] = bpy.props.BoolProperty(default=bool(default) if not optional else False, **common)
         elif kind == "number":
             value = float(default) if not optional else _start_value(row)
-            annotations[key] = bpy.props.FloatProperty(
-                name=name, description=tooltip, default=value, **_number_limits(row), **_FLOAT_UI
-            )
+            annotations[key] = bpy.props.FloatProperty(default=value, **_number_limits(row), **_FLOAT_UI, **common)
         elif kind == "choice":
             items = [(choice, _label(choice), f"{key} = \"{choice}\"") for choice in row["choices"]]
-            annotations[key] = bpy.props.EnumProperty(name=name, description=tooltip, items=items, default=default)
+            annotations[key] = bpy.props.EnumProperty(items=items, default=default, **common)
         elif kind == "vector":
             start = tuple(default) if not optional else _VECTOR_START
-            annotations[key] = bpy.props.FloatVectorProperty(
-                name=name, description=tooltip, size=3, default=start, subtype="XYZ"
-            )
+            annotations[key] = bpy.props.FloatVectorProperty(size=3, default=start, subtype="XYZ", **common)
         elif kind == "pair":
             annotations[key] = bpy.props.FloatVectorProperty(
-                name=name, description=tooltip, size=2, default=tuple(default), **_number_limits(row), **_FLOAT_UI
+                size=2, default=tuple(default), **_number_limits(row), **_FLOAT_UI, **common
             )
         elif kind == "per_vertex":
-            annotations[key] = bpy.props.StringProperty(
-                name=name,
-                description=f"{tooltip}. A vertex group of the object (its weights, 0 outside the group); "
-                f"empty: {row['word']}",
-                default="",
-            )
+            common["description"] += (f". A vertex group of the object (its weights, 0 outside the group); "
+                                      f"empty: {row['word']}")
+            annotations[key] = bpy.props.StringProperty(default="", **common)
         else:
             # A kind this add-on does not know yet must fail loudly at registration rather than
             # leave a parameter out of the interface.

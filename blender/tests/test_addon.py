@@ -173,7 +173,8 @@ def _assert_bake_report(report: dict) -> None:
         for name, (before, after) in entry["volumes"].items():
             assert abs(after - before) <= 1e-9 * abs(before), (entry["frame"], name)
         for name, (before, after) in entry["penetration"].items():
-            print(f"bake frame {entry['frame']}: {name} penetration {before:.4f} → {after:.5f} ({after / before:.2%})")
+            print(f"bake frame {entry['frame']}: {name} penetration {before:.4f} → {after:.5f} "
+                  f"({after / before:.2%})")
             assert after < RESOLVED * before, (entry["frame"], name, before, after)
 
 
@@ -340,3 +341,17 @@ def test_a_failed_frame_is_reported_and_the_others_baked(addon, scene):
     assert "stiffness" in report["failed_frames"]["5"]
     names = [k.name for k in ball.data.shape_keys.key_blocks][1:]
     assert names == [f"squish {f:05d}" for f in range(1, 11) if f != 5]
+
+
+def test_live_follows_edits_of_settings(addon, scene):
+    first = _live_on(addon, scene)
+    scene.objects["Ball"].squish.stiffness = 5.0
+    edited = addon.live.last_result[scene.name]
+    assert edited is not first
+    assert not np.array_equal(edited.world_positions["Ball"], first.world_positions["Ball"])
+    scene.squish.pairs[0].contact_tau = 0.5
+    assert addon.live.last_result[scene.name] is not edited
+    # Setting a value to what it already is changes nothing: no new evaluation.
+    latest = addon.live.last_result[scene.name]
+    scene.squish.pairs[0].contact_tau = 0.5
+    assert addon.live.last_result[scene.name] is latest
