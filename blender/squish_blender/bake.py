@@ -114,11 +114,12 @@ class Bake:
         if self.target == "SHAPE_KEYS":
             for obj in self.objects:
                 self._check_shape_key_target(obj)
-        # The previous bake (and live mode's modifier) would change the input: both go first.
+        # The previous bake (and live mode's modifier) would change the input: live mode goes, the
+        # previous bake is switched off while baking (put back if the bake is cancelled, removed
+        # when the new one is written).
         if self.live_was_on:
             live.disable(scene)
-        for obj in self.objects:
-            remove_bake(obj)
+        self.suspended = self._suspend_previous_bake()
         self.pool = ThreadPoolExecutor(max_workers=self.threads, thread_name_prefix="squish-bake")
         self.pending: dict[int, Future] = {}
         self.results: dict[int, evaluate.FrameResult] = {}
@@ -127,6 +128,23 @@ class Bake:
         self.next_index = 0
         # Vertex-group weights (bulge maps, regions) do not change while the bake runs.
         self.groups = evaluate.GroupWeights()
+
+    def _suspend_previous_bake(self) -> list[tuple[object, str, bool]]:
+        """Switches off the objects' previous bake (cache modifiers hidden, baked shape keys
+        muted); returns what to put back."""
+        changed = []
+        for obj in self.objects:
+            modifier = obj.modifiers.get(CACHE_MODIFIER)
+            if modifier is not None and modifier.type == "MESH_CACHE":
+                changed += [(modifier, "show_viewport", modifier.show_viewport),
+                            (modifier, "show_render", modifier.show_render)]
+                modifier.show_viewport = modifier.show_render = False
+            keys = obj.data.shape_keys
+            for block in keys.key_blocks if keys is not None else []:
+                if block.name.startswith(SHAPE_KEY_PREFIX):
+                    changed.append((block, "mute", block.mute))
+                    block.mute = True
+        return changed
 
     @staticmethod
     def _check_shape_key_target(obj) -> None:
@@ -160,15 +178,19 @@ class Bake:
         self.inputs[frame] = {o.name: (o.positions, o.triangles) for o in frame_input.objects}
         self.pending[frame] = self.pool.submit(evaluate.deform, frame_input, 1)
 
-    def _collect(self, wait: bool) -> None:
+    def _collect(self) -> None:
+        """Takes the finished frames' results (never waits)."""
         for frame, future in list(self.pending.items()):
-            if not wait and not future.done():
+            if not future.done():
                 continue
             del self.pending[frame]
             try:
                 result = future.result()
             except SetupError as error:
                 self.figures[frame] = FrameFigures(frame, error=str(error))
+                continue
+            except Exception as error:  # noqa: BLE001 - the frame is listed as failed with it
+                self.figures[frame] = FrameFigures(frame, error=f"unexpected {type(error).__name__}: {error}")
                 continue
             self.results[frame] = result
             self.figures[frame] = self._figures_of(frame, result)
@@ -197,7 +219,7 @@ class Bake:
         True when every frame is done."""
         if not self._queue_full():
             self._gather_next()
-        self._collect(wait=False)
+        self._collect()
         return self.done == len(self.frames)
 
     def run(self) -> None:
@@ -212,6 +234,8 @@ class Bake:
             future.cancel()
         self.pool.shutdown(wait=True)
         self.scene.frame_set(self.original_frame)
+        for owner, attribute, value in self.suspended:
+            setattr(owner, attribute, value)
         if self.live_was_on:
             live.enable(self.scene)
 
@@ -219,6 +243,8 @@ class Bake:
         """Writes the results to Blender and returns the report."""
         self.pool.shutdown(wait=True)
         self.scene.frame_set(self.original_frame)
+        for obj in self.objects:
+            remove_bake(obj)
         if self.target == "SHAPE_KEYS":
             self._write_shape_keys()
         else:

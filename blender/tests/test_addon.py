@@ -205,6 +205,16 @@ def test_bake_ten_frames_to_shape_keys(addon, scene):
         volume_in = squish.Mesh(world(ball, positions(ball)), tris).volume()
         assert abs(squish.Mesh(world(ball, shown), tris).volume() - volume_in) < 1e-5 * volume_in
     _assert_bake_report(report)
+    # A second bake cancelled after two steps (Esc in Blender) leaves the first one as it was.
+    scene.frame_set(3)
+    second = addon.bake.Bake(bpy.context)
+    assert all(k.mute for k in ball.data.shape_keys.key_blocks[1:])  # off while baking
+    second.step()
+    second.step()
+    second.cancel()
+    assert [k.name for k in ball.data.shape_keys.key_blocks][1:] == [f"squish {f:05d}" for f in range(1, 11)]
+    assert not any(k.mute for k in ball.data.shape_keys.key_blocks)
+    assert scene.frame_current == 3
     # Live mode would take the bake as its input: refused until the bake is cleared.
     with pytest.raises(RuntimeError, match="Ball: shows a Squish bake"):
         bpy.ops.squish.live(enable=True)
