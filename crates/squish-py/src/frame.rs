@@ -257,6 +257,25 @@ impl Frame {
         Ok(())
     }
 
+    /// Sets an object's rest (bind) pose, one position per vertex: the articulations' partition
+    /// of unity β and their automatic extent are computed on it (thesis §6.1.1), as `squish run`
+    /// does with a glTF skin's bind pose. Without it, the frame's own mesh is the rest pose.
+    fn set_rest_positions(&mut self, object: &Bound<'_, PyAny>, vertices: &Bound<'_, PyAny>) -> PyResult<()> {
+        let index = self.object_index(object)?;
+        let target = &mut self.frame.objects[index];
+        let positions = vertices_from(vertices)?;
+        if positions.len() != target.mesh.num_vertices() {
+            return Err(input_error(format!(
+                "{}: rest positions: {} rows, but the mesh has {} vertices; give one row per vertex",
+                target.name,
+                positions.len(),
+                target.mesh.num_vertices()
+            )));
+        }
+        target.params.rest_positions = Some(positions);
+        Ok(())
+    }
+
     /// The objects' names, in order.
     #[getter]
     fn objects(&self) -> Vec<String> {

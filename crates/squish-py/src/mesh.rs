@@ -61,6 +61,15 @@ impl Mesh {
         squish::mesh::signed_volume(&self.mesh)
     }
 
+    /// The number of faces that intersect another face of the mesh (faces sharing a vertex or an
+    /// edge count only when they cross away from it): the exact triangle-triangle test of
+    /// `squish info`'s "self-intersecting faces". Releases the GIL.
+    fn self_intersecting_faces(&self, py: Python<'_>) -> PyResult<usize> {
+        let mesh = &self.mesh;
+        let found = py.detach(|| squish::spatial::self_intersections(mesh)).map_err(input_error)?;
+        Ok(found.faces.len())
+    }
+
     /// The same faces with other vertices (same count and order), e.g. a deformation's output.
     fn with_vertices(&self, vertices: &Bound<'_, PyAny>) -> PyResult<Self> {
         let positions = vertices_from(vertices)?;

@@ -88,3 +88,16 @@ def test_a_scene_run_writes_the_files_of_squish_run(cli, example_scene, tmp_path
 def test_params_schema_is_the_cli_schema(cli):
     schema = json.loads(cli("params", "--json").stdout)
     assert squish.params_schema() == schema["parameters"]
+
+
+def test_self_intersecting_faces_counts_as_squish_info(cli, tmp_path):
+    # Two spheres overlapping in one mesh: faces crossing the other sphere's intersect.
+    ball = squish.Mesh.icosphere(1.0, 3)
+    vertices = np.vstack([ball.vertices, ball.vertices + [1.2, 0.1, 0.0]])
+    faces = np.vstack([ball.faces, ball.faces + ball.num_vertices])
+    both = squish.Mesh(vertices, faces)
+    squish.write_mesh(tmp_path / "both.ply", both)
+    info = json.loads(cli("info", tmp_path / "both.ply", "--json", "--weld", "never").stdout)
+    count = both.self_intersecting_faces()
+    assert count == info["self_intersecting_faces"] > 0
+    assert ball.self_intersecting_faces() == 0

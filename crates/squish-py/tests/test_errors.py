@@ -88,6 +88,9 @@ def test_frame_and_keyword_errors(meshes):
         frame.add_articulation("ball", "elbow", ([0, 1], [100000]), direction=[0, 0, 1])
     with pytest.raises(squish.ParameterError, match="direction"):
         frame.add_articulation("ball", "elbow", ([0, 1], [1, 2]))
+    with pytest.raises(squish.InputError, match="ball: rest positions: 3 rows, but the mesh has"):
+        frame.set_rest_positions("ball", np.zeros((3, 3)))
+    frame.set_rest_positions("ball", ball.vertices)
 
 
 BAD_ARRAYS = [
