@@ -273,6 +273,41 @@ pub struct SceneReport {
     /// Every round's figures; `single`, `multi` and `factorization` are each the round with the
     /// median of theirs.
     pub rounds: Option<RoundsReport>,
+    /// The time of an edit of a parameter of §5.4–5.5 against the full frame (single thread).
+    pub edit: Option<EditReport>,
+}
+
+/// An edit of a parameter of §5.4–5.5 (`squish::pipeline::DOWNSTREAM_KEYS`) on every deformable
+/// object of one frame, computed from the kept frame's contacts and fields, single thread.
+#[derive(Clone, Debug, Serialize)]
+pub struct EditReport {
+    /// The parameter and its two values (the kept frame's, the edit's).
+    pub parameter: String,
+    pub from: f64,
+    pub to: f64,
+    /// Edits timed.
+    pub edits: usize,
+    /// Median time of one edit.
+    pub median_ms: f64,
+    /// Median time of the full frame it edits, on the deformer that keeps what edits reuse.
+    pub full_frame_keeping_ms: f64,
+    /// `median_ms` ÷ the scene's single-thread median frame (the target is ≤ 0.2).
+    pub ratio_to_frame: Option<f64>,
+}
+
+impl EditReport {
+    pub fn new(parameter: &str, [from, to]: [f64; 2], edits: &[Duration], full: &[Duration]) -> Self {
+        let median = |d: &[Duration]| median_value(&d.iter().map(|&d| ms(d)).collect::<Vec<f64>>());
+        Self {
+            parameter: parameter.to_string(),
+            from,
+            to,
+            edits: edits.len(),
+            median_ms: median(edits),
+            full_frame_keeping_ms: median(full),
+            ratio_to_frame: None,
+        }
+    }
 }
 
 /// A scene's figures in every round (`--rounds`), in round order.
@@ -324,6 +359,7 @@ impl SceneReport {
             outside_thesis_columns_ms: None,
             peak_memory_mb: None,
             rounds: None,
+            edit: None,
         }
     }
 
@@ -353,6 +389,9 @@ impl SceneReport {
             self.stages_over_thesis = self.thesis.as_ref().map(|t| ratios_to_thesis(ours, &t.stages_ms));
             self.outside_thesis_columns_ms = self.thesis.as_ref().map(|_| ours.outside_thesis_columns());
             self.frame_over_factorization = factorization_ms.map(|f| single.median_ms / f);
+            if let Some(edit) = &mut self.edit {
+                edit.ratio_to_frame = (single.median_ms > 0.0).then(|| edit.median_ms / single.median_ms);
+            }
         }
         if let Some(multi) = &self.multi {
             self.frame_over_factorization_all_threads = factorization_ms.map(|f| multi.median_ms / f);
@@ -578,6 +617,24 @@ pub fn print_table(report: &BenchReport) {
         };
         let columns: String = thesis_columns().map(|s| format!(" {:>6}", opt(ratios[s], 2))).collect();
         println!("{:<18}{columns} {outside:>8.2}", scene.name);
+    }
+    println!();
+    println!(
+        "edits: a parameter of §5.4–5.5 changed on every deformable object of a frame, recomputed from that frame's \
+         contacts and fields (same bits), 1 thread; target ≤ 0.2 of the frame"
+    );
+    println!("{:<18} {:>14} {:>9} {:>9} {:>10} {:>9}", "scene", "edit", "edit ms", "frame ms", "keeping ms", "÷ frame");
+    for scene in &report.scenes {
+        let (Some(edit), Some(single)) = (&scene.edit, &scene.single) else { continue };
+        println!(
+            "{:<18} {:>14} {:>9.3} {:>9.2} {:>10.2} {:>9}",
+            scene.name,
+            format!("{} {}→{}", edit.parameter, edit.from, edit.to),
+            edit.median_ms,
+            single.median_ms,
+            edit.full_frame_keeping_ms,
+            opt(edit.ratio_to_frame, 3),
+        );
     }
     if let Some(speedup) = report.automatic_region_speedup {
         println!();

@@ -14,6 +14,9 @@
 //! - one numeric sparse Cholesky of the largest deformable object's Laplacian (the heat operator
 //!   on its pattern, [`time_laplacian_factorization`]), measured in the same run, and the ratio
 //!   frame time / factorization time;
+//! - an edit (see [`measure_edit`]): the time of a frame that changes a parameter of §5.4–5.5
+//!   only (`bulge` 1 → 1.2 on every deformable object), which a deformer that keeps its last
+//!   frame for edits computes from that frame's contacts and fields, against the full frame;
 //! - the peak resident memory of the scene (see [`memory`]).
 //!
 //! Then a shot of `--shot-frames` frames of one scene is processed with frames in parallel (one
@@ -38,8 +41,8 @@ use squish_scenes::bench::{self as bench_scenes, BenchScene, BenchSize};
 use squish_scenes::timing::time_laplacian_factorization;
 
 use crate::bench_report::{
-    BenchReport, FactorizationReport, MachineReport, ObjectReport, RunFigures, RunReport, SceneReport, ShotReport,
-    ThesisReport, print_table,
+    BenchReport, EditReport, FactorizationReport, MachineReport, ObjectReport, RunFigures, RunReport, SceneReport,
+    ShotReport, ThesisReport, print_table,
 };
 use crate::error::CliError;
 
@@ -346,6 +349,7 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
         }
         report.single = Some(RunReport::new(&single.figures(1), median));
         drop(single);
+        report.edit = Some(pool(1)?.install(|| measure_edit(scene, median, settings.frames))?);
         let multi = pool(settings.threads)?.install(|| run_animation(scene, settings.frames))?;
         report.multi = Some(RunReport::new(&multi.figures(settings.threads), median_index(&multi.stats)));
         drop(multi);
@@ -364,6 +368,48 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
     report.peak_memory_mb = memory::peak_mb();
     report.finish(&scene.sides());
     report
+}
+
+/// The edit of the bench: `bulge` 1 → 1.2 → 1 … on every deformable object of frame `frame` (of
+/// `frames`), `EDITS` times on a deformer that keeps its frames for edits (after one full frame),
+/// each edit's result checked against a fresh deformer's once (same bits), and the full frame on
+/// that deformer timed as often (it copies what edits reuse). Run in the caller's pool.
+fn measure_edit(scene: &BenchScene, frame: usize, frames: usize) -> Result<EditReport, String> {
+    const EDITS: usize = 9;
+    const VALUES: [f64; 2] = [1.0, 1.2];
+    let mut pose = scene.pose(BenchScene::frame_time(frame, frames));
+    let set_bulge = |pose: &mut squish_scenes::procedural::ProceduralScene, bulge: f64| {
+        for object in pose.objects.iter_mut().filter(|o| !o.params.rigid) {
+            object.params.bulge = bulge;
+        }
+    };
+    set_bulge(&mut pose, VALUES[0]);
+    let mut edits = Vec::with_capacity(EDITS);
+    let mut full = Vec::with_capacity(EDITS);
+    for k in 0..EDITS {
+        let mut deformer = Deformer::new().keep_for_edits();
+        set_bulge(&mut pose, VALUES[0]);
+        let start = Instant::now();
+        deformer.deform(&pose.frame()).map_err(|e| format!("edit's frame: {e}"))?;
+        full.push(start.elapsed());
+        set_bulge(&mut pose, VALUES[1]);
+        let start = Instant::now();
+        let edited = deformer.deform(&pose.frame()).map_err(|e| format!("edit: {e}"))?;
+        edits.push(start.elapsed());
+        if !edited.stats.edit {
+            return Err("the edit of bulge was computed as a full frame".into());
+        }
+        if k == 0 {
+            let fresh = Deformer::new().deform(&pose.frame()).map_err(|e| format!("edit's check: {e}"))?;
+            let bits = |r: &squish::pipeline::FrameResult| -> Vec<u64> {
+                r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
+            };
+            if bits(&edited) != bits(&fresh) {
+                return Err("the edit's positions differ from a full computation's".into());
+            }
+        }
+    }
+    Ok(EditReport::new("bulge", VALUES, &edits, &full))
 }
 
 /// `frames` frames of `scene` with frames in parallel: the frames are cut into one contiguous

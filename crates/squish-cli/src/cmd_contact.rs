@@ -176,7 +176,8 @@ pub fn define_contact(
     } else {
         None
     };
-    let warnings = squish::pipeline::pair_warnings(&names.map(String::from), 0, Some(&result), &settings.pair, contained);
+    let warnings =
+        squish::pipeline::pair_warnings(&names.map(String::from), 0, Some(&result), &settings.pair, contained);
     let figures = ContactFigures {
         mapping_direction: result.direction.to_array(),
         direction_automatic: matches!(result.direction_source, squish::contact::DirectionSource::Automatic),

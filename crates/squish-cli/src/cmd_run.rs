@@ -283,9 +283,8 @@ impl<'a> RunPlan<'a> {
             label: "squish run".into(),
         };
         let writers = ShotOutputs::new(scene, output, &self.numbering, self.part)?;
-        let write = |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| {
-            writers.write_frame(frame, shot, positions)
-        };
+        let write =
+            |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| writers.write_frame(frame, shot, positions);
         let outcome = run_shot(&SceneShot { scene }, &settings, &self.pool, interrupt, &write)?;
 
         let mut animated = Vec::new();
@@ -298,9 +297,7 @@ impl<'a> RunPlan<'a> {
             }
         }
         let previews = match &pictures {
-            Some(pictures) => {
-                self.pool.install(|| write_previews(&output.dir.join("preview"), &outcome, pictures))?.0
-            }
+            Some(pictures) => self.pool.install(|| write_previews(&output.dir.join("preview"), &outcome, pictures))?.0,
             None => Vec::new(),
         };
         let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;

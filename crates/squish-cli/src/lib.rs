@@ -12,7 +12,7 @@
 //! (frames in parallel), [`scene_shot`] (scene frames as library frames), [`params`] (parameters
 //! of a two-object command), [`cmd_deform::deform_pair`] and [`cmd_contact::define_contact`] (one
 //! frame of two meshes and its figures), [`quality`] and [`report`] (the figures of report.json),
-//! [`error`] (errors with their exit codes) and [`interrupt`] (a stop request that lets the
+//! [`error`] (errors with their exit codes), [`serve`] (the live preview's server) and [`interrupt`] (a stop request that lets the
 //! frames in progress finish).
 
 mod bench_report;
@@ -36,6 +36,7 @@ pub mod report_parts;
 pub mod scene_shot;
 #[cfg(test)]
 mod schema_tests;
+pub mod serve;
 pub mod shot;
 pub mod shot_outputs;
 
@@ -73,6 +74,8 @@ enum Command {
     Bench(cmd_bench::BenchArgs),
     /// List every parameter: key, type, default, valid range, thesis symbol and meaning.
     Params(cmd_params::ParamsArgs),
+    /// A live preview in the browser: edit parameters, profiles and bulge maps on a scene.
+    Serve(serve::ServeArgs),
 }
 
 /// The `squish` command: parses the process's arguments, runs the command, prints an error (if
@@ -87,6 +90,7 @@ pub fn run_command_line() -> ExitCode {
         Command::Demo(args) => cmd_demo::run(&args),
         Command::Bench(args) => cmd_bench::run(&args),
         Command::Params(args) => cmd_params::run(&args),
+        Command::Serve(args) => serve::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,7 +24,10 @@
 //! factorizations across frames (three refactorizations per frame: heat, Poisson — reused by the
 //! multi-zone direction diffusion — and the guide diffusion).
 //!
-//! Entry point: [`deform_region`].
+//! Entry point: [`deform_region`]. It runs in two halves: [`region_fields`] (§5.1–5.3, the
+//! factorizations) and [`deform_with_fields`] (§5.4–5.5 and the volume); a change of a parameter
+//! of §5.4–5.5 only reruns the second on the same [`RegionFields`] (see its doc for the rule),
+//! with the same bits as the whole chapter.
 
 mod bulge;
 mod contact_set;
@@ -215,8 +218,24 @@ pub fn deform_region_with(
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionDeformation, DeformError> {
+    let fields = region_fields(mesh, topology, solver, zones, params, overrides)?;
+    deform_with_fields(mesh, zones, fields, params)
+}
+
+/// Chapter 5's last step on a region whose [`RegionFields`] are known (§5.4–5.5, App. C): the
+/// bulge map, the profiles, the bulge height and the positions. With the fields of
+/// [`region_fields`] for the same mesh, zones and parameters of §5.1–5.3, the result is
+/// [`deform_region_with`]'s, bit for bit; the parameters it reads (see [`RegionFields`]) may
+/// differ from the ones the fields were computed with.
+pub fn deform_with_fields(
+    mesh: &TriMesh,
+    zones: &[ContactZone],
+    fields: RegionFields,
+    params: &DeformParams,
+) -> Result<RegionDeformation, DeformError> {
     let start = Instant::now();
-    let plan = plan_region(mesh, topology, solver, zones, params, overrides)?;
+    let upstream_time = fields.stats.time;
+    let plan = fields.plan(mesh, zones, params)?;
     let stage = Instant::now();
     let cubic = plan.volume_cubic(mesh)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
@@ -233,7 +252,7 @@ pub fn deform_region_with(
     stats.volume_residual = volume_residual;
     stats.fallbacks.volume_without_root = usize::from(params.preserve_volume && !volume_exact);
     stats.timings[Stage::Deformation] += height_time;
-    stats.time = start.elapsed();
+    stats.time = upstream_time + start.elapsed();
     Ok(deformation)
 }
 
@@ -352,6 +371,52 @@ pub fn plan_region(
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionPlan, DeformError> {
+    region_fields(mesh, topology, solver, zones, params, overrides)?.plan(mesh, zones, params)
+}
+
+/// The fields of a region's deformation that §5.4–5.5 read, computed by §5.1–5.3 at one frame:
+/// the contact set 𝒞, the radial parameter u, the domain 𝒫 and the deformable region 𝒟, the
+/// directions d, and the amplitude and slope fields (a, s).
+///
+/// They depend on the mesh, the zones and the parameters of §5.1–5.3 only: the extent, the
+/// domain radius, the length scale h, the constraint weight, the heat time factor, the domain
+/// factor, the direction-field method and `normalize_diffused_direction`. They do not depend on
+/// the parameters of §5.4–5.5 — the profile abscissas (`profile_v2`–`profile_v4`), the wrinkles,
+/// `bulge`, `bulge_height`, `preserve_volume`, the painted `bulge_map` and the anisotropic map
+/// (`anisotropy`, `anisotropy_exponent`, `anisotropy_offset`) — so a change of those alone is
+/// [`RegionFields::plan`] (or [`deform_with_fields`]) on the same fields, with the same bits as
+/// running the whole chapter again.
+#[derive(Clone, Debug)]
+pub struct RegionFields {
+    /// The union 𝒞 of the zones.
+    pub contact: ContactSet,
+    /// The radial parameter u (0 in 𝒞, +∞ where undetermined).
+    pub u: Vec<f64>,
+    /// Per vertex: within the radius of the parametrization domain 𝒫.
+    pub domain: Vec<bool>,
+    /// The deformable region 𝒟.
+    pub deformable: Vec<bool>,
+    /// The displacement direction d.
+    pub directions: Vec<DVec3>,
+    /// The amplitude field a (§5.3).
+    pub amplitude: Vec<f64>,
+    /// The slope field s (§5.3).
+    pub slope: Vec<f64>,
+    /// Figures of §5.1–5.3: counts, factorizations, the stages' times, fallbacks (the time of
+    /// the whole computation so far in `time`).
+    pub stats: DeformStats,
+}
+
+/// Runs §5.1–5.3 on a region: contact set, parametrization, direction field and guide fields
+/// ([`RegionFields`]). [`plan_region`] is this plus [`RegionFields::plan`].
+pub fn region_fields(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    zones: &[ContactZone],
+    params: &DeformParams,
+    overrides: &RegionOverrides,
+) -> Result<RegionFields, DeformError> {
     let start = Instant::now();
     params.validate()?;
     solver.check_region(mesh, topology)?;
@@ -421,64 +486,20 @@ pub fn plan_region(
     fallbacks.clamped_slopes = guide.clamped_slopes;
     timings[Stage::Guide] = stage.elapsed();
 
-    // §5.4–5.5: bulge map and profiles.
-    let stage = Instant::now();
-    let anisotropy = params.object.anisotropy.then_some(AnisotropyParams {
-        exponent: params.object.anisotropy_exponent,
-        offset: params.object.anisotropy_offset,
-    });
-    let eta = bulge_map(
-        mesh,
-        zones,
-        &contact,
-        &parametrization.deformable,
-        params.bulge_map.as_deref(),
-        anisotropy.as_ref(),
-        params.extent,
-    );
-    fallbacks.bulge_map = usize::from(eta.fallback);
-
-    let mut displacement = AffineDisplacement::none(n);
-    let mut fixed_heights = vec![0.0; n];
-    let mut bulge_weights = vec![0.0; n];
-    // The profile samples (an inversion of f₁ per vertex of 𝒟, the costliest part of this stage)
-    // are independent: computed in parallel, used in vertex order.
-    let sampler = profile::ProfileSampler::new(&params.profile());
-    let samples: Vec<Option<profile::ProfileSample>> = (0..n)
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(|v| {
-            (contact.vertex_zone[v] == contact_set::NO_ZONE && parametrization.deformable[v])
-                .then(|| sampler.sample(&params.wrinkles(), guide.amplitude[v], guide.slope[v], parametrization.u[v]))
-        })
-        .collect();
-    for v in 0..n {
-        let zone = contact.vertex_zone[v];
-        if zone != contact_set::NO_ZONE {
-            displacement.moved[v] = true;
-            displacement.constant[v] = zones[zone as usize].targets[v] - mesh.positions[v];
-        } else if let Some(sample) = samples[v] {
-            let d = field.directions[v];
-            displacement.moved[v] = true;
-            displacement.linear[v] = d * (eta.weights[v] * sample.bulge_weight);
-            displacement.constant[v] = d * sample.fixed;
-            fixed_heights[v] = sample.fixed;
-            bulge_weights[v] = eta.weights[v] * sample.bulge_weight;
-        }
-    }
-    timings[Stage::Deformation] = stage.elapsed();
     timings[Stage::Factorization] = solver.factorization_time().saturating_sub(factorization_time_before);
     timings[Stage::Analysis] = solver.analysis_time().saturating_sub(analysis_time_before);
-
     let stats = DeformStats {
         num_deformable: parametrization.num_deformable(),
         num_contact: contact.num_inside(),
         num_boundary_points: contact.boundary.len(),
+        // Every vertex of 𝒞 and of 𝒟 moves (§5.4).
         outer_boundary_moved: solver
             .outer_boundary()
             .iter()
-            .zip(&displacement.moved)
-            .filter(|(on_boundary, moved)| **on_boundary && **moved)
+            .zip(contact.vertex_zone.iter().zip(&parametrization.deformable))
+            .filter(|(on_boundary, (zone, deformable))| {
+                **on_boundary && (**zone != contact_set::NO_ZONE || **deformable)
+            })
             .count(),
         numeric_factorizations: solver.numeric_factorizations() - factorizations_before,
         factorized_rows: solver.factorized_rows() - factorized_rows_before,
@@ -489,18 +510,93 @@ pub fn plan_region(
         fallbacks,
         ..DeformStats::default()
     };
-    Ok(RegionPlan {
-        displacement,
+    Ok(RegionFields {
+        contact,
         u: parametrization.u,
         domain: parametrization.in_domain,
         deformable: parametrization.deformable,
-        contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
         directions: field.directions,
-        fixed_heights,
-        bulge_weights,
         amplitude: guide.amplitude,
         slope: guide.slope,
-        bulge_map: eta.weights,
         stats,
     })
+}
+
+impl RegionFields {
+    /// §5.4–5.5 on these fields: the bulge map η (painted × anisotropic) and the per-vertex
+    /// profiles, as a [`RegionPlan`]. Reads, of `params`, only what §5.4–5.5 read (see the type's
+    /// doc) and the extent (the anisotropic map's scale), which must be the one the fields were
+    /// computed with; the mesh and zones must be theirs too.
+    pub fn plan(self, mesh: &TriMesh, zones: &[ContactZone], params: &DeformParams) -> Result<RegionPlan, DeformError> {
+        let start = Instant::now();
+        params.validate()?;
+        let n = mesh.num_vertices();
+        if let Some(map) = params.bulge_map.as_ref().filter(|map| map.len() != n) {
+            return Err(DeformError::BulgeMapLength { expected: n, actual: map.len() });
+        }
+        if self.u.len() != n || self.contact.vertex_zone.len() != n {
+            return Err(DeformError::StaleFactorization { stage: "region fields of another mesh" });
+        }
+        let Self { contact, u, domain, deformable, directions, amplitude, slope, mut stats } = self;
+        let anisotropy = params.object.anisotropy.then_some(AnisotropyParams {
+            exponent: params.object.anisotropy_exponent,
+            offset: params.object.anisotropy_offset,
+        });
+        let eta = bulge_map(
+            mesh,
+            zones,
+            &contact,
+            &deformable,
+            params.bulge_map.as_deref(),
+            anisotropy.as_ref(),
+            params.extent,
+        );
+        stats.fallbacks.bulge_map = usize::from(eta.fallback);
+
+        let mut displacement = AffineDisplacement::none(n);
+        let mut fixed_heights = vec![0.0; n];
+        let mut bulge_weights = vec![0.0; n];
+        // The profile samples (an inversion of f₁ per vertex of 𝒟, the costliest part of this
+        // stage) are independent: computed in parallel, used in vertex order.
+        let sampler = profile::ProfileSampler::new(&params.profile());
+        let wrinkles = params.wrinkles();
+        let samples: Vec<Option<profile::ProfileSample>> = (0..n)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|v| {
+                (contact.vertex_zone[v] == contact_set::NO_ZONE && deformable[v])
+                    .then(|| sampler.sample(&wrinkles, amplitude[v], slope[v], u[v]))
+            })
+            .collect();
+        for v in 0..n {
+            let zone = contact.vertex_zone[v];
+            if zone != contact_set::NO_ZONE {
+                displacement.moved[v] = true;
+                displacement.constant[v] = zones[zone as usize].targets[v] - mesh.positions[v];
+            } else if let Some(sample) = samples[v] {
+                let d = directions[v];
+                displacement.moved[v] = true;
+                displacement.linear[v] = d * (eta.weights[v] * sample.bulge_weight);
+                displacement.constant[v] = d * sample.fixed;
+                fixed_heights[v] = sample.fixed;
+                bulge_weights[v] = eta.weights[v] * sample.bulge_weight;
+            }
+        }
+        stats.timings[Stage::Deformation] = start.elapsed();
+        stats.time += start.elapsed();
+        Ok(RegionPlan {
+            displacement,
+            u,
+            domain,
+            deformable,
+            contact: contact.vertex_zone.iter().map(|&z| z != contact_set::NO_ZONE).collect(),
+            directions,
+            fixed_heights,
+            bulge_weights,
+            amplitude,
+            slope,
+            bulge_map: eta.weights,
+            stats,
+        })
+    }
 }

@@ -22,16 +22,17 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::cache::{ComponentFigures, ObjectCache, RegionCache};
+use super::cache::{ComponentFigures, ObjectCache, RegionCache, SubRegion};
 use super::contacts::RegionContacts;
 use super::{Frame, FrameObject, PipelineError};
 use crate::contact::ContactZone;
 use crate::deform::{
-    DeformError, DeformParams, DeformStats, RegionDeformation, RegionOverrides, RegionSolver, automatic_extent,
-    deform_region_with,
+    DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver,
+    automatic_extent, deform_with_fields, region_fields,
 };
 use crate::linalg::FillOrder;
 use crate::mesh::Topology;
+use crate::stage::Stage;
 
 /// The deformation of one region.
 pub(super) struct RegionOutcome {
@@ -46,11 +47,33 @@ pub(super) struct RegionOutcome {
     pub time: Duration,
     /// Whether this frame built the region's solver (one symbolic analysis).
     pub new_solver: bool,
+    /// The region's fields of §5.1–5.3 and resolved scales, when the deformer keeps them for
+    /// edits ([`KeptRegion`]).
+    pub kept: Option<KeptRegion>,
+}
+
+/// What an edit of §5.4–5.5's parameters reuses of a region's deformation (see `edits`): its
+/// fields of §5.1–5.3 and the scales the pipeline resolved for it.
+#[derive(Clone, Debug)]
+pub(super) struct KeptRegion {
+    pub fields: RegionFields,
+    pub scales: ResolvedScales,
+    pub clamped: bool,
+    pub domain_reaches_cut: bool,
+}
+
+/// The values the pipeline resolves for a region's [`DeformParams`] besides the object's own
+/// parameters: φ_max (after clamping), the length scale h and the domain radius.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ResolvedScales {
+    pub extent: f64,
+    pub edge_length: Option<f64>,
+    pub domain_radius: Option<f64>,
 }
 
 /// Chapter 5 on every region with zones (in parallel). `sizes`: each region's size (of the
 /// components it touches); `normals`: each object's vertex normals when the contact stage
-/// computed them.
+/// computed them; `keep`: keep each region's fields for edits ([`RegionOutcome::kept`]).
 pub(super) fn deform_regions(
     caches: &mut [Option<ObjectCache>],
     frame: &Frame,
@@ -58,6 +81,7 @@ pub(super) fn deform_regions(
     figures: &[ComponentFigures],
     sizes: &[Vec<f64>],
     normals: &[Option<Vec<DVec3>>],
+    keep: bool,
 ) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
     let RegionContacts { zones, partner_size, contact_area, .. } = contacts;
     caches
@@ -82,7 +106,7 @@ pub(super) fn deform_regions(
                         .extent
                         .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
                     let scale = Scale { extent, edge_length: figures[i].mean_edge_length(&region.components) };
-                    deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale).map(Some)
+                    deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
                 })
                 .collect()
         })
@@ -102,7 +126,7 @@ struct Scale {
 
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see the
 /// module doc). `object_normals`: the object's vertex normals when the contact stage computed
-/// them (it does for objects with a region processed whole).
+/// them (it does for objects with a region processed whole); `keep`: return the region's fields.
 #[allow(clippy::too_many_arguments)]
 fn deform_one(
     object: &FrameObject,
@@ -113,6 +137,7 @@ fn deform_one(
     zones: &[ContactZone],
     object_normals: Option<&[DVec3]>,
     scale: Scale,
+    keep: bool,
 ) -> Result<RegionOutcome, PipelineError> {
     let Scale { extent, edge_length: object_edge_length } = scale;
     let start = Instant::now();
@@ -137,51 +162,42 @@ fn deform_one(
     let Some(solver) = region.solver.as_mut() else {
         return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
     };
-    let mut params = DeformParams::of(object.params, extent, object.params.preserve_volume.unwrap_or(closed));
-    if let Some(map) = object.params.bulge_map.as_ref() {
-        params.bulge_map = Some(match region.sub.as_deref() {
-            None => map.clone(),
-            Some(sub) => {
-                if map.len() != object.mesh.num_vertices() {
-                    return Err(err(DeformError::BulgeMapLength {
-                        expected: object.mesh.num_vertices(),
-                        actual: map.len(),
-                    }));
-                }
-                sub.sub.gather(map)
-            }
-        });
-    }
-    if object_edge_length > 0.0 {
-        // The length scale h (heat time, slope confidence) is the object's (of the components
-        // the region touches, from the frame's figures), whole or cut: the result must not
-        // depend on where a cut falls, which automatic regions move from frame to frame.
-        params.edge_length = Some(object_edge_length);
-    }
-    let mut deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
+    // The length scale h (heat time, slope confidence) is the object's (of the components the
+    // region touches, from the frame's figures), whole or cut: the result must not depend on
+    // where a cut falls, which automatic regions move from frame to frame.
+    let mut scales = ResolvedScales {
+        extent,
+        edge_length: (object_edge_length > 0.0).then_some(object_edge_length),
+        domain_radius: None,
+    };
+    let mut params = region_params(object, closed, region.sub.as_deref(), scales).map_err(err)?;
+    let mut fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
     let mut clamped = false;
     if let Some(border) = border {
-        if let Some(v) = (0..border.len()).find(|&v| border[v] && deformation.contact[v]) {
+        if let Some(v) =
+            (0..border.len()).find(|&v| border[v] && fields.contact.vertex_zone[v] != crate::deform::NO_ZONE)
+        {
             return Err(too_small(format!("its contact zone reaches vertex {v} on the cut border")));
         }
-        if (0..border.len()).any(|v| border[v] && deformation.deformable[v]) {
+        if (0..border.len()).any(|v| border[v] && fields.deformable[v]) {
             // φ does not depend on φ_max: the smallest φ on the cut bounds the extent that fits.
             let reach = (0..border.len())
                 .filter(|&v| border[v])
-                .map(|v| deformation.u[v] * params.extent)
+                .map(|v| fields.u[v] * params.extent)
                 .fold(f64::INFINITY, f64::min);
             let fitted = CLAMP_FRACTION * reach;
             if !(fitted.is_finite() && fitted > 0.0) {
                 return Err(too_small(format!("its deformable region reaches the cut border at φ = {reach:.3e}")));
             }
             // The same domain as the first solve, so the same φ.
-            params.domain_radius = Some(params.domain_radius());
+            scales.domain_radius = Some(params.domain_radius());
+            scales.extent = fitted;
+            params.domain_radius = scales.domain_radius;
             params.extent = fitted;
-            deformation = deform_region_with(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
+            fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
             clamped = true;
-            if let Some(v) =
-                (0..border.len()).find(|&v| border[v] && (deformation.deformable[v] || deformation.contact[v]))
-            {
+            let moves = |v: usize| fields.deformable[v] || fields.contact.vertex_zone[v] != crate::deform::NO_ZONE;
+            if let Some(v) = (0..border.len()).find(|&v| border[v] && moves(v)) {
                 return Err(too_small(format!("vertex {v} on the cut border still moves after clamping the extent")));
             }
         }
@@ -189,8 +205,10 @@ fn deform_one(
     let domain_reaches_cut = border.is_some_and(|border| {
         // Every vertex within the radius in the whole object is in the region, at the same
         // distance, unless a shortest path crosses the cut: then a cut vertex is within it.
-        border.iter().zip(&deformation.domain).any(|(&on_cut, &within)| on_cut && within)
+        border.iter().zip(&fields.domain).any(|(&on_cut, &within)| on_cut && within)
     });
+    let kept = keep.then(|| KeptRegion { fields: fields.clone(), scales, clamped, domain_reaches_cut });
+    let deformation = deform_with_fields(mesh, zones, fields, &params).map_err(err)?;
     Ok(RegionOutcome {
         deformation,
         extent: params.extent,
@@ -198,7 +216,91 @@ fn deform_one(
         domain_reaches_cut,
         time: start.elapsed(),
         new_solver,
+        kept,
     })
+}
+
+/// The [`DeformParams`] of a region: the object's parameters at this frame with the resolved
+/// scales, volume preservation resolved by whether the object is closed, and the painted bulge
+/// map gathered onto the region's vertices.
+fn region_params<'a>(
+    object: &FrameObject<'a>,
+    closed: bool,
+    sub: Option<&SubRegion>,
+    scales: ResolvedScales,
+) -> Result<DeformParams<'a>, DeformError> {
+    let mut params = DeformParams::of(object.params, scales.extent, object.params.preserve_volume.unwrap_or(closed));
+    if let Some(map) = object.params.bulge_map.as_ref() {
+        params.bulge_map = Some(match sub {
+            None => map.clone(),
+            Some(sub) => {
+                if map.len() != object.mesh.num_vertices() {
+                    return Err(DeformError::BulgeMapLength {
+                        expected: object.mesh.num_vertices(),
+                        actual: map.len(),
+                    });
+                }
+                sub.sub.gather(map)
+            }
+        });
+    }
+    params.edge_length = scales.edge_length;
+    params.domain_radius = scales.domain_radius;
+    Ok(params)
+}
+
+/// §5.4–5.5 again on every region kept by the last full frame (`kept[object][region]`), with
+/// this frame's parameters: the deformation of an edit (see `edits`). The regions with zones are
+/// exactly those kept; the work counters of the result are zero (nothing was factorized) and its
+/// times are the edit's.
+pub(super) fn finish_kept_regions(
+    caches: &[Option<ObjectCache>],
+    frame: &Frame,
+    contacts: &RegionContacts,
+    kept: &[Vec<Option<KeptRegion>>],
+) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
+    caches
+        .par_iter()
+        .zip(&frame.objects)
+        .zip(&contacts.zones)
+        .zip(kept)
+        .map(|(((cache, object), zones), kept)| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
+            let Some(cache) = cache.as_ref() else { return Ok(Vec::new()) };
+            let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
+            cache
+                .regions
+                .par_iter()
+                .zip(zones)
+                .zip(kept)
+                .map(|((region, zones), kept)| {
+                    let Some(kept) = kept else { return Ok(None) };
+                    let start = Instant::now();
+                    let mesh = region.sub.as_deref().map_or(object.mesh, |sub| &sub.sub.mesh);
+                    let params =
+                        region_params(object, cache.closed, region.sub.as_deref(), kept.scales).map_err(err)?;
+                    let mut deformation = deform_with_fields(mesh, zones, kept.fields.clone(), &params).map_err(err)?;
+                    let stats = &mut deformation.stats;
+                    (stats.numeric_factorizations, stats.factorized_rows, stats.recomputed_rows) = (0, 0, 0);
+                    stats.reduced_analyses = 0;
+                    for stage in
+                        [Stage::Parametrization, Stage::Directions, Stage::Guide, Stage::Factorization, Stage::Analysis]
+                    {
+                        stats.timings[stage] = Duration::ZERO;
+                    }
+                    stats.time = start.elapsed();
+                    Ok(Some(RegionOutcome {
+                        deformation,
+                        extent: kept.scales.extent,
+                        clamped: kept.clamped,
+                        domain_reaches_cut: kept.domain_reaches_cut,
+                        time: start.elapsed(),
+                        new_solver: false,
+                        kept: None,
+                    }))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Writes the regions' deformations into one object-sized deformation (`None` if none).

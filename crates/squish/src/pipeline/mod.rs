@@ -29,10 +29,16 @@
 //! pattern with its symbolic factorization — so a frame costs numeric work only (plus a rebuild
 //! for a region whose face set changed). The same input gives bit-identical output with a fresh or
 //! a reused deformer, whatever the thread count.
+//!
+//! A deformer asked to [`Deformer::keep_for_edits`] also keeps the last frame's contact stage
+//! and each region's fields of §5.1–5.3, and computes a frame that differs from it only by
+//! parameters of §5.4–5.5 ([`DOWNSTREAM_KEYS`]) from them: an interactive edit of the profile,
+//! the bulge or the bulge map, with the same bits as a full computation (see `edits`).
 
 mod cache;
 mod contacts;
 mod deformations;
+mod edits;
 mod error;
 mod regions;
 mod results;
@@ -45,6 +51,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+pub use edits::{DOWNSTREAM_KEYS, is_downstream};
 pub use error::PipelineError;
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
@@ -61,6 +68,7 @@ use crate::params::{ObjectParams, PairParams};
 use crate::stage::{Stage, StageTimes};
 use cache::ObjectCache;
 use contacts::{RegionContacts, RegionInputs};
+use edits::EditState;
 
 /// One object of a frame.
 #[derive(Clone, Copy, Debug)]
@@ -133,12 +141,25 @@ pub struct Deformer {
     symbolic_analyses: usize,
     /// Per object: the caches of its articulations (ch. 6).
     self_contact: Vec<self_contact::SelfContactCache>,
+    /// Whether to keep what edits reuse ([`Deformer::keep_for_edits`]).
+    keep_edits: bool,
+    /// What the last full frame left for edits.
+    edits: Option<EditState>,
 }
 
 impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Keeps, from now on, what a frame that differs from the last one only by parameters of
+    /// §5.4–5.5 reuses ([`DOWNSTREAM_KEYS`]; the module doc): such a frame then costs the
+    /// profile, bulge map and volume only, with the same result. Off by default (a shot computed
+    /// frame by frame would pay for copies it never uses).
+    pub fn keep_for_edits(mut self) -> Self {
+        self.keep_edits = true;
+        self
     }
 
     /// Number of symbolic Cholesky analyses run by this deformer since it was created: one per
@@ -157,8 +178,10 @@ impl Deformer {
         }
         if frame.objects.iter().all(|o| o.params.self_contact.is_empty()) {
             self.self_contact.clear();
-            return self.deform_pairs(frame, start);
+            return self.deform_pairs(frame, start, self.keep_edits);
         }
+        // Self-contact reads the downstream parameters before the pairs: never an edit.
+        self.edits = None;
         let (resolved, articulations) = self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
         let meshes: Vec<Option<TriMesh>> = resolved
             .iter()
@@ -173,7 +196,7 @@ impl Deformer {
             .zip(&meshes)
             .map(|(o, m)| FrameObject { mesh: m.as_ref().unwrap_or(o.mesh), ..*o })
             .collect();
-        let mut result = self.deform_pairs(&Frame { objects, pairs: frame.pairs.clone() }, start)?;
+        let mut result = self.deform_pairs(&Frame { objects, pairs: frame.pairs.clone() }, start, false)?;
         self_contact::relative_to_input(&mut result.stats.objects, frame, &result.positions, &resolved);
         result.stats.articulations = articulations;
         result.self_contact = resolved;
@@ -182,8 +205,16 @@ impl Deformer {
     }
 
     /// The contacts between objects of a frame, stage after stage: setup, working regions,
-    /// contact definition (ch. 4), deformation (ch. 5), results. `start` is when the frame began.
-    fn deform_pairs(&mut self, frame: &Frame, start: Instant) -> Result<FrameResult, PipelineError> {
+    /// contact definition (ch. 4), deformation (ch. 5), results; or, for an edit of the kept
+    /// frame, §5.4–5.5 and the results. `start` is when the frame began; `keep`: keep what edits
+    /// reuse.
+    fn deform_pairs(&mut self, frame: &Frame, start: Instant, keep: bool) -> Result<FrameResult, PipelineError> {
+        if keep && let Some(state) = self.edits.as_ref().filter(|state| state.is_edit(frame)) {
+            setup::check_frame(frame)?;
+            return self.edit(frame, state, start);
+        }
+        // A failed frame must not leave the state of an earlier one.
+        self.edits = None;
         let mut stages = StageTimes::default();
         // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
@@ -212,10 +243,30 @@ impl Deformer {
         drop(caches);
 
         // Chapter 5 on every region with zones.
-        let outcomes =
-            deformations::deform_regions(&mut self.caches, frame, &region_contacts, &figures, &sizes, &inputs.normals)?;
+        let mut outcomes = deformations::deform_regions(
+            &mut self.caches,
+            frame,
+            &region_contacts,
+            &figures,
+            &sizes,
+            &inputs.normals,
+            keep,
+        )?;
         self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
         region_contacts.give_back(&mut contacts);
+        if keep {
+            let kept =
+                outcomes.iter_mut().map(|o| o.iter_mut().map(|o| o.as_mut().and_then(|o| o.kept.take())).collect());
+            self.edits = Some(EditState::new(
+                frame,
+                contacts.clone(),
+                region_pairs.clone(),
+                sizes,
+                kept.collect(),
+                contained.clone(),
+                closed.clone(),
+            ));
+        }
 
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
@@ -235,6 +286,43 @@ impl Deformer {
                 pairs,
                 regions: objects.regions,
                 articulations: Vec::new(),
+                edit: false,
+                warnings,
+            },
+        })
+    }
+
+    /// An edit of the kept frame (see `edits`): its contacts and region fields reused, §5.4–5.5
+    /// and the results computed with this frame's parameters.
+    fn edit(&self, frame: &Frame, state: &EditState, start: Instant) -> Result<FrameResult, PipelineError> {
+        let mut contacts = state.contacts.clone();
+        let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
+        let mut region_contacts =
+            RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts, &state.sizes);
+        drop(caches);
+        let outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
+        region_contacts.give_back(&mut contacts);
+        // The contact stage's times are the kept frame's: not this frame's work.
+        let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
+        let mut stages = StageTimes::default();
+        let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
+        let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
+        let warnings =
+            warnings::frame_warnings(&pairs, &contacts, &params, &state.contained, &objects.stats, &state.closed);
+        Ok(FrameResult {
+            positions: objects.positions,
+            contacts,
+            deformations: objects.deformations,
+            regions: objects.summaries,
+            self_contact: vec![None; frame.objects.len()],
+            stats: FrameStats {
+                total: start.elapsed(),
+                stages,
+                objects: objects.stats,
+                pairs,
+                regions: objects.regions,
+                articulations: Vec::new(),
+                edit: true,
                 warnings,
             },
         })

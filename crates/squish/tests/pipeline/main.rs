@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
+mod edits;
 mod frames;
 mod regions;
 mod self_contact;

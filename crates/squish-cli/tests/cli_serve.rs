@@ -1,0 +1,225 @@
+//! `squish serve` over HTTP: the page and the API on a copy of the press example, requests that
+//! must be refused (malformed JSON, wrong types, unknown keys, huge bodies, names that leave the
+//! scene's folder) without the server failing, fast edits, the exported scene, and a clean stop
+//! on Ctrl-C. (The page itself is tested in Chromium by web/test.sh.)
+
+#![allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Server {
+    child: Child,
+    address: String,
+    _folder: tempfile::TempDir,
+}
+
+impl Server {
+    /// `squish serve` on a copy of examples/press, on a free port.
+    fn start() -> (Self, std::path::PathBuf) {
+        let folder = tempfile::tempdir().unwrap();
+        let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/press");
+        for file in ["press.toml", "ball.obj", "ground.obj"] {
+            std::fs::copy(examples.join(file), folder.path().join(file)).unwrap();
+        }
+        let mut child = Command::new(env!("CARGO_BIN_EXE_squish"))
+            .args(["serve", "press.toml", "--port", "0"])
+            .current_dir(folder.path())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let address = line.split("http://").nth(1).unwrap().split('/').next().unwrap().to_string();
+        let path = folder.path().to_path_buf();
+        (Self { child, address, _folder: folder }, path)
+    }
+
+    /// One HTTP/1.1 request; the status and body.
+    fn request(&self, method: &str, path: &str, body: &[u8]) -> (u16, String) {
+        let mut stream = TcpStream::connect(&self.address).unwrap();
+        stream.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+        let head = format!(
+            "{method} {path} HTTP/1.1\r\nHost: {}\r\nContent-Length: {}\r\nContent-Type: application/json\r\nConnection: close\r\n\r\n",
+            self.address,
+            body.len()
+        );
+        stream.write_all(head.as_bytes()).unwrap();
+        // A refused body may close the connection before it is all sent.
+        let _ = stream.write_all(body);
+        let mut response = Vec::new();
+        let _ = stream.read_to_end(&mut response);
+        let text = String::from_utf8_lossy(&response).into_owned();
+        let status = text.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+        let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+        (status, body)
+    }
+
+    fn message(&self, json: &str) -> (u16, serde_json::Value) {
+        let (status, body) = self.request("POST", "/api/message", json.as_bytes());
+        (status, serde_json::from_str(&dechunk(&body)).unwrap_or(serde_json::Value::Null))
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The body of a chunked response (axum streams some bodies).
+fn dechunk(body: &str) -> String {
+    if body.starts_with('{') || body.starts_with('<') {
+        return body.to_string();
+    }
+    let mut out = String::new();
+    let mut rest = body;
+    while let Some((size, tail)) = rest.split_once("\r\n") {
+        let Ok(n) = usize::from_str_radix(size.trim(), 16) else { break };
+        if n == 0 || tail.len() < n {
+            break;
+        }
+        out.push_str(&tail[..n]);
+        rest = tail[n..].trim_start_matches("\r\n");
+    }
+    out
+}
+
+fn interrupt(child: &Child) {
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn serves_the_page_and_refuses_bad_requests_without_failing() {
+    let (server, folder) = Server::start();
+    let (status, page) = server.request("GET", "/", b"");
+    assert_eq!(status, 200);
+    assert!(page.contains("squish serve"));
+    assert_eq!(server.request("GET", "/assets/../Cargo.toml", b"").0, 404);
+    assert_eq!(server.request("GET", "/assets/%2e%2e%2fpress.toml", b"").0, 404);
+
+    for (bad, says) in [
+        ("not json", "malformed message"),
+        ("{\"type\": \"frame\", \"frame\": \"ten\"}", "malformed message"),
+        ("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"stiffness\", \"value\": [1, 2]}", "stiffness"),
+        ("{\"type\": \"set\", \"target\": {\"object\": 9}, \"key\": \"stiffness\", \"value\": 2}", "no object 9"),
+        ("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"stifness\", \"value\": 2}", "stiffness"),
+        ("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"stiffness\", \"value\": -1}", "stiffness"),
+        ("{\"type\": \"set\", \"target\": {\"pair\": 0}, \"key\": \"contact_tau\", \"value\": true}", "contact_tau"),
+        ("{\"type\": \"frame\", \"frame\": 4000}", "outside the scene's frames"),
+        (
+            "{\"type\": \"paint\", \"object\": 0, \"stroke\": {\"center\": [0, 0, 0], \"radius\": -1, \"operation\": \"add\", \"strength\": 1}}",
+            "radius",
+        ),
+        ("{\"type\": \"export\", \"name\": \"../outside\"}", "export name"),
+        ("{\"type\": \"export\", \"name\": \"/etc/passwd\"}", "export name"),
+        ("{\"type\": \"export\", \"name\": \"a/b\"}", "export name"),
+    ] {
+        let (status, reply) = server.message(bad);
+        assert_eq!(status, 400, "{bad}: {reply}");
+        assert_eq!(reply["type"], "error", "{bad}");
+        assert!(reply["message"].as_str().unwrap().contains(says), "{bad}: {reply}");
+    }
+    // A body over the bound is refused before it is read.
+    let huge = format!("{{\"type\": \"refresh\", \"pad\": \"{}\"}}", "x".repeat(4 << 20));
+    assert_eq!(server.request("POST", "/api/message", huge.as_bytes()).0, 413);
+    // Nothing was written outside the folder, and the server still answers.
+    assert!(!folder.parent().unwrap().join("outside.toml").exists());
+    let (status, reply) = server.message("{\"type\": \"frame\", \"frame\": 24}");
+    assert_eq!(status, 200, "{reply}");
+    assert_eq!(reply["frame"]["frame"], 24);
+}
+
+#[test]
+fn a_downstream_edit_is_fast_and_the_export_renders_the_same_with_squish_run() {
+    let (server, folder) = Server::start();
+    let (_, full) = server.message("{\"type\": \"frame\", \"frame\": 24}");
+    assert_eq!(full["frame"]["edit"], false, "{} {}", full["frame"]["version"], full["frame"]["frame"]);
+    let (_, edited) =
+        server.message("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"profile_v2\", \"value\": 0.5}");
+    assert_eq!(edited["frame"]["edit"], true, "a profile abscissa is downstream of the contact: a fast edit");
+    assert_ne!(edited["frame"]["objects"][0]["output"], full["frame"]["objects"][0]["output"]);
+    let (_, keyed) = server.message(
+        "{\"type\": \"set\", \"target\": {\"object\": 1}, \"key\": \"stiffness\", \"value\": 2, \"keyframe\": true}",
+    );
+    assert_eq!(keyed["frame"]["values"]["objects"][1]["stiffness"]["keys"], serde_json::json!([24.0]));
+    let (_, unkeyed) = server.message("{\"type\": \"unkey\", \"target\": {\"object\": 1}, \"key\": \"stiffness\"}");
+    assert_eq!(unkeyed["frame"]["values"]["objects"][1]["stiffness"]["edited"], false, "the last key removed");
+    let (status, _) = server.message("{\"type\": \"unkey\", \"target\": {\"object\": 1}, \"key\": \"stiffness\"}");
+    assert_eq!(status, 400, "no key left to remove");
+    server.message(
+        "{\"type\": \"set\", \"target\": {\"object\": 1}, \"key\": \"stiffness\", \"value\": 2, \"keyframe\": true}",
+    );
+    let (status, exported) = server.message("{\"type\": \"export\", \"name\": \"edited\"}");
+    assert_eq!(status, 200, "{exported}");
+    let (_, shown) = server.message("{\"type\": \"refresh\"}");
+
+    let out = folder.join("run");
+    let run = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["run", "edited.toml", "--frames", "24", "-o"])
+        .arg(&out)
+        .current_dir(&folder)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // The exported meshes of the page's frame and squish run's, both written by the same OBJ
+    // writer (shortest round-trip decimals): the same text is the same bits.
+    let vertices = |path: &Path| -> Vec<String> {
+        let text = std::fs::read_to_string(path).unwrap();
+        text.lines().filter(|l| l.starts_with("v ")).map(str::to_string).collect()
+    };
+    for (i, name) in ["ball", "ground"].iter().enumerate() {
+        let run = vertices(&out.join(name).join("0024.obj"));
+        let page = vertices(&folder.join("edited-frame-24").join(format!("{name}.obj")));
+        assert_eq!(run.len(), page.len(), "{name}: vertex count");
+        let first_difference = run.iter().zip(&page).position(|(a, b)| a != b);
+        assert_eq!(first_difference.map(|k| (&run[k], &page[k])), None, "{name}: squish run renders the page's frame");
+        // The page's positions (JSON, read here by a parser that may round the last bit).
+        let shown: Vec<f64> =
+            shown["frame"]["objects"][i]["output"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let written: Vec<f64> =
+            run.iter().flat_map(|l| l[2..].split_whitespace().map(|x| x.parse::<f64>().unwrap())).collect();
+        let off = written.iter().zip(&shown).map(|(a, b)| (a - b).abs() / a.abs().max(1e-300)).fold(0.0, f64::max);
+        assert!(off < 1e-15, "{name}: the page's positions are the exported ones ({off})");
+    }
+}
+
+#[test]
+fn ctrl_c_stops_the_server_cleanly() {
+    let (mut server, _) = Server::start();
+    assert_eq!(server.request("GET", "/api/scene", b"").0, 200);
+    interrupt(&server.child);
+    let start = Instant::now();
+    loop {
+        if let Some(status) = server.child.try_wait().unwrap() {
+            assert!(status.success(), "exit status {status}");
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "the server did not stop on Ctrl-C");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn listening_beyond_this_machine_warns() {
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/press");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["serve", "press.toml", "--port", "0", "--listen", "0.0.0.0"])
+        .current_dir(&examples)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut warning = String::new();
+    BufReader::new(child.stderr.take().unwrap()).read_line(&mut warning).unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(warning.starts_with("warning: listening on 0.0.0.0:"), "{warning}");
+    assert!(warning.contains("127.0.0.1"), "the warning says what to use instead: {warning}");
+}
