@@ -4,6 +4,8 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
 const BASE_COLORS = [0xd9a66b, 0x7fa7c9, 0x9ccf8a, 0xc98fc0, 0xcfc46e];
+// Faces that intersect another face (the overlay of intersecting faces).
+const RED = [0.92, 0.12, 0.1];
 
 // A colormap from dark blue through teal and yellow (t in [0, 1]).
 function ramp(t) {
@@ -93,8 +95,15 @@ export class View3D {
     const painted = object.painted;
     let etaMax = 1;
     if (o) for (const eta of o.bulge_map) etaMax = Math.max(etaMax, eta);
+    // Faces that intersect another face: each side shows its own (input before, output after).
+    const overlaps = this.overlay === 'intersecting' ? object.intersecting : null;
+    const before = overlaps ? new Float32Array(n * 3) : colours;
     for (let v = 0; v < n; v++) {
       let c = [base.r, base.g, base.b];
+      if (overlaps) {
+        before.set(overlaps.input[v] ? RED : c, v * 3);
+        if (overlaps.output[v]) c = RED;
+      }
       if (this.overlay === 'contact' && o && o.contact[v]) c = [0.9, 0.15, 0.12];
       else if (this.overlay === 'deformable' && o && o.deformable[v]) c = [0.25, 0.45, 0.95];
       else if (this.overlay === 'u' && o && o.u[v] >= 0) c = ramp(o.u[v]);
@@ -104,9 +113,8 @@ export class View3D {
       }
       colours.set(c, v * 3);
     }
-    for (const mesh of [entry.before, entry.after]) {
-      mesh.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
-    }
+    entry.before.geometry.setAttribute('color', new THREE.Float32BufferAttribute(before, 3));
+    entry.after.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
   }
 
   setOverlay(overlay) {

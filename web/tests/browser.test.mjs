@@ -127,6 +127,22 @@ test('the timeline scrubs to the deepest press', async () => {
   await page.locator('#overlay').selectOption('none');
 });
 
+test('the intersecting faces overlay marks the input where the meshes overlap', async () => {
+  const f = await waitFor((f) => f.frame === FRAME, `frame ${FRAME}`);
+  const count = (flags) => flags.reduce((n, x) => n + x, 0);
+  for (const object of f.objects) {
+    assert.equal(object.intersecting.input.length, object.input.length / 3, 'a flag per vertex');
+    assert.ok(count(object.intersecting.input) > 0, `${object.name}: the input overlaps the other object`);
+  }
+  await page.waitForTimeout(300);
+  const plain = await shot();
+  await page.locator('#overlay').selectOption('intersecting');
+  await page.waitForTimeout(300);
+  const marked = await shot();
+  await page.locator('#overlay').selectOption('none');
+  assert.ok((await pixelDifference(plain, marked)) > 0.001, 'the overlay is drawn');
+});
+
 test('the stiffness slider changes the mesh', async () => {
   await page.waitForTimeout(300);
   const before = await shot();

@@ -4,6 +4,7 @@
 //! profile curve (§5.4.1, evaluated by the core's own B-spline) and the readouts.
 
 use serde::Serialize;
+use squish::TriMesh;
 use squish::deform::{Profile, Wrinkles};
 use squish::params::SchemaEntry;
 
@@ -109,6 +110,9 @@ pub struct ObjectFrameView {
     pub overlays: Option<Overlays>,
     /// η per vertex as painted or read from the scene (absent: uniform 1).
     pub painted: Option<Vec<f64>>,
+    /// Per vertex, 1 on a face that intersects another face of the frame (of this object or
+    /// another; the exact test of `squish info`), on the input and on the output.
+    pub intersecting: Intersecting,
     pub profile: ProfileView,
 }
 
@@ -118,6 +122,37 @@ pub struct Overlays {
     pub contact: Vec<u8>,
     pub deformable: Vec<u8>,
     pub bulge_map: Vec<f64>,
+}
+
+#[derive(Serialize)]
+pub struct Intersecting {
+    pub input: Vec<u8>,
+    pub output: Vec<u8>,
+}
+
+/// Per object, 1 for the vertices of faces that intersect any other face of `meshes` (the
+/// objects taken as one mesh, so that overlaps between objects and within one both count).
+/// A mesh the test cannot read (a non-finite coordinate) shows no overlap rather than failing
+/// the frame's view.
+fn intersecting_vertices(meshes: &[&TriMesh]) -> Vec<Vec<u8>> {
+    let mut flags: Vec<Vec<u8>> = meshes.iter().map(|m| vec![0; m.num_vertices()]).collect();
+    let mut all = TriMesh::default();
+    let mut owner = Vec::new();
+    for (i, mesh) in meshes.iter().enumerate() {
+        let offset = all.positions.len() as u32;
+        all.positions.extend_from_slice(&mesh.positions);
+        all.triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
+        owner.extend(mesh.triangles.iter().map(|&t| (i, t)));
+    }
+    if let Ok(found) = squish::spatial::self_intersections(&all) {
+        for &f in &found.faces {
+            let (i, t) = owner[f as usize];
+            for v in t {
+                flags[i][v as usize] = 1;
+            }
+        }
+    }
+    flags
 }
 
 /// The profile curve of §5.4.1 for a unit amplitude and zero slope at the contact, with the
@@ -158,6 +193,14 @@ impl FrameView {
     pub fn of(session: &Session, computed: &Computed, version: u64, frame: i64) -> Self {
         let result = &computed.result;
         let flat = |ps: &[glam::DVec3]| ps.iter().flat_map(|p| p.to_array()).collect::<Vec<f64>>();
+        let inputs: Vec<&TriMesh> = computed.shot.objects.iter().map(|o| &o.mesh).collect();
+        let outputs: Vec<TriMesh> = inputs
+            .iter()
+            .zip(&result.positions)
+            .map(|(m, p)| TriMesh { positions: p.clone(), triangles: m.triangles.clone() })
+            .collect();
+        let mut intersecting_inputs = intersecting_vertices(&inputs).into_iter();
+        let mut intersecting_outputs = intersecting_vertices(&outputs.iter().collect::<Vec<_>>()).into_iter();
         let objects = computed
             .shot
             .objects
@@ -180,6 +223,10 @@ impl FrameView {
                     quality: computed.objects[i].clone(),
                     overlays,
                     painted: o.params.bulge_map.clone(),
+                    intersecting: Intersecting {
+                        input: intersecting_inputs.next().unwrap_or_default(),
+                        output: intersecting_outputs.next().unwrap_or_default(),
+                    },
                     profile: ProfileView::of(&o.params),
                 }
             })
