@@ -19,8 +19,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut times = Vec::new();
     for _ in 0..rounds.parse::<usize>()? {
         let start = Instant::now();
-        let deformed = squish_cli::cmd_deform::deform_pair(["a", "b"], [&meshes[0], &meshes[1]], &settings, &mut Deformer::new())
-            .map_err(|e| e.to_string())?;
+        let deformed =
+            squish_cli::cmd_deform::deform_pair(["a", "b"], [&meshes[0], &meshes[1]], &settings, &mut Deformer::new())
+                .map_err(|e| e.to_string())?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
         std::hint::black_box(deformed);
     }

@@ -79,6 +79,7 @@ fn merge(parts: &[((i64, i64), String, Value)], scene_start: i64, scene_end: i64
             "missing_frames": statuses.iter().flat_map(|s| s["missing_frames"].as_array().cloned().unwrap_or_default()).collect::<Vec<_>>(),
             "failed_frame": failed.map_or(Value::Null, |s| s["failed_frame"].clone()),
             "error": failed.map_or(Value::Null, |s| s["error"].clone()),
+            "failed_frames": statuses.iter().flat_map(|s| s["failed_frames"].as_array().cloned().unwrap_or_default()).collect::<Vec<_>>(),
         });
         merged["summary"] = merge_summaries(parts.iter().map(|p| &p.2["summary"]).collect());
         for key in ["animated_files", "previews"] {

@@ -114,6 +114,15 @@ const GEOMETRY_EXTENSIONS: &[&str] =
 fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
     let mut root = gltf::json::Root::from_slice(json)
         .map_err(|e| IoError::format(path, format!("invalid glTF JSON: {e}; the file is corrupt or not glTF 2.0")))?;
+    // A glTF 1.0 file parses (most of its keys are optional in 2.0) but its meshes are laid out
+    // differently: it would read as an empty mesh without this.
+    let major = root.asset.version.split('.').next().unwrap_or_default();
+    if major != "2" {
+        return Err(IoError::format(
+            path,
+            format!("asset.version is \"{}\"; only glTF 2.0 is supported (re-export as glTF 2.0)", root.asset.version),
+        ));
+    }
     // Required extensions that only concern appearance (materials, textures, lights) do not
     // matter to geometry; quantized attributes are decoded by our accessor reader. Compressed
     // geometry cannot be read: say which export option to turn off.

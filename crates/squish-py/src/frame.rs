@@ -11,11 +11,11 @@ use glam::DVec3;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use squish::params::Articulation;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
-use squish::params::Articulation;
-use squish_cli::params::PairSettings;
 use squish_cli::frame_quality::MeasureCache;
+use squish_cli::params::PairSettings;
 use squish_cli::quality::FrameEntry;
 use squish_cli::shot::{ShotFrame, ShotObject, frame_record, worker_pool};
 
@@ -87,14 +87,10 @@ pub fn deform<'py>(
 ) -> PyResult<(Bound<'py, PyTuple>, Bound<'py, PyAny>)> {
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let (result, figures) = py
-        .detach(|| {
-            squish_cli::cmd_deform::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new())
-        })
+        .detach(|| squish_cli::cmd_deform::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new()))
         .map_err(cli_error)?;
-    let vertices = PyTuple::new(
-        py,
-        [positions_array(py, &result.positions[0])?, positions_array(py, &result.positions[1])?],
-    )?;
+    let vertices =
+        PyTuple::new(py, [positions_array(py, &result.positions[0])?, positions_array(py, &result.positions[1])?])?;
     Ok((vertices, to_python(py, &figures)?))
 }
 
@@ -114,9 +110,7 @@ pub fn contact<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let definition = py
-        .detach(|| {
-            squish_cli::cmd_contact::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None])
-        })
+        .detach(|| squish_cli::cmd_contact::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None]))
         .map_err(cli_error)?;
     let report = to_python(py, &definition.figures)?;
     let labels = definition.labels.map(|l| PyArray1::from_vec(py, l));
@@ -278,22 +272,19 @@ impl Frame {
     /// frame's figures (those of a `report.json` frame entry). `threads`: worker threads (default:
     /// every core).
     #[pyo3(signature = (threads=None))]
-    fn deform<'py>(
-        &self,
-        py: Python<'py>,
-        threads: Option<usize>,
-    ) -> PyResult<FrameOutput<'py>> {
+    fn deform<'py>(&self, py: Python<'py>, threads: Option<usize>) -> PyResult<FrameOutput<'py>> {
         let pool = worker_pool(threads).map_err(cli_error)?;
         let shot = &self.frame;
-        let (result, record) = py.detach(|| {
-            pool.install(|| {
-                let frame = shot.frame();
-                let result = Deformer::new().deform(&frame)?;
-                let record = frame_record(0, &frame, &result, &mut MeasureCache::default());
-                Ok::<_, squish::pipeline::PipelineError>((result, record))
+        let (result, record) = py
+            .detach(|| {
+                pool.install(|| {
+                    let frame = shot.frame();
+                    let result = Deformer::new().deform(&frame)?;
+                    let record = frame_record(0, &frame, &result, &mut MeasureCache::default());
+                    Ok::<_, squish::pipeline::PipelineError>((result, record))
+                })
             })
-        })
-        .map_err(pipeline_error)?;
+            .map_err(pipeline_error)?;
         let vertices = result.positions.iter().map(|p| positions_array(py, p)).collect::<PyResult<Vec<_>>>()?;
         let report = to_python(py, &FrameEntry::of(&record))?;
         report.del_item("frame")?;

@@ -158,7 +158,10 @@ fn as_array<'py, T: numpy::Element>(
     let py = object.py();
     let numpy = py.import("numpy")?;
     let converted = numpy.call_method1("asarray", (object,)).map_err(|e| {
-        input_error(format!("{what}: cannot read {} as an array: {e}", object.get_type().name().map_or_else(|_| "the value".into(), |n| n.to_string())))
+        input_error(format!(
+            "{what}: cannot read {} as an array: {e}",
+            object.get_type().name().map_or_else(|_| "the value".into(), |n| n.to_string())
+        ))
     })?;
     let ndim: usize = converted.getattr("ndim")?.extract()?;
     if ndim != 2 {
@@ -169,15 +172,27 @@ fn as_array<'py, T: numpy::Element>(
         // Floats are accepted as indices only when whole (np.asarray would truncate 1.5 to 1).
         let kind: String = converted.getattr("dtype")?.getattr("kind")?.extract()?;
         if !matches!(kind.as_str(), "i" | "u") {
-            let whole: bool = numpy.call_method1("all", (numpy.call_method1("equal", (&converted, numpy.call_method1("floor", (&converted,))?))?,))?.extract().unwrap_or(false);
+            let whole: bool = numpy
+                .call_method1(
+                    "all",
+                    (numpy.call_method1("equal", (&converted, numpy.call_method1("floor", (&converted,))?))?,),
+                )?
+                .extract()
+                .unwrap_or(false);
             if kind != "f" || !whole {
-                return Err(input_error(format!("{what}: expected integer vertex indices, got dtype {}", converted.getattr("dtype")?.str()?)));
+                return Err(input_error(format!(
+                    "{what}: expected integer vertex indices, got dtype {}",
+                    converted.getattr("dtype")?.str()?
+                )));
             }
         }
     } else {
         let kind: String = converted.getattr("dtype")?.getattr("kind")?.extract()?;
         if !matches!(kind.as_str(), "f" | "i" | "u") {
-            return Err(input_error(format!("{what}: expected numbers, got dtype {}", converted.getattr("dtype")?.str()?)));
+            return Err(input_error(format!(
+                "{what}: expected numbers, got dtype {}",
+                converted.getattr("dtype")?.str()?
+            )));
         }
     }
     let cast = converted.call_method1("astype", (dtype,))?;

@@ -52,9 +52,9 @@ fn param_value(value: &Bound<'_, PyAny>, info: &ParamInfo) -> Result<ParamValue,
 /// Sets every `(key, value)` of `items` on `params`; errors name the key as `prefix.key`.
 pub fn apply<P: Params>(params: &mut P, prefix: &str, items: &Bound<'_, PyDict>) -> PyResult<()> {
     for (key, value) in items.iter() {
-        let key: String = key.extract().map_err(|_| {
-            parameter_error(ParamError::new(prefix, None, "parameter names must be strings"))
-        })?;
+        let key: String = key
+            .extract()
+            .map_err(|_| parameter_error(ParamError::new(prefix, None, "parameter names must be strings")))?;
         let Some(info) = P::info(&key) else {
             return Err(parameter_error(unknown_key::<P>(&key).with_prefix(prefix)));
         };

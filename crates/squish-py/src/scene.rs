@@ -50,8 +50,11 @@ fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyRe
     } else if let Ok((a, b)) = frames.extract::<(i64, i64)>() {
         format!("{a}:{b}")
     } else if frames.get_type().name()? == "range" {
-        let (start, stop, step): (i64, i64, i64) =
-            (frames.getattr("start")?.extract()?, frames.getattr("stop")?.extract()?, frames.getattr("step")?.extract()?);
+        let (start, stop, step): (i64, i64, i64) = (
+            frames.getattr("start")?.extract()?,
+            frames.getattr("stop")?.extract()?,
+            frames.getattr("step")?.extract()?,
+        );
         if step != 1 || stop <= start {
             return Err(invalid());
         }
@@ -68,9 +71,11 @@ fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyRe
 fn output_format(format: Option<&str>) -> PyResult<Option<OutputFormat>> {
     let Some(format) = format else { return Ok(None) };
     let formats = [OutputFormat::Obj, OutputFormat::Ply, OutputFormat::Glb, OutputFormat::Gltf, OutputFormat::Pc2];
-    formats.into_iter().find(|f| f.extension() == format).map(Some).ok_or_else(|| {
-        input_error(format!("format \"{format}\": use \"obj\", \"ply\", \"glb\", \"gltf\" or \"pc2\""))
-    })
+    formats
+        .into_iter()
+        .find(|f| f.extension() == format)
+        .map(Some)
+        .ok_or_else(|| input_error(format!("format \"{format}\": use \"obj\", \"ply\", \"glb\", \"gltf\" or \"pc2\"")))
 }
 
 #[pymethods]
@@ -179,8 +184,8 @@ impl Scene {
         if let Some(error) = run.animated_error.take() {
             return Err(cli_error(error));
         }
-        if let Some(failure) = run.outcome.failure.take() {
-            return Err(cli_error(failure.error));
+        if let Some(failed) = run.failed_error() {
+            return Err(cli_error(failed));
         }
         if let Some(stopped) = run.interrupted_error() {
             // A KeyboardInterrupt that is not Python's own (a signal handler raising something
