@@ -758,7 +758,7 @@ fn scene_cases() -> Vec<Case> {
     // table that is not a key table: the message names the key and what to write.
     let articulation =
         |extra: &str| ball(&format!("[[objects.self_contact]]\nname = \"k\"\nmasks = [\"m.txt\", \"m.txt\"]\n{extra}"));
-    let levels: [(&str, &[squish::params::ParamInfo], &dyn Fn(&str) -> String, &str); 3] = [
+    let levels: [Level; 3] = [
         ("object", <squish::ObjectParams as squish::Params>::schema(), &ball, "scene.toml:6"),
         ("pair", <squish::PairParams as squish::Params>::schema(), &pair, "scene.toml:15"),
         ("articulation", <squish::ArticulationParams as squish::Params>::schema(), &articulation, "scene.toml:9"),
@@ -783,6 +783,10 @@ fn scene_cases() -> Vec<Case> {
     }
     cases
 }
+
+/// A parameter level of the scene: its name, its schema, the scene text with a line added to its
+/// table, and the line that table's parameters are on.
+type Level<'a> = (&'a str, &'a [squish::params::ParamInfo], &'a dyn Fn(&str) -> String, &'a str);
 
 fn command_cases() -> Vec<Case> {
     let deform = |extra: &[&str]| -> Vec<String> {

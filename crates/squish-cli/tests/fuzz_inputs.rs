@@ -536,7 +536,7 @@ fn set_case(rng: &mut Rng) -> String {
             0 if wild => "c",
             1 if wild => "",
             2 if wild => "a.b",
-            3 | 4 | 5 => "b",
+            3..=5 => "b",
             6 | 7 => "pair",
             _ => "a",
         };
