@@ -13,8 +13,8 @@
 //!   renamed and unknown ones), prefixes and value spellings; settings that are accepted are
 //!   completed on two small meshes and deformed as `squish deform` does.
 //!
-//! A case fails if it panics, takes longer than [`CASE_LIMIT`] or pushes the process's peak
-//! resident memory past [`MEMORY_LIMIT`]; the input is then kept under
+//! A case fails if it panics, takes longer than [`fuzz::CASE_LIMIT`] or pushes the process's
+//! peak resident memory past [`fuzz::MEMORY_LIMIT`]; the input is then kept under
 //! `tests/fuzz-corpus/<target>/crash-<seed>.txt` and the test fails naming it.
 //!
 //! - `cargo test -p squish-cli --test fuzz_inputs` replays the corpus and a few hundred cases per
@@ -25,9 +25,11 @@
 
 #![allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 
+#[path = "../../squish-io/tests/common/fuzz.rs"]
+mod fuzz;
+
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use fastrand::Rng;
 use glam::DVec3;
@@ -40,11 +42,6 @@ use squish_cli::params::pair_settings;
 use squish_cli::scene_shot::SceneShot;
 use squish_cli::shot::ShotSource;
 use squish_io::Scene;
-
-/// Longest time one case may take (a scene of meshes of a few hundred vertices).
-const CASE_LIMIT: Duration = Duration::from_secs(20);
-const MEMORY_LIMIT_KB: u64 = 3 << 20;
-const MEMORY_LIMIT: &str = "3 GiB";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
@@ -139,35 +136,13 @@ fn split_set_case(text: &str) -> (Option<&str>, Vec<String>) {
     (file, sets.lines().map(str::to_string).collect())
 }
 
-fn peak_memory_kb() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
-        .unwrap_or(0)
-}
-
 /// Runs one case on a worker thread; `Ok(true)` if it was accepted, `Err` says how it failed.
 fn run_case(target: Target, text: &str, dir: &Path) -> Result<bool, String> {
-    let (send, receive) = mpsc::channel();
     let (dir, text) = (dir.to_path_buf(), text.to_string());
-    std::thread::spawn(move || {
-        let outcome = std::panic::catch_unwind(|| match target {
-            Target::Scene => exercise_scene(&dir, &text),
-            Target::Set => exercise_set(&dir, &text),
-        });
-        let _ = send.send(outcome.ok());
-    });
-    let accepted = match receive.recv_timeout(CASE_LIMIT) {
-        Ok(Some(accepted)) => accepted,
-        Ok(None) => return Err("panicked".to_string()),
-        Err(_) => return Err(format!("took longer than {CASE_LIMIT:?}")),
-    };
-    if peak_memory_kb() > MEMORY_LIMIT_KB {
-        return Err(format!("pushed the peak resident memory past {MEMORY_LIMIT}"));
-    }
-    Ok(accepted)
+    fuzz::guarded(move || match target {
+        Target::Scene => exercise_scene(&dir, &text),
+        Target::Set => exercise_set(&dir, &text),
+    })
 }
 
 fn keep_failure(target: Target, seed: u64, text: &str, why: &str) -> String {
@@ -196,7 +171,7 @@ fn fuzz(target: Target, work: &Path, cases: u64, seconds: f64, base_seed: u64) -
     let start = Instant::now();
     let (mut done, mut accepted) = (0u64, 0u64);
     while done < cases && start.elapsed().as_secs_f64() < seconds {
-        let seed = base_seed.wrapping_add(done.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let seed = fuzz::case_seed(base_seed, done);
         let mut rng = Rng::with_seed(seed);
         let text = match target {
             Target::Scene => scene_case(&mut rng),
@@ -212,10 +187,7 @@ fn fuzz(target: Target, work: &Path, cases: u64, seconds: f64, base_seed: u64) -
 }
 
 fn long_run(target: Target) {
-    let seconds: f64 = std::env::var("SQUISH_FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(600.0);
-    let seed: u64 = std::env::var("SQUISH_FUZZ_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or_else(|| {
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64)
-    });
+    let (seconds, seed) = fuzz::long_run_settings();
     let work = tempfile::tempdir().unwrap();
     write_assets(work.path());
     let start = Instant::now();
@@ -225,7 +197,7 @@ fn long_run(target: Target) {
         "fuzz {}: {cases} generated cases ({accepted} accepted) and {replayed} corpus files in {:.1} min (seed {seed}), no failure; peak memory {} MB",
         target.name(),
         start.elapsed().as_secs_f64() / 60.0,
-        peak_memory_kb() / 1024
+        fuzz::peak_memory_kb() / 1024
     );
 }
 
