@@ -427,6 +427,16 @@ fn gltf_cases() -> Vec<Case> {
             gltf_text(&triangle, 36, "").replace("\"min\":[0,0,0]", "\"min\":[NaN,0,0]"),
             &["a.gltf", "JSON"],
         ),
+        info(
+            "gltf animation target past the nodes",
+            "a.gltf",
+            gltf_text(
+                &triangle,
+                36,
+                r#","animations":[{"channels":[{"sampler":0,"target":{"node":9,"path":"translation"}}],"samplers":[{"input":0,"output":0}]}]"#,
+            ),
+            &["a.gltf", "animation 0 channel 0", "node 9", "export it again"],
+        ),
         info("gltf version 1", "a.gltf", r#"{"asset":{"version":"1.0"},"meshes":[]}"#, &["a.gltf", "1.0", "glTF 2.0"]),
         Case::new("run on a glb", &["run", "a.glb"], 2, &["a.glb", "not a scene file", "squish deform"])
             .file("a.glb", b"glTF\x02\x00\x00\x00".to_vec()),

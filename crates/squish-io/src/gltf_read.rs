@@ -168,6 +168,27 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
             }
         }
     }
+    // Animation channels are not bounds-checked by the validation either: `Target::node` (gltf
+    // 1.4.1, animation/mod.rs) unwraps the node of a channel whose index is past the nodes.
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let (node, sampler) = (channel.target.node.value(), channel.sampler.value());
+            let problem = if node >= root.nodes.len() {
+                Some(format!("targets node {node}, but the file has {} nodes", root.nodes.len()))
+            } else if sampler >= animation.samplers.len() {
+                Some(format!("uses sampler {sampler}, but the animation has {} samplers", animation.samplers.len()))
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(IoError::element(
+                    path,
+                    format!("animation {a} channel {c}"),
+                    format!("{problem}; the file is corrupt (export it again)"),
+                ));
+            }
+        }
+    }
     // glTF requires min/max on POSITION accessors, and the validator rejects files without
     // them; several exporters omit them. They are metadata this reader never uses (bounds are
     // recomputed from the data), so fill placeholders rather than refuse the file.

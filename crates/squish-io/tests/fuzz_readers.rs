@@ -291,6 +291,18 @@ fn regression_ply_ten_vertices_books() {
 /// Found by `long_gltf` (seed 15178484154088650513): a POSITION attribute naming an accessor
 /// past the file's accessors panicked inside the `gltf` crate's validation (an unchecked index in
 /// gltf-json 1.4.1). The reader now checks it first and names the mesh, primitive and index.
+/// Found by `long_gltf` (issue 28's second round, after 8.5 minutes): an animation channel whose
+/// target node is 4294967295 panicked inside the `gltf` crate (`Target::node` unwraps); now an
+/// error naming the animation and channel.
+#[test]
+fn regression_gltf_animation_target_out_of_range() {
+    let error = run_corpus_file(Target::Gltf, "crash-animation-target-out-of-range.gltf");
+    assert_eq!(error, Ok(false));
+    let path = corpus_dir(Target::Gltf).join("crash-animation-target-out-of-range.gltf");
+    let message = read_gltf(&path, &GltfReadOptions::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(message.contains("animation 0 channel 1") && message.contains("node 4294967295"), "{message}");
+}
+
 #[test]
 fn regression_gltf_position_accessor_out_of_range() {
     let path = corpus_dir(Target::Gltf).join("crash-position-accessor-out-of-range.glb");
