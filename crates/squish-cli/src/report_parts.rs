@@ -191,6 +191,24 @@ mod tests {
     }
 
     #[test]
+    fn failed_frames_of_every_part_are_merged() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut failed = part(11, 20, &[15]);
+        failed["run"] = json!({
+            "status": "failed", "missing_frames": ["15:15"], "failed_frame": 15, "error": "bad",
+            "failed_frames": [{ "frame": 15, "error": "bad" }],
+        });
+        std::fs::write(dir.path().join(part_file_name(1, 10)), part(1, 10, &[]).to_string()).unwrap();
+        std::fs::write(dir.path().join(part_file_name(11, 20)), failed.to_string()).unwrap();
+        merge_reports(dir.path(), 1, 20).unwrap();
+        let report: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap()).unwrap();
+        assert_eq!(report["run"]["status"], "failed");
+        assert_eq!(report["run"]["failed_frames"], json!([{ "frame": 15, "error": "bad" }]));
+        assert_eq!(report["missing_frames"], json!(["15:15"]));
+    }
+
+    #[test]
     fn two_parts_merge_the_same_in_either_order() {
         let mut merged = Vec::new();
         for order in [[0, 1], [1, 0]] {
