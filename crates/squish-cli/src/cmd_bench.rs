@@ -108,6 +108,14 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         let names: Vec<&str> = entries.iter().map(|e| e.name).collect();
         return Err(CliError::input(format!("--shot {}: no such scene (one of {})", args.shot, names.join(", "))));
     };
+    // Every word must select a scene: a misspelt one would otherwise time nothing and exit 0.
+    if let Some(word) = args.scenes.iter().find(|s| !entries.iter().any(|e| e.name.contains(s.as_str()))) {
+        let names: Vec<&str> = entries.iter().map(|e| e.name).collect();
+        return Err(CliError::input(format!(
+            "--scenes {word}: no scene's name contains \"{word}\"; the scenes are {}",
+            names.join(", ")
+        )));
+    }
     let selected: Vec<&SceneEntry> = entries
         .iter()
         .filter(|e| args.scenes.is_empty() || args.scenes.iter().any(|s| e.name.contains(s.as_str())))

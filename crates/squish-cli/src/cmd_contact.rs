@@ -15,8 +15,10 @@ use squish_render::{Label, rgba8};
 
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
-use crate::input::{InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text};
-use crate::params::{PairSettings, pair_settings};
+use crate::input::{
+    InputMesh, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems, write_text,
+};
+use crate::params::{PairSettings, contact_error, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::shot::PreviewFrame;
 
@@ -140,8 +142,8 @@ pub fn define_contact(
             .with_name(names[i])
             .with_stiffness(squish::contact::Stiffness::of(params))
     };
-    let result = contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair)
-        .map_err(|e| CliError::input(e.to_string()))?;
+    let result =
+        contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair).map_err(|e| contact_error(&e))?;
     let debug = debug_export(&result, meshes);
     let [labelled_a, labelled_b] = labelled_meshes;
     let sides = [
@@ -202,6 +204,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     settings.complete(&inputs)?;
     let files = output_stems(&inputs[0], &inputs[1]);
     let stems = display_names(&files);
+    note_undecodable_names(&files);
     let labelled = [0, 1].map(|l| output_path(&args.output, &files[l], "ply"));
     let contact = define_contact(
         [&stems[0], &stems[1]],

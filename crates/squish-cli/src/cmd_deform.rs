@@ -11,9 +11,10 @@ use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::frame_quality::deepest_penetration;
 use crate::input::{
-    FormatChoice, InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text,
+    FormatChoice, InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path,
+    output_stems, write_text,
 };
-use crate::params::{PairSettings, pair_settings};
+use crate::params::{PairSettings, pair_settings, pipeline_error};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::report::FrameReport;
 use crate::shot::{PreviewFrame, ShotFrame, ShotObject};
@@ -98,7 +99,7 @@ pub fn deform_pair(
         ],
         pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
     };
-    let mut result = deformer.deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
+    let mut result = deformer.deform(&frame).map_err(|e| pipeline_error(&e))?;
     let deformed = [result.mesh(&frame, 0), result.mesh(&frame, 1)];
     let penetration_before = deepest_penetration(meshes[0], meshes[1]);
     let penetration_after = deepest_penetration(&deformed[0], &deformed[1]);
@@ -120,14 +121,18 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     settings.complete(&inputs)?;
     let stems = output_stems(&inputs[0], &inputs[1]);
     let display = display_names(&stems);
+    note_undecodable_names(&stems);
     let names = [display[0].as_str(), display[1].as_str()];
     let (result, figures) = deform_pair(names, [&inputs[0].mesh, &inputs[1].mesh], &settings, &mut Deformer::new())?;
     create_dir(&args.output)?;
+    // Every output goes to a staging folder first and is moved into place at the end, so that
+    // a failure (B cannot be written, the picture fails) leaves none of this run's files.
+    let staged = StagedOutputs::new(&args.output)?;
     let mut outputs = [String::new(), String::new()];
     for (i, input) in inputs.iter().enumerate() {
         let ext = args.format.map_or(FormatChoice::extension_of(input.format), FormatChoice::extension);
         let path = output_path(&args.output, &stems[i], ext);
-        input.write_result(&path, &result.positions[i])?;
+        input.write_result(&staged.path(&path), &result.positions[i])?;
         outputs[i] = path.display().to_string();
     }
     let report = DeformReport {
@@ -136,7 +141,7 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
         figures,
     };
     let report_path = args.output.join("report.json");
-    write_text(&report_path, &serde_json::to_string_pretty(&report)?)?;
+    write_text(&staged.path(&report_path), &serde_json::to_string_pretty(&report)?)?;
     let picture = if args.preview {
         let shot = ShotFrame {
             objects: inputs
@@ -153,10 +158,13 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
         };
         let any_gltf = inputs.iter().any(|i| matches!(i.format, MeshFormat::Gltf | MeshFormat::Glb));
         let settings = args.pictures.settings(args.color, &SceneDefaults::default(), any_gltf);
-        Some(write_frame_preview(&args.output.join("preview.png"), &PreviewFrame::new(&shot, &result), &settings)?)
+        let picture = args.output.join("preview.png");
+        write_frame_preview(&staged.path(&picture), &PreviewFrame::new(&shot, &result), &settings)?;
+        Some(picture)
     } else {
         None
     };
+    staged.commit()?;
 
     let pair = &result.stats.pairs[0];
     if pair.in_contact {

@@ -349,7 +349,7 @@ fn run_scene(
         "previews": previews.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     });
     let summary = write_report(&dir, "report.json", &description, &outputs, &outcome)?;
-    if let Some(failure) = outcome.failure {
+    if let Some(failure) = outcome.failures.into_iter().next() {
         return Err(failure.error);
     }
     say!("      {}", demo_line(&summary));

@@ -149,17 +149,13 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if let Some(error) = run.animated_error.take() {
         return Err(error);
     }
-    if let Some(failure) = run.outcome.failure.take() {
+    if let Some(error) = run.failed_error() {
+        print_failures(&run.outcome);
+        print_shot_warnings(&run.outcome);
         for articulation in &run.summary.articulations {
             eprintln!("  {}", articulation.line());
         }
-        let done = run.outcome.records.len();
-        eprintln!(
-            "{done} frame{} done before the failure; report: {}",
-            if done == 1 { "" } else { "s" },
-            run.report.display()
-        );
-        return Err(failure.error);
+        return Err(error);
     }
     if let Some(error) = run.interrupted_error() {
         return Err(error);
@@ -289,7 +285,7 @@ impl<'a> RunPlan<'a> {
 
         let mut animated = Vec::new();
         let mut animated_error = None;
-        if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
+        if !output.format.per_frame() && outcome.complete() {
             // The report is written even when these files cannot be: the frames are done.
             match writers.write_shot(&self.first, &outcome) {
                 Ok(written) => animated = written,
@@ -313,6 +309,37 @@ impl<'a> RunPlan<'a> {
 }
 
 impl SceneRun {
+    /// The error of a run in which frames failed (`None` if none did): how many, the first
+    /// error, how many frames are on disk, where the report is, and the `--frames` to re-run.
+    pub fn failed_error(&self) -> Option<CliError> {
+        let outcome = &self.outcome;
+        let first = outcome.failures.first()?;
+        let total = outcome.frames.clone().count();
+        let failed = outcome.failures.len();
+        let done = outcome.records.len();
+        let stopped = if outcome.failures.iter().any(|f| f.writing) {
+            "; writing a frame failed, so no more frames were started"
+        } else {
+            ""
+        };
+        let animated = if self.per_frame_files || outcome.complete() {
+            ""
+        } else {
+            "; the files holding every frame need every frame and were not written"
+        };
+        let reruns: Vec<String> =
+            outcome.missing_runs().iter().map(|r| format!("--frames {}:{}", r.start(), r.end())).collect();
+        Some(CliError::failure(format!(
+            "{failed} of {total} frame{} failed (frame {}: {}){stopped}; {done} frame{} written{animated} (report: {}); once fixed, run the frames left: {}",
+            plural(total),
+            first.frame,
+            first.error,
+            plural(done),
+            self.report.display(),
+            reruns.join(", ")
+        )))
+    }
+
     /// The error of a run stopped before its last frame (`None` if every frame was computed):
     /// how many frames were done, where the report is, and the `--frames` that finish the shot.
     pub fn interrupted_error(&self) -> Option<CliError> {
@@ -334,6 +361,24 @@ impl SceneRun {
             self.report.display(),
             missing.join(", ")
         )))
+    }
+}
+
+/// "s" for a count other than one.
+fn plural(count: usize) -> &'static str {
+    if count == 1 { "" } else { "s" }
+}
+
+/// Prints every failed frame's error (the first [`SHOWN_WARNINGS`]) on stderr.
+fn print_failures(outcome: &ShotOutcome) {
+    for failure in outcome.failures.iter().take(SHOWN_WARNINGS) {
+        eprintln!("frame {} failed: {}", failure.frame, failure.error);
+    }
+    if outcome.failures.len() > SHOWN_WARNINGS {
+        eprintln!(
+            "… and {} more failed frames (report.json, run.failed_frames)",
+            outcome.failures.len() - SHOWN_WARNINGS
+        );
     }
 }
 

@@ -16,7 +16,6 @@ impl CliError {
         Self { message: message.into(), code: 1 }
     }
 
-    /// Bad input or usage, exit code 2.
     /// `--strict` and `count` warnings were printed: exit 1.
     pub fn strict(count: usize) -> Self {
         Self::failure(format!(
@@ -26,6 +25,7 @@ impl CliError {
         ))
     }
 
+    /// Bad input or usage, exit code 2.
     pub fn input(message: impl Into<String>) -> Self {
         Self { message: message.into(), code: 2 }
     }

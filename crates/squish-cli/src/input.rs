@@ -155,10 +155,98 @@ pub fn display_names(stems: &[OsString; 2]) -> [String; 2] {
     [0, 1].map(|i| stems[i].to_string_lossy().into_owned())
 }
 
-/// Creates the output directory (and parents).
+/// Says on stderr which stems are not UTF-8: the output files keep their exact bytes, but the
+/// console, report.json (JSON text is Unicode) and object names show the undecodable bytes as
+/// U+FFFD.
+pub fn note_undecodable_names(stems: &[OsString; 2]) {
+    for stem in stems {
+        if stem.to_str().is_none() {
+            eprintln!(
+                "note: the file name {} is not UTF-8: the output files keep its bytes, messages and report.json show them as U+FFFD",
+                stem.to_string_lossy()
+            );
+        }
+    }
+}
+
+/// Creates the output directory (and parents). A path that is a file, or a folder that cannot
+/// be written, is bad usage (exit 2) whichever command meets it.
 pub fn create_dir(dir: &Path) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| CliError::failure(format!("cannot create the output directory {}: {e}", dir.display())))
+    if dir.exists() && !dir.is_dir() {
+        return Err(CliError::input(format!(
+            "{} is a file, not a folder: give -o a folder (it is created if missing)",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| output_dir_error(dir, "create", &e))
+}
+
+/// The error of an output folder that cannot be created or written: exit 2 when the user can
+/// fix it by choosing another folder (permissions, a read-only file system, a file in the way),
+/// else 1.
+pub fn output_dir_error(dir: &Path, action: &str, error: &std::io::Error) -> CliError {
+    use std::io::ErrorKind;
+    match error.kind() {
+        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem => CliError::input(format!(
+            "cannot {action} the output folder {}: {error}; choose a folder you can write with -o",
+            dir.display()
+        )),
+        ErrorKind::NotADirectory | ErrorKind::AlreadyExists => CliError::input(format!(
+            "cannot {action} the output folder {}: {error}; a file is in the way, give -o another folder",
+            dir.display()
+        )),
+        _ => CliError::failure(format!("cannot {action} the output folder {}: {error}", dir.display())),
+    }
+}
+
+/// Outputs written into a hidden staging folder inside the output folder, then moved into it
+/// together ([`StagedOutputs::commit`]): a command that fails halfway leaves none of its new
+/// files, and the files of an earlier run stay as they were. Dropped without a commit, the
+/// staging folder and what it holds are deleted.
+pub struct StagedOutputs {
+    dir: PathBuf,
+    staging: tempfile::TempDir,
+}
+
+impl StagedOutputs {
+    /// A staging folder inside `dir` (which must exist).
+    pub fn new(dir: &Path) -> Result<Self, CliError> {
+        let staging = tempfile::Builder::new()
+            .prefix(".squish-staging.")
+            .suffix(".tmp")
+            .tempdir_in(dir)
+            .map_err(|e| output_dir_error(dir, "write into", &e))?;
+        Ok(Self { dir: dir.to_path_buf(), staging })
+    }
+
+    /// Where to write the output that ends up at `final_path` (a path inside the output folder).
+    pub fn path(&self, final_path: &Path) -> PathBuf {
+        let name = final_path.file_name().unwrap_or(final_path.as_os_str());
+        self.staging.path().join(name)
+    }
+
+    /// Moves every staged file into the output folder (renames within one file system).
+    pub fn commit(self) -> Result<(), CliError> {
+        let entries = std::fs::read_dir(self.staging.path())
+            .map_err(|e| CliError::failure(format!("cannot list {}: {e}", self.staging.path().display())))?;
+        let mut names: Vec<std::ffi::OsString> = entries.flatten().map(|e| e.file_name()).collect();
+        names.sort();
+        // A folder where a file goes is the one thing that makes a rename within a folder fail:
+        // checked for every file before the first is moved.
+        if let Some(name) = names.iter().find(|name| self.dir.join(name).is_dir()) {
+            return Err(CliError::input(format!(
+                "cannot write {}: a folder of that name is in the way; move it, or give -o another folder (nothing was written)",
+                self.dir.join(name).display()
+            )));
+        }
+        for name in names {
+            let target = self.dir.join(&name);
+            std::fs::rename(self.staging.path().join(&name), &target).map_err(|e| {
+                CliError::failure(format!("cannot move the output {} into place: {e}", target.display()))
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// Writes `text` to `path` atomically.

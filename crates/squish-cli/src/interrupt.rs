@@ -1,6 +1,8 @@
 //! Ctrl-C for long jobs (`squish run`, `squish demo`): the first Ctrl-C asks the job to stop
 //! scheduling frames — frames in progress finish and write their files, then the job writes its
-//! report and exits with an error; the second Ctrl-C aborts the process at once.
+//! report and exits with an error; the second Ctrl-C aborts the process at once. SIGTERM (what
+//! job schedulers and `kill` send) and SIGHUP (a closed terminal or SSH session) are handled the
+//! same way (ctrlc's `termination` feature), so a farm's stop leaves whole files and a report.
 //!
 //! Files are written atomically (temporary file + rename), so stopping never leaves a truncated
 //! result; only an abort can leave a `.<name>.XXXXXX.tmp` file behind.
@@ -48,10 +50,10 @@ pub fn install() -> &'static Interrupt {
             let Some(state) = INTERRUPT.get() else { return };
             if state.presses.fetch_add(1, Ordering::SeqCst) == 0 {
                 eprintln!(
-                    "\nCtrl-C: finishing the frames in progress, then writing the report (press Ctrl-C again to abort)"
+                    "\nstop requested (Ctrl-C, SIGTERM or SIGHUP): finishing the frames in progress, then writing the report (press Ctrl-C again to abort)"
                 );
             } else {
-                eprintln!("\nCtrl-C again: aborting (frames in progress are lost)");
+                eprintln!("\nsecond stop request: aborting (frames in progress are lost)");
                 std::process::exit(ABORT_EXIT_CODE);
             }
         });

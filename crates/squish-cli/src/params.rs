@@ -118,10 +118,19 @@ impl PairSettings {
 
     /// Merges a parameters file: tables `[a]`, `[b]`, `[pair]` of schema keys.
     pub fn apply_file(&mut self, path: &Path) -> Result<(), CliError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CliError::input(format!("cannot read parameters {}: {e}", path.display())))?;
-        let table: toml::Table = toml::from_str(&text)
-            .map_err(|e| CliError::input(format!("{}: {}", path.display(), e.to_string().trim())))?;
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            let hint = match e.kind() {
+                std::io::ErrorKind::NotFound => "; check the path (relative paths start from the current directory)",
+                std::io::ErrorKind::IsADirectory => "; it is a folder: give a TOML file with tables [a], [b], [pair]",
+                _ => "",
+            };
+            CliError::input(format!("cannot read parameters {}: {e}{hint}", path.display()))
+        })?;
+        // One line naming the file and line (the error's own display draws the line in ASCII art).
+        let table: toml::Table = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map_or(1, |s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            CliError::input(format!("{}:{line}: invalid TOML: {}", path.display(), e.message().trim()))
+        })?;
         let base = path.parent().unwrap_or(Path::new("."));
         for (prefix, entries) in &table {
             let context = format!("{}: [{prefix}]", path.display());
@@ -154,17 +163,34 @@ impl PairSettings {
     }
 
     /// Completes the settings for the two meshes: reads the per-vertex parameters given as
-    /// files, then checks every parameter.
+    /// files, then checks every parameter, and that per-vertex lists have one value per vertex.
     pub fn complete(&mut self, inputs: &[InputMesh; 2]) -> Result<(), CliError> {
         self.read_per_vertex(inputs)?;
-        self.validate()
+        self.validate()?;
+        for (prefix, params, input) in [("a", &self.a, &inputs[0]), ("b", &self.b, &inputs[1])] {
+            for info in ObjectParams::schema().iter().filter(|i| i.kind == ParamKind::PerVertex) {
+                let Some(ParamValue::List(values)) = params.get(info.key) else { continue };
+                let vertices = input.mesh.num_vertices();
+                if values.len() != vertices {
+                    return Err(CliError::input(format!(
+                        "{prefix}.{}: {} values for the {vertices} vertices of {}; give one value per vertex (a list, a text file with one number per line, or {{ attribute = \"name\" }})",
+                        info.key,
+                        values.len(),
+                        input.path.display()
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Reads the per-vertex parameters given as files, for the two meshes.
     fn read_per_vertex(&mut self, inputs: &[InputMesh; 2]) -> Result<(), CliError> {
         for (which, key, data, context) in std::mem::take(&mut self.per_vertex) {
             let input = &inputs[which];
-            let values = read_vertex_map(&data, &input.path, input.mesh.num_vertices(), input.weld_map(), key)?;
+            // The file's own message names the file; the context names the key that gave it.
+            let values = read_vertex_map(&data, &input.path, input.mesh.num_vertices(), input.weld_map(), key)
+                .map_err(|e| CliError::input(format!("{context}: {e}")))?;
             self.object(which)
                 .set(key, &ParamValue::List(values))
                 .map_err(|e| set_error(&context, e.with_prefix(if which == 0 { "a" } else { "b" })))?;
@@ -179,7 +205,41 @@ impl PairSettings {
         };
         check("a", self.a.validate())?;
         check("b", self.b.validate())?;
-        check("pair", self.pair.validate())
+        check("pair", self.pair.validate())?;
+        if self.a.rigid && self.b.rigid {
+            return Err(CliError::input(
+                "parameters: a.rigid and b.rigid are both true, so neither object can deform; set one of them to false (--set b.rigid=false)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The fix of a contact error as the two-object commands spell it: the library names the pair
+/// parameter to set (`its \`direction\` parameter`), the command line sets it with `--set pair.…`.
+pub fn contact_error(error: &squish::contact::ContactError) -> CliError {
+    use squish::contact::ContactError;
+    let fix = match error {
+        ContactError::DirectionUndefined => {
+            "; on the command line: --set pair.direction=0,0,1 (the direction from A toward B)"
+        }
+        ContactError::BallTestingNeedsOneRigid => {
+            "; on the command line: --set pair.contact_method=geometric, or --set a.rigid=true"
+        }
+        _ => "",
+    };
+    CliError::input(format!("{error}{fix}"))
+}
+
+/// A pipeline error of a two-object command, with the command line's spelling of the fix (see
+/// [`contact_error`]).
+pub fn pipeline_error(error: &squish::pipeline::PipelineError) -> CliError {
+    match error {
+        squish::pipeline::PipelineError::Contact { a, b, source } => {
+            let fixed = contact_error(source);
+            CliError::input(format!("pair (\"{a}\", \"{b}\"): {fixed}"))
+        }
+        _ => CliError::input(error.to_string()),
     }
 }
 

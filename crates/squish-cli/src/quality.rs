@@ -457,29 +457,44 @@ impl<'a> FrameEntry<'a> {
 /// How a run ended.
 #[derive(Serialize)]
 pub struct RunStatus {
-    /// "complete", "interrupted" or "failed".
+    /// "complete", "interrupted" or "failed" (a frame failed; the others were computed).
     pub status: &'static str,
-    /// Frames asked for but not computed, as "A:B" runs for `--frames`.
+    /// Frames asked for but not computed (failed, or not reached), as "A:B" runs for `--frames`.
     pub missing_frames: Vec<String>,
-    /// The failed frame and why.
+    /// The first failed frame and its error (also in `failed_frames`).
     pub failed_frame: Option<i64>,
     pub error: Option<String>,
+    /// Every failed frame with its error, in frame order.
+    pub failed_frames: Vec<FailedFrame>,
+}
+
+/// A frame that failed and its one-line error.
+#[derive(Serialize)]
+pub struct FailedFrame {
+    pub frame: i64,
+    pub error: String,
 }
 
 impl RunStatus {
     pub fn of(outcome: &ShotOutcome) -> Self {
-        let status = if outcome.failure.is_some() {
+        let status = if outcome.failed() {
             "failed"
         } else if outcome.interrupted && !outcome.complete() {
             "interrupted"
         } else {
             "complete"
         };
+        let first = outcome.failures.first();
         Self {
             status,
             missing_frames: outcome.missing_runs().iter().map(|r| format!("{}:{}", r.start(), r.end())).collect(),
-            failed_frame: outcome.failure.as_ref().map(|f| f.frame),
-            error: outcome.failure.as_ref().map(|f| f.error.to_string()),
+            failed_frame: first.map(|f| f.frame),
+            error: first.map(|f| f.error.to_string()),
+            failed_frames: outcome
+                .failures
+                .iter()
+                .map(|f| FailedFrame { frame: f.frame, error: f.error.to_string() })
+                .collect(),
         }
     }
 }

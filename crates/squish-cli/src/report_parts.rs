@@ -79,6 +79,7 @@ fn merge(parts: &[((i64, i64), String, Value)], scene_start: i64, scene_end: i64
             "missing_frames": statuses.iter().flat_map(|s| s["missing_frames"].as_array().cloned().unwrap_or_default()).collect::<Vec<_>>(),
             "failed_frame": failed.map_or(Value::Null, |s| s["failed_frame"].clone()),
             "error": failed.map_or(Value::Null, |s| s["error"].clone()),
+            "failed_frames": statuses.iter().flat_map(|s| s["failed_frames"].as_array().cloned().unwrap_or_default()).collect::<Vec<_>>(),
         });
         merged["summary"] = merge_summaries(parts.iter().map(|p| &p.2["summary"]).collect());
         for key in ["animated_files", "previews"] {
@@ -187,6 +188,24 @@ mod tests {
         assert_eq!(part_range(&part_file_name(-5, -2)), Some((-5, -2)));
         assert_eq!(part_range("report.json"), None);
         assert_eq!(part_range("report.a-b.json"), None);
+    }
+
+    #[test]
+    fn failed_frames_of_every_part_are_merged() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut failed = part(11, 20, &[15]);
+        failed["run"] = json!({
+            "status": "failed", "missing_frames": ["15:15"], "failed_frame": 15, "error": "bad",
+            "failed_frames": [{ "frame": 15, "error": "bad" }],
+        });
+        std::fs::write(dir.path().join(part_file_name(1, 10)), part(1, 10, &[]).to_string()).unwrap();
+        std::fs::write(dir.path().join(part_file_name(11, 20)), failed.to_string()).unwrap();
+        merge_reports(dir.path(), 1, 20).unwrap();
+        let report: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap()).unwrap();
+        assert_eq!(report["run"]["status"], "failed");
+        assert_eq!(report["run"]["failed_frames"], json!([{ "frame": 15, "error": "bad" }]));
+        assert_eq!(report["missing_frames"], json!(["15:15"]));
     }
 
     #[test]

@@ -179,11 +179,16 @@ pub struct FrameRecord {
     pub support: Vec<DVec3>,
 }
 
-/// The frame that stopped a shot, and why.
+/// A frame that failed, and why.
 #[derive(Debug)]
 pub struct FrameFailure {
     pub frame: i64,
     pub error: CliError,
+    /// True when writing its files failed (the frame was computed): the shot stopped scheduling
+    /// frames then, since the next frames would most likely fail to write too (a full disk, a
+    /// folder that cannot be written). A frame that cannot be read or deformed does not stop the
+    /// shot.
+    pub writing: bool,
 }
 
 /// The result of [`run_shot`].
@@ -198,8 +203,9 @@ pub struct ShotOutcome {
     pub kept: BTreeMap<i64, Vec<Vec<DVec3>>>,
     /// Ctrl-C stopped the shot.
     pub interrupted: bool,
-    /// The first failed frame (in frame order), if any.
-    pub failure: Option<FrameFailure>,
+    /// The frames that failed, in frame order (the other frames were computed and written,
+    /// unless a write failure stopped the shot: see [`FrameFailure::writing`]).
+    pub failures: Vec<FrameFailure>,
     /// Wall-clock time of the whole batch.
     pub wall: Duration,
     pub threads: usize,
@@ -209,6 +215,11 @@ impl ShotOutcome {
     /// True if every frame asked for was computed.
     pub fn complete(&self) -> bool {
         self.records.len() == self.frames.clone().count()
+    }
+
+    /// True when a frame failed.
+    pub fn failed(&self) -> bool {
+        !self.failures.is_empty()
     }
 
     /// The frames asked for but not computed, as inclusive runs (to re-run with `--frames`).
@@ -244,7 +255,15 @@ pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, CliError
 enum FrameOutcome {
     Done(Box<FrameDone>),
     Skipped,
-    Failed(CliError),
+    Failed(CliError, Phase),
+}
+
+/// Where a frame failed: before its files were written (reading or deforming its meshes), or
+/// while writing them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Compute,
+    Write,
 }
 
 struct FrameDone {
@@ -254,8 +273,9 @@ struct FrameDone {
 }
 
 /// Runs `settings.frames` of `source` in parallel on `pool` (see [`worker_pool`]); `write`
-/// writes each frame's files. Stops scheduling frames at the first failure or Ctrl-C; the frames
-/// in progress finish (and are written) and the outcome says what happened.
+/// writes each frame's files. A frame that cannot be read or deformed is recorded and the others
+/// go on; a frame whose files cannot be written, or Ctrl-C, stops the scheduling of frames (the
+/// frames in progress finish and are written). The outcome says what happened.
 pub fn run_shot(
     source: &dyn ShotSource,
     settings: &ShotSettings,
@@ -268,14 +288,14 @@ pub fn run_shot(
     let progress = progress_bar(frames.len() as u64, &settings.label);
     let workers: Mutex<Vec<Worker>> = Mutex::new(Vec::new());
     let continuity = Continuity::default();
-    let failed = AtomicBool::new(false);
+    let write_failed = AtomicBool::new(false);
     let start = Instant::now();
 
     let outcomes: Vec<FrameOutcome> = pool.install(|| {
         frames
             .par_iter()
             .map(|&f| {
-                if interrupt.requested() || failed.load(Ordering::SeqCst) {
+                if interrupt.requested() || write_failed.load(Ordering::SeqCst) {
                     return FrameOutcome::Skipped;
                 }
                 let mut worker = workers.lock().ok().and_then(|mut pool| pool.pop()).unwrap_or_default();
@@ -288,9 +308,12 @@ pub fn run_shot(
                         progress.inc(1);
                         FrameOutcome::Done(Box::new(done))
                     }
-                    Err(error) => {
-                        failed.store(true, Ordering::SeqCst);
-                        FrameOutcome::Failed(error)
+                    Err((error, phase)) => {
+                        if phase == Phase::Write {
+                            write_failed.store(true, Ordering::SeqCst);
+                        }
+                        progress.inc(1);
+                        FrameOutcome::Failed(error, phase)
                     }
                 }
             })
@@ -305,7 +328,7 @@ pub fn run_shot(
         previews: BTreeMap::new(),
         kept: BTreeMap::new(),
         interrupted: interrupt.requested(),
-        failure: None,
+        failures: Vec::new(),
         wall,
         threads,
     };
@@ -321,10 +344,8 @@ pub fn run_shot(
                 }
                 outcome.records.push(record);
             }
-            FrameOutcome::Failed(error) => {
-                if outcome.failure.is_none() {
-                    outcome.failure = Some(FrameFailure { frame, error });
-                }
+            FrameOutcome::Failed(error, phase) => {
+                outcome.failures.push(FrameFailure { frame, error, writing: phase == Phase::Write });
             }
             FrameOutcome::Skipped => {}
         }
@@ -348,11 +369,12 @@ fn compute_frame(
     settings: &ShotSettings,
     continuity: &Continuity,
     write: &FrameWriter,
-) -> Result<FrameDone, CliError> {
-    let shot = source.frame(f)?;
+) -> Result<FrameDone, (CliError, Phase)> {
+    let shot = source.frame(f).map_err(|e| (e, Phase::Compute))?;
     let frame = shot.frame();
-    let result = worker.deformer.deform(&frame).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
-    write(f, &shot, &result.positions)?;
+    let result =
+        worker.deformer.deform(&frame).map_err(|e| (CliError::input(format!("frame {f}: {e}")), Phase::Compute))?;
+    write(f, &shot, &result.positions).map_err(|e| (e, Phase::Write))?;
     let record = frame_record(f, &frame, &result, &mut worker.measure);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
@@ -540,7 +562,7 @@ mod tests {
             previews: BTreeMap::new(),
             kept: BTreeMap::new(),
             interrupted: true,
-            failure: None,
+            failures: Vec::new(),
             wall: Duration::ZERO,
             threads: 1,
         };

@@ -163,4 +163,7 @@ fn output_names_keep_the_input_name_bytes() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     assert!(out.join(OsStr::from_bytes(b"caf\xe9.obj")).is_file());
     assert!(!out.join("caf\u{FFFD}.obj").exists());
+    // The report and the console cannot hold the byte (JSON is Unicode): they say so.
+    let message = String::from_utf8_lossy(&output.stderr);
+    assert!(message.contains("is not UTF-8") && message.contains("U+FFFD"), "{message}");
 }

@@ -267,6 +267,25 @@ fn the_example_scene_runs() {
 
 #[test]
 fn ctrl_c_stops_cleanly_with_a_report_of_the_frames_done() {
+    stops_cleanly_on("INT");
+}
+
+/// What a job scheduler sends (`kill`, a farm's time limit): handled like Ctrl-C.
+#[test]
+fn sigterm_stops_cleanly_with_a_report_of_the_frames_done() {
+    stops_cleanly_on("TERM");
+}
+
+/// A closed terminal or SSH session: handled like Ctrl-C.
+#[test]
+fn sighup_stops_cleanly_with_a_report_of_the_frames_done() {
+    stops_cleanly_on("HUP");
+}
+
+/// Sends `signal` to a running `squish run` once its first frame is written: it exits 130 after
+/// the frames in progress, its report lists the frames done and the missing ones, exactly the
+/// frames reported are on disk and no temporary file is left.
+fn stops_cleanly_on(signal: &str) {
     let dir = tempfile::tempdir().unwrap();
     write_meshes(dir.path(), 3);
     let scene = write_scene(dir.path(), 400, "obj");
@@ -287,7 +306,7 @@ fn ctrl_c_stops_cleanly_with_a_report_of_the_frames_done() {
         assert!(start.elapsed() < Duration::from_secs(120), "no frame written");
         std::thread::sleep(Duration::from_millis(20));
     }
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status = Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status().unwrap();
     assert!(status.success());
     let output = child.wait_with_output().unwrap();
     assert_eq!(output.status.code(), Some(130), "{}", stderr(&output));

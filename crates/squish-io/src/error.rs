@@ -101,6 +101,7 @@ fn io_hint(error: &std::io::Error) -> &'static str {
             " (check the path and spelling; relative paths start from the current directory)"
         }
         std::io::ErrorKind::PermissionDenied => " (check the file and folder permissions)",
+        std::io::ErrorKind::IsADirectory => " (it is a folder: give the path of a file in it)",
         std::io::ErrorKind::UnexpectedEof => " (the file is truncated; export it again)",
         _ => "",
     }

@@ -133,9 +133,13 @@ fn load_uri(path: &Path, element: &str, uri: &str) -> Result<Vec<u8>, IoError> {
                 "data URI is not base64-encoded; re-export with embedded (base64) buffers",
             ));
         }
-        return base64::engine::general_purpose::STANDARD
-            .decode(payload.trim())
-            .map_err(|e| IoError::element(path, element, format!("invalid base64 in the data URI: {e}")));
+        return base64::engine::general_purpose::STANDARD.decode(payload.trim()).map_err(|e| {
+            IoError::element(
+                path,
+                element,
+                format!("invalid base64 in the data URI: {e}; the file is corrupt (export it again)"),
+            )
+        });
     }
     if let Some((scheme, _)) = uri.split_once(':')
         && scheme.len() > 1
@@ -149,7 +153,17 @@ fn load_uri(path: &Path, element: &str, uri: &str) -> Result<Vec<u8>, IoError> {
     }
     let relative = percent_decode(uri);
     let full = path.parent().unwrap_or(Path::new(".")).join(relative);
-    std::fs::read(&full).map_err(|e| IoError::io(&full, "open the buffer file referenced by the glTF", e))
+    // Named from the .gltf: the user knows that file, and the buffer's path is relative to it.
+    std::fs::read(&full).map_err(|e| {
+        IoError::element(
+            path,
+            element,
+            format!(
+                "cannot read its file {}: {e}; buffer files are read from the .gltf's folder (copy it there, or export a .glb)",
+                full.display()
+            ),
+        )
+    })
 }
 
 /// Decodes `%XX` escapes (URIs in glTF are percent-encoded, e.g. spaces as `%20`).

@@ -114,6 +114,15 @@ const GEOMETRY_EXTENSIONS: &[&str] =
 fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
     let mut root = gltf::json::Root::from_slice(json)
         .map_err(|e| IoError::format(path, format!("invalid glTF JSON: {e}; the file is corrupt or not glTF 2.0")))?;
+    // A glTF 1.0 file parses (most of its keys are optional in 2.0) but its meshes are laid out
+    // differently: it would read as an empty mesh without this.
+    let major = root.asset.version.split('.').next().unwrap_or_default();
+    if major != "2" {
+        return Err(IoError::format(
+            path,
+            format!("asset.version is \"{}\"; only glTF 2.0 is supported (re-export as glTF 2.0)", root.asset.version),
+        ));
+    }
     // Required extensions that only concern appearance (materials, textures, lights) do not
     // matter to geometry; quantized attributes are decoded by our accessor reader. Compressed
     // geometry cannot be read: say which export option to turn off.
@@ -155,6 +164,27 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
                         index.value(),
                         root.accessors.len()
                     ),
+                ));
+            }
+        }
+    }
+    // Animation channels are not bounds-checked by the validation either: `Target::node` (gltf
+    // 1.4.1, animation/mod.rs) unwraps the node of a channel whose index is past the nodes.
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let (node, sampler) = (channel.target.node.value(), channel.sampler.value());
+            let problem = if node >= root.nodes.len() {
+                Some(format!("targets node {node}, but the file has {} nodes", root.nodes.len()))
+            } else if sampler >= animation.samplers.len() {
+                Some(format!("uses sampler {sampler}, but the animation has {} samplers", animation.samplers.len()))
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(IoError::element(
+                    path,
+                    format!("animation {a} channel {c}"),
+                    format!("{problem}; the file is corrupt (export it again)"),
                 ));
             }
         }

@@ -262,6 +262,9 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header, IoError> {
     let mut line_no = 0usize;
     let mut format = None;
     let mut elements: Vec<ElementDecl> = Vec::new();
+    if bytes.is_empty() {
+        return Err(IoError::format(path, "the file is empty; a PLY file starts with a line 'ply' (export it again)"));
+    }
     loop {
         if pos >= bytes.len() {
             return Err(IoError::line(

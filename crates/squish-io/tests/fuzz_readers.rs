@@ -7,8 +7,8 @@
 //! accessors, skins, morph targets, animations and node trees, as `.glb`, embedded or external
 //! `.gltf` — then mutated (a field of the JSON replaced, bytes flipped, inserted, cut). It is read
 //! as the command line reads it, and an `Ok` mesh goes through the analyses of `squish info`.
-//! A case fails if it panics, takes longer than [`CASE_LIMIT`], or the process's peak resident
-//! memory passes [`MEMORY_LIMIT`]; the input is then written to `tests/fuzz-corpus/<target>/`
+//! A case fails if it panics, takes longer than [`fuzz::CASE_LIMIT`], or the process's peak
+//! resident memory passes [`fuzz::MEMORY_LIMIT`]; the input is then written to `tests/fuzz-corpus/<target>/`
 //! as `crash-<seed>.<ext>` and the test fails naming it.
 //!
 //! - `cargo test -p squish-io --test fuzz_readers` replays the corpus and a few hundred cases per
@@ -22,22 +22,17 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
+#[path = "common/fuzz.rs"]
+mod fuzz;
 
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use common::{F32, Fixture, I8, I16, U8, U16, U32};
 use fastrand::Rng;
 use serde_json::{Value, json};
 use squish::mesh::Topology;
 use squish_io::{GltfReadOptions, WeldMode, read_gltf, read_mesh_with, read_ply_data};
-
-/// Longest time one case may take (reading and analysing a file of at most a few hundred KB).
-const CASE_LIMIT: Duration = Duration::from_secs(20);
-/// Largest peak resident memory of the test process.
-const MEMORY_LIMIT_KB: u64 = 3 << 20;
-const MEMORY_LIMIT: &str = "3 GiB";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
@@ -113,16 +108,6 @@ fn analyse(mesh: &squish::TriMesh) {
     let _ = squish::spatial::self_intersections(mesh);
 }
 
-/// Peak resident memory of this process, in KB (0 where `/proc` is missing).
-fn peak_memory_kb() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
-        .unwrap_or(0)
-}
-
 /// Writes the case into `dir` and runs it on a worker thread; `Ok(true)` if a mesh was read,
 /// `Err` describes a panic, a case over the time limit or memory over its limit.
 fn run_case(target: Target, case: &Case, dir: &Path) -> Result<bool, String> {
@@ -131,21 +116,7 @@ fn run_case(target: Target, case: &Case, dir: &Path) -> Result<bool, String> {
     if let Some((name, bytes)) = &case.side {
         std::fs::write(dir.join(name), bytes).unwrap();
     }
-    let (send, receive) = mpsc::channel();
-    let worker_path = path.clone();
-    std::thread::spawn(move || {
-        let outcome = std::panic::catch_unwind(|| exercise(target, &worker_path));
-        let _ = send.send(outcome.ok());
-    });
-    let read = match receive.recv_timeout(CASE_LIMIT) {
-        Ok(Some(read)) => read,
-        Ok(None) => return Err("panicked".to_string()),
-        Err(_) => return Err(format!("took longer than {CASE_LIMIT:?}")),
-    };
-    if peak_memory_kb() > MEMORY_LIMIT_KB {
-        return Err(format!("pushed the peak resident memory past {MEMORY_LIMIT}"));
-    }
-    Ok(read)
+    fuzz::guarded(move || exercise(target, &path))
 }
 
 /// Keeps a failing case in the corpus and returns the message for the test's failure.
@@ -193,7 +164,7 @@ fn fuzz(target: Target, cases: u64, seconds: f64, base_seed: u64) -> (u64, u64) 
     let mut done = 0u64;
     let mut meshes = 0u64;
     while done < cases && start.elapsed().as_secs_f64() < seconds {
-        let seed = base_seed.wrapping_add(done.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let seed = fuzz::case_seed(base_seed, done);
         let mut rng = Rng::with_seed(seed);
         let case = match target {
             Target::Obj => obj_case(&mut rng),
@@ -210,10 +181,7 @@ fn fuzz(target: Target, cases: u64, seconds: f64, base_seed: u64) -> (u64, u64) 
 }
 
 fn long_run(target: Target) {
-    let seconds: f64 = std::env::var("SQUISH_FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(600.0);
-    let seed: u64 = std::env::var("SQUISH_FUZZ_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or_else(|| {
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64)
-    });
+    let (seconds, seed) = fuzz::long_run_settings();
     let start = Instant::now();
     let replayed = replay_corpus(target);
     let (cases, meshes) = fuzz(target, u64::MAX, seconds, seed);
@@ -221,7 +189,7 @@ fn long_run(target: Target) {
         "fuzz {}: {cases} generated cases ({meshes} read as meshes) and {replayed} corpus files in {:.1} min (seed {seed}), no failure; peak memory {} MB",
         target.name(),
         start.elapsed().as_secs_f64() / 60.0,
-        peak_memory_kb() / 1024
+        fuzz::peak_memory_kb() / 1024
     );
 }
 
@@ -323,6 +291,18 @@ fn regression_ply_ten_vertices_books() {
 /// Found by `long_gltf` (seed 15178484154088650513): a POSITION attribute naming an accessor
 /// past the file's accessors panicked inside the `gltf` crate's validation (an unchecked index in
 /// gltf-json 1.4.1). The reader now checks it first and names the mesh, primitive and index.
+/// Found by `long_gltf` (issue 28's second round, after 8.5 minutes): an animation channel whose
+/// target node is 4294967295 panicked inside the `gltf` crate (`Target::node` unwraps); now an
+/// error naming the animation and channel.
+#[test]
+fn regression_gltf_animation_target_out_of_range() {
+    let error = run_corpus_file(Target::Gltf, "crash-animation-target-out-of-range.gltf");
+    assert_eq!(error, Ok(false));
+    let path = corpus_dir(Target::Gltf).join("crash-animation-target-out-of-range.gltf");
+    let message = read_gltf(&path, &GltfReadOptions::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(message.contains("animation 0 channel 1") && message.contains("node 4294967295"), "{message}");
+}
+
 #[test]
 fn regression_gltf_position_accessor_out_of_range() {
     let path = corpus_dir(Target::Gltf).join("crash-position-accessor-out-of-range.glb");

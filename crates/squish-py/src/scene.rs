@@ -184,8 +184,8 @@ impl Scene {
         if let Some(error) = run.animated_error.take() {
             return Err(cli_error(error));
         }
-        if let Some(failure) = run.outcome.failure.take() {
-            return Err(cli_error(failure.error));
+        if let Some(failed) = run.failed_error() {
+            return Err(cli_error(failed));
         }
         if let Some(stopped) = run.interrupted_error() {
             // A KeyboardInterrupt that is not Python's own (a signal handler raising something

@@ -178,3 +178,19 @@ def test_scene_errors_are_input_errors(example_scene, tmp_path):
         scene.run(tmp_path / "out", frames=(1, 1), format="stl")
     with pytest.raises(squish.InputError, match="threads 0"):
         scene.run(tmp_path / "out", frames=(1, 1), threads=0)
+
+
+def test_a_corrupt_frame_fails_the_run_after_the_other_frames(tmp_path):
+    # As `squish run`: the corrupt frame is recorded, the other frames are written, then the
+    # run raises SquishError (exit 1 on the command line) with the frames to re-run.
+    from conftest import write_scene
+
+    scene_path = write_scene(tmp_path, frames=4)
+    for frame in (1, 2, 4):
+        (tmp_path / f"ball_{frame:04}.obj").write_bytes((tmp_path / "ball.obj").read_bytes())
+    (tmp_path / "ball_0003.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    scene_path.write_text(scene_path.read_text().replace('mesh = "ball.obj"', 'mesh = "ball_{frame:04}.obj"'))
+    with pytest.raises(squish.SquishError, match=r"1 of 4 frames failed.*--frames 3:3") as caught:
+        squish.Scene.load(scene_path).run(tmp_path / "out")
+    assert not isinstance(caught.value, squish.InputError)
+    assert sorted(p.name for p in (tmp_path / "out" / "ball").iterdir()) == ["0001.obj", "0002.obj", "0004.obj"]

@@ -259,7 +259,9 @@ impl<'a> SourceText<'a> {
     /// values get a "did you mean", and every message says which table and key it is about.
     pub(crate) fn toml_error(&self, error: &toml::de::Error) -> IoError {
         let offset = error.span().map_or(0, |s| s.start);
-        let path = self.path_at(offset);
+        // An error without a place is about the whole file (a missing top-level key): offset 0
+        // would name whatever table the file starts with.
+        let path = if error.span().is_some() { self.path_at(offset) } else { Vec::new() };
         let place = self.describe(&path);
         let message = error.message().trim_end();
         let text = if let Some((name, expected)) = parse_unknown(message, "unknown field `") {
@@ -278,6 +280,12 @@ impl<'a> SourceText<'a> {
                 None => String::new(),
             };
             format!("{place}: unknown value \"{name}\"; use {}{hint}", or_list(&quoted))
+        } else if let Some(found) =
+            message.strip_prefix("invalid type: ").and_then(|m| m.strip_suffix(", expected a map"))
+        {
+            format!(
+                "{place}: expected a table {{ key = value, … }}, not {found}; see docs/scene-format.md for its keys"
+            )
         } else if let Some(rest) = message.strip_prefix("missing field `") {
             let name = rest.split('`').next().unwrap_or(rest);
             format!("{place}: missing key \"{name}\"; add {name} = …")

@@ -185,6 +185,10 @@ impl Scene {
                 };
                 return Err(located(i, "mesh", message));
             }
+            // Said at the scene's line rather than by the reader, which knows only the mesh file.
+            if let Err(error) = crate::MeshFormat::from_path(object.mesh.file()) {
+                return Err(located(i, "mesh", error.to_string()));
+            }
             let (source, numbering) =
                 load_source(&object.name, &object.mesh, frames, description.frames.fps, &mut cache)?;
             // The file an attribute without `file` is read from: the object's own mesh file.
