@@ -4,13 +4,15 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde::Serialize;
-use squish::pipeline::{Deformer, Frame, FrameObject, FramePair};
+use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult};
 use squish_io::MeshFormat;
 
-use crate::console::say;
+use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::frame_quality::deepest_penetration;
-use crate::input::{FormatChoice, InputMesh, WeldChoice, create_dir, output_stems, write_text};
+use crate::input::{
+    FormatChoice, InputMesh, WeldChoice, create_dir, display_names, output_path, output_stems, write_text,
+};
 use crate::params::{PairSettings, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::report::FrameReport;
@@ -47,24 +49,69 @@ pub struct DeformArgs {
     pub color: ColorMode,
     #[command(flatten)]
     pub pictures: PictureArgs,
+    /// Exit with 1 (after writing the outputs) when there is a warning: a contact zone left
+    /// empty, a mesh inside the other, a reduced parameter, an open mesh without bulge, or a
+    /// penetration deeper than 10% of the input's left.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 #[derive(Serialize)]
-struct DeformReport<'a> {
+struct DeformReport {
     inputs: [String; 2],
     outputs: [String; 2],
-    parameters: Parameters<'a>,
-    /// Deepest vertex of either mesh inside the other, before and after (closed meshes only).
-    penetration_before: Option<f64>,
-    penetration_after: Option<f64>,
-    frame: FrameReport,
+    #[serde(flatten)]
+    figures: DeformFigures,
 }
 
-#[derive(Serialize)]
-struct Parameters<'a> {
-    a: &'a squish::ObjectParams,
-    b: &'a squish::ObjectParams,
-    pair: &'a squish::PairParams,
+/// The figures of a two-object deformation: what `report.json` of `squish deform` holds besides
+/// the file names.
+#[derive(Clone, Debug, Serialize)]
+pub struct DeformFigures {
+    pub parameters: DeformParameters,
+    /// Deepest vertex of either mesh inside the other, before and after (closed meshes only).
+    pub penetration_before: Option<f64>,
+    pub penetration_after: Option<f64>,
+    pub frame: FrameReport,
+}
+
+/// The parameters a deformation ran with.
+#[derive(Clone, Debug, Serialize)]
+pub struct DeformParameters {
+    pub a: squish::ObjectParams,
+    pub b: squish::ObjectParams,
+    pub pair: squish::PairParams,
+}
+
+/// Deforms mesh `a` against mesh `b` (one frame, one pair; `names` in messages and figures)
+/// with `settings` (validated), as `squish deform` does: the result and its figures.
+pub fn deform_pair(
+    names: [&str; 2],
+    meshes: [&squish::TriMesh; 2],
+    settings: &PairSettings,
+    deformer: &mut Deformer,
+) -> Result<(FrameResult, DeformFigures), CliError> {
+    let frame = Frame {
+        objects: vec![
+            FrameObject { name: names[0], mesh: meshes[0], params: &settings.a },
+            FrameObject { name: names[1], mesh: meshes[1], params: &settings.b },
+        ],
+        pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
+    };
+    let mut result = deformer.deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
+    let deformed = [result.mesh(&frame, 0), result.mesh(&frame, 1)];
+    let penetration_before = deepest_penetration(meshes[0], meshes[1]);
+    let penetration_after = deepest_penetration(&deformed[0], &deformed[1]);
+    if let (Some(before), Some(after)) = (penetration_before, penetration_after) {
+        result.stats.note_residual_penetration(0, before, after);
+    }
+    let figures = DeformFigures {
+        parameters: DeformParameters { a: settings.a.clone(), b: settings.b.clone(), pair: settings.pair },
+        penetration_before,
+        penetration_after,
+        frame: FrameReport::from(&result.stats),
+    };
+    Ok((result, figures))
 }
 
 pub fn run(args: &DeformArgs) -> Result<(), CliError> {
@@ -72,32 +119,21 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
     settings.complete(&inputs)?;
     let stems = output_stems(&inputs[0], &inputs[1]);
-    let names = [stems[0].as_str(), stems[1].as_str()];
-    let frame = Frame {
-        objects: vec![
-            FrameObject { name: names[0], mesh: &inputs[0].mesh, params: &settings.a },
-            FrameObject { name: names[1], mesh: &inputs[1].mesh, params: &settings.b },
-        ],
-        pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
-    };
-    let result = Deformer::new().deform(&frame).map_err(|e| CliError::input(e.to_string()))?;
+    let display = display_names(&stems);
+    let names = [display[0].as_str(), display[1].as_str()];
+    let (result, figures) = deform_pair(names, [&inputs[0].mesh, &inputs[1].mesh], &settings, &mut Deformer::new())?;
     create_dir(&args.output)?;
     let mut outputs = [String::new(), String::new()];
-    let mut deformed = Vec::new();
     for (i, input) in inputs.iter().enumerate() {
         let ext = args.format.map_or(FormatChoice::extension_of(input.format), FormatChoice::extension);
-        let path = args.output.join(format!("{}.{ext}", stems[i]));
+        let path = output_path(&args.output, &stems[i], ext);
         input.write_result(&path, &result.positions[i])?;
         outputs[i] = path.display().to_string();
-        deformed.push(result.mesh(&frame, i));
     }
     let report = DeformReport {
         inputs: [args.a.display().to_string(), args.b.display().to_string()],
         outputs: outputs.clone(),
-        parameters: Parameters { a: &settings.a, b: &settings.b, pair: &settings.pair },
-        penetration_before: deepest_penetration(&inputs[0].mesh, &inputs[1].mesh),
-        penetration_after: deepest_penetration(&deformed[0], &deformed[1]),
-        frame: FrameReport::from(&result.stats),
+        figures,
     };
     let report_path = args.output.join("report.json");
     write_text(&report_path, &serde_json::to_string_pretty(&report)?)?;
@@ -113,7 +149,7 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
                     params: params.clone(),
                 })
                 .collect(),
-            pairs: frame.pairs.clone(),
+            pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
         };
         let any_gltf = inputs.iter().any(|i| matches!(i.format, MeshFormat::Gltf | MeshFormat::Glb));
         let settings = args.pictures.settings(args.color, &SceneDefaults::default(), any_gltf);
@@ -133,6 +169,8 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
             pair.threshold,
             pair.contact_area
         );
+    } else if pair.intersection_points > 0 {
+        say!("the meshes intersect but have no contact zone: outputs are copies of the inputs");
     } else {
         say!("the meshes do not intersect: outputs are copies of the inputs");
     }
@@ -150,12 +188,16 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
             say!("{}: unchanged → {output}", object.name);
         }
     }
-    if let (Some(before), Some(after)) = (report.penetration_before, report.penetration_after) {
+    if let (Some(before), Some(after)) = (report.figures.penetration_before, report.figures.penetration_after) {
         say!("deepest penetration {before:.4e} → {after:.4e}");
     }
     say!("report: {} ({:.1} ms)", report_path.display(), result.stats.total.as_secs_f64() * 1e3);
     if let Some(picture) = picture {
         say!("preview: {}", picture.display());
+    }
+    let warnings = print_warnings(None, &result.stats.warnings);
+    if args.strict && warnings > 0 {
+        return Err(CliError::strict(warnings));
     }
     Ok(())
 }

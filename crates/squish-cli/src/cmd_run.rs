@@ -9,6 +9,8 @@
 //! match (`shot_outputs`). Ctrl-C stops cleanly (see `interrupt`): frames in progress finish,
 //! the report covers the frames done and lists the missing ones for a re-run.
 
+use std::collections::BTreeSet;
+use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -16,15 +18,17 @@ use serde_json::json;
 use squish_io::Scene;
 use squish_io::scene::{MeshSource, OutputFormat, OutputSpec};
 
-use crate::console::say;
+use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::create_dir;
-use crate::interrupt;
-use crate::preview::{CameraPlacement, ColorMode, PictureArgs, SceneDefaults, UpAxis, preview_frames, write_previews};
-use crate::quality::write_report;
+use crate::interrupt::{self, Interrupt};
+use crate::preview::{
+    CameraPlacement, ColorMode, PictureArgs, PictureSettings, SceneDefaults, UpAxis, preview_frames, write_previews,
+};
+use crate::quality::{ShotSummary, write_report};
 use crate::report_parts::{merge_reports, part_file_name};
 use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
-use crate::shot::{ShotFrame, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
 use crate::shot_outputs::ShotOutputs;
 
 #[derive(Args, Debug)]
@@ -57,6 +61,11 @@ pub struct RunArgs {
     /// without computing anything.
     #[arg(long)]
     pub dry_run: bool,
+    /// Exit with 1 (after writing everything) when a frame has a warning: a contact zone left
+    /// empty, a mesh inside another, a reduced parameter, an open mesh without bulge, or a
+    /// penetration deeper than 10% of the input's left.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// `--format` of `squish run`.
@@ -110,119 +119,243 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     check_is_scene_file(&args.scene)?;
     let scene = Scene::load(&args.scene)?;
     let frames = match &args.frames {
-        Some(text) => squish_io::parse_frame_selection(text, &scene.frame_range())
-            .map_err(|e| CliError::input(format!("{}: {e}", args.scene.display())))?,
-        None => scene.frames(),
+        Some(text) => Some(
+            squish_io::parse_frame_selection(text, &scene.frame_range())
+                .map_err(|e| CliError::input(format!("{}: {e}", args.scene.display())))?,
+        ),
+        None => None,
     };
-    let pool = worker_pool(args.threads)?;
-    let mut output = scene.output().clone();
-    if let Some(dir) = &args.output {
-        output.dir = std::path::absolute(dir).unwrap_or_else(|_| dir.clone());
-    }
-    if let Some(format) = args.format {
-        output.format = format.into();
-    }
-    let missing = scene.missing_files(frames.clone());
-    if !args.dry_run && !missing.is_empty() {
-        return Err(missing_error(&args.scene, &missing));
-    }
-    let source = SceneShot { scene: &scene };
-    // The first frame checks the whole mapping (unsupported features fail here, before any
-    // file is written) and gives the objects' names and numbering. A dry run lists missing
-    // files rather than failing on them, so it probes the first frame whose files exist.
-    let probe = frames.clone().find(|f| !missing.iter().any(|m| m.1 == *f)).unwrap_or(*frames.start());
-    let first = source.frame(probe)?;
-    let numbering = file_numbering(&scene, &first);
-    let preview = match &args.preview {
-        Some(text) => preview_frames(text, &frames)?,
-        None => Default::default(),
+    let request = RunRequest {
+        frames,
+        output_dir: args.output.clone(),
+        format: args.format.map(OutputFormat::from),
+        threads: args.threads,
+        allow_missing_files: args.dry_run,
     };
-
+    let plan = RunPlan::new(&scene, &request)?;
     if args.dry_run {
-        print_dry_run(&scene, &frames, &output, &first, &numbering, &missing);
+        print_dry_run(&scene, &plan);
         return Ok(());
     }
-    create_dir(&output.dir)?;
-    if output.format.per_frame() {
-        for object in &first.objects {
-            create_dir(&output.object_dir(&object.name))?;
+    let previews = match &args.preview {
+        Some(text) => {
+            let frames = preview_frames(text, &plan.frames)?;
+            Some((frames, args.pictures.settings(args.color, &scene_defaults(&scene), any_gltf(&scene))))
         }
-    }
-    let settings = ShotSettings {
-        frames: frames.clone(),
-        preview_frames: preview,
-        keep_outputs: !output.format.per_frame(),
-        label: "squish run".into(),
+        None => None,
     };
-    let part = args.frames.as_ref().map(|_| (*frames.start(), *frames.end()));
-    let writers = ShotOutputs::new(&scene, &output, &numbering, part)?;
-    let write =
-        |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| writers.write_frame(frame, shot, positions);
-    let interrupt = interrupt::install();
-    let outcome = run_shot(&source, &settings, &pool, interrupt, &write)?;
-
-    let mut animated = Vec::new();
-    let mut animated_error = None;
-    if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
-        // The report is written even when these files cannot be: the frames are done.
-        match writers.write_shot(&first, &outcome) {
-            Ok(written) => animated = written,
-            Err(e) => animated_error = Some(e),
-        }
-    }
-    let pictures = args.pictures.settings(args.color, &scene_defaults(&scene), any_gltf(&scene));
-    let (previews, _) = pool.install(|| write_previews(&output.dir.join("preview"), &outcome, &pictures))?;
-    let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;
-    let outputs = outputs_json(&output, &writers, &first, &numbering, &animated, &previews);
-    let part_name = part_file_name(*frames.start(), *frames.end());
-    let summary = write_report(&output.dir, &part_name, &scene_json, &outputs, &outcome)?;
-    let range = scene.frame_range();
-    let report = merge_reports(&output.dir, range.start, range.end)?;
-    if let Some(error) = animated_error {
+    let mut run = plan.run(previews, false, interrupt::install())?;
+    let output = &plan.output;
+    if let Some(error) = run.animated_error.take() {
         return Err(error);
     }
-
-    if let Some(failure) = outcome.failure {
-        for articulation in &summary.articulations {
+    if let Some(failure) = run.outcome.failure.take() {
+        for articulation in &run.summary.articulations {
             eprintln!("  {}", articulation.line());
         }
+        let done = run.outcome.records.len();
         eprintln!(
-            "{} frame{} done before the failure; report: {}",
-            outcome.records.len(),
-            if outcome.records.len() == 1 { "" } else { "s" },
-            report.display()
+            "{done} frame{} done before the failure; report: {}",
+            if done == 1 { "" } else { "s" },
+            run.report.display()
         );
         return Err(failure.error);
     }
-    if !outcome.complete() {
+    if let Some(error) = run.interrupted_error() {
+        return Err(error);
+    }
+    say!("{}", run.summary.one_line());
+    let warnings = print_shot_warnings(&run.outcome);
+    for articulation in &run.summary.articulations {
+        say!("  {}", articulation.line());
+    }
+    for tight in &run.summary.tight_regions {
+        say!("  {}", tight.line());
+    }
+    say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), run.report.display());
+    if !run.previews.is_empty() {
+        say!("previews: {} pictures in {}", run.previews.len(), output.dir.join("preview").display());
+    }
+    if args.strict && warnings > 0 {
+        return Err(CliError::strict(warnings));
+    }
+    Ok(())
+}
+
+/// What to run of a scene and where: what `squish run` reads from its arguments, and what other
+/// front ends (the Python module, its Ray tasks) give to run a scene the same way.
+#[derive(Clone, Debug, Default)]
+pub struct RunRequest {
+    /// The frames to compute, a part of the shot (`--frames`): its report is
+    /// `report.A-B.json` and its files holding every frame `<object>.A-B.<ext>`. `None`: the
+    /// scene's frames, as the whole shot.
+    pub frames: Option<RangeInclusive<i64>>,
+    /// The output folder instead of the scene's `output.dir`.
+    pub output_dir: Option<PathBuf>,
+    /// The output format instead of the scene's `output.format`.
+    pub format: Option<OutputFormat>,
+    /// Worker threads (`None`: every core).
+    pub threads: Option<usize>,
+    /// List missing sequence files rather than failing on them (a dry run).
+    pub allow_missing_files: bool,
+}
+
+/// A scene run checked and ready: its frames, outputs, pool, and its first frame, which checks
+/// the whole mapping (unsupported features fail here, before any file is written) and gives the
+/// objects' names and file numbering.
+pub struct RunPlan<'a> {
+    pub scene: &'a Scene,
+    pub frames: RangeInclusive<i64>,
+    /// `Some` for a part of the shot (see [`RunRequest::frames`]).
+    pub part: Option<(i64, i64)>,
+    pub output: OutputSpec,
+    /// Sequence files missing for the frames: (object, frame, expected path).
+    pub missing: Vec<(String, i64, PathBuf)>,
+    pub first: ShotFrame,
+    pub numbering: Vec<FileNumbering>,
+    pool: rayon::ThreadPool,
+}
+
+/// A finished scene run: the frames computed, the report written, the files holding every frame.
+pub struct SceneRun {
+    pub outcome: ShotOutcome,
+    pub summary: ShotSummary,
+    /// The merged `report.json`.
+    pub report: PathBuf,
+    /// This run's part (`report.A-B.json`).
+    pub part_report: PathBuf,
+    /// The files holding every frame (glb, gltf, pc2), written when every frame is done.
+    pub animated: Vec<PathBuf>,
+    /// Why those files could not be written (the frames and the report are).
+    pub animated_error: Option<CliError>,
+    pub previews: Vec<PathBuf>,
+    /// True when the output format writes a file per frame (obj, ply).
+    pub per_frame_files: bool,
+}
+
+impl<'a> RunPlan<'a> {
+    /// Checks `request` against `scene` and evaluates the first frame (see [`RunPlan`]).
+    pub fn new(scene: &'a Scene, request: &RunRequest) -> Result<Self, CliError> {
+        let frames = request.frames.clone().unwrap_or_else(|| scene.frames());
+        let pool = worker_pool(request.threads)?;
+        let mut output = scene.output().clone();
+        if let Some(dir) = &request.output_dir {
+            output.dir = std::path::absolute(dir).unwrap_or_else(|_| dir.clone());
+        }
+        if let Some(format) = request.format {
+            output.format = format;
+        }
+        let missing = scene.missing_files(frames.clone());
+        if !request.allow_missing_files && !missing.is_empty() {
+            return Err(missing_error(scene.path(), &missing));
+        }
+        // A dry run lists missing files rather than failing on them, so it probes the first
+        // frame whose files exist.
+        let probe = frames.clone().find(|f| !missing.iter().any(|m| m.1 == *f)).unwrap_or(*frames.start());
+        let first = SceneShot { scene }.frame(probe)?;
+        let numbering = file_numbering(scene, &first);
+        let part = request.frames.as_ref().map(|f| (*f.start(), *f.end()));
+        Ok(Self { scene, frames, part, output, missing, first, numbering, pool })
+    }
+
+    /// Computes the frames on the plan's pool, writing each frame's files as it is done, then the
+    /// files holding every frame, the previews (`previews`: the frames and how to draw them), this
+    /// run's report part and the merged report. `keep_outputs` keeps every frame's positions in
+    /// the outcome. Stops scheduling frames when `interrupt` is requested or a frame fails.
+    pub fn run(
+        &self,
+        previews: Option<(BTreeSet<i64>, PictureSettings)>,
+        keep_outputs: bool,
+        interrupt: &Interrupt,
+    ) -> Result<SceneRun, CliError> {
+        let (scene, output) = (self.scene, &self.output);
+        create_dir(&output.dir)?;
+        if output.format.per_frame() {
+            for object in &self.first.objects {
+                create_dir(&output.object_dir(&object.name))?;
+            }
+        }
+        let (preview_frames, pictures) = previews.unzip();
+        let settings = ShotSettings {
+            frames: self.frames.clone(),
+            preview_frames: preview_frames.unwrap_or_default(),
+            keep_outputs: keep_outputs || !output.format.per_frame(),
+            label: "squish run".into(),
+        };
+        let writers = ShotOutputs::new(scene, output, &self.numbering, self.part)?;
+        let write = |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| {
+            writers.write_frame(frame, shot, positions)
+        };
+        let outcome = run_shot(&SceneShot { scene }, &settings, &self.pool, interrupt, &write)?;
+
+        let mut animated = Vec::new();
+        let mut animated_error = None;
+        if !output.format.per_frame() && outcome.complete() && outcome.failure.is_none() {
+            // The report is written even when these files cannot be: the frames are done.
+            match writers.write_shot(&self.first, &outcome) {
+                Ok(written) => animated = written,
+                Err(e) => animated_error = Some(e),
+            }
+        }
+        let previews = match &pictures {
+            Some(pictures) => {
+                self.pool.install(|| write_previews(&output.dir.join("preview"), &outcome, pictures))?.0
+            }
+            None => Vec::new(),
+        };
+        let scene_json: serde_json::Value = serde_json::from_str(&scene.to_json()?)?;
+        let outputs = outputs_json(output, &writers, &self.first, &self.numbering, &animated, &previews);
+        let part_name = part_file_name(*self.frames.start(), *self.frames.end());
+        let summary = write_report(&output.dir, &part_name, &scene_json, &outputs, &outcome)?;
+        let range = scene.frame_range();
+        let report = merge_reports(&output.dir, range.start, range.end)?;
+        let part_report = output.dir.join(part_name);
+        let per_frame_files = output.format.per_frame();
+        Ok(SceneRun { outcome, summary, report, part_report, animated, animated_error, previews, per_frame_files })
+    }
+}
+
+impl SceneRun {
+    /// The error of a run stopped before its last frame (`None` if every frame was computed):
+    /// how many frames were done, where the report is, and the `--frames` that finish the shot.
+    pub fn interrupted_error(&self) -> Option<CliError> {
+        let outcome = &self.outcome;
+        if outcome.complete() {
+            return None;
+        }
         let missing: Vec<String> =
-            outcome.missing_runs().iter().map(|r| format!("{}:{}", r.start(), r.end())).collect();
-        let glb = if output.format.per_frame() {
+            outcome.missing_runs().iter().map(|r| format!("--frames {}:{}", r.start(), r.end())).collect();
+        let glb = if self.per_frame_files {
             ""
         } else {
             "; the files holding every frame need every frame and were not written"
         };
-        return Err(CliError::interrupted(format!(
+        Some(CliError::interrupted(format!(
             "interrupted: {} of {} frames done (report: {}){glb}; to finish, run the missing frames: {}",
             outcome.records.len(),
-            frames.clone().count(),
-            report.display(),
-            missing.iter().map(|m| format!("--frames {m}")).collect::<Vec<_>>().join(", ")
-        )));
+            outcome.frames.clone().count(),
+            self.report.display(),
+            missing.join(", ")
+        )))
     }
-    say!("{}", summary.one_line());
-    for articulation in &summary.articulations {
-        say!("  {}", articulation.line());
-    }
-    for tight in &summary.tight_regions {
-        say!("  {}", tight.line());
-    }
-    say!("results: {} ({}), report: {}", output.dir.display(), output.format.extension(), report.display());
-    if !previews.is_empty() {
-        say!("previews: {} pictures in {}", previews.len(), output.dir.join("preview").display());
-    }
-    Ok(())
 }
+
+/// Prints the shot's warnings, the first [`SHOWN_WARNINGS`] in full; returns how many there are.
+fn print_shot_warnings(outcome: &ShotOutcome) -> usize {
+    let mut count = 0;
+    for record in &outcome.records {
+        let shown = SHOWN_WARNINGS.saturating_sub(count).min(record.stats.warnings.len());
+        print_warnings(Some(record.frame), &record.stats.warnings[..shown]);
+        count += record.stats.warnings.len();
+    }
+    if count > SHOWN_WARNINGS {
+        say!("warning: … and {} more (report.json, frames[].stats.warnings)", count - SHOWN_WARNINGS);
+    }
+    count
+}
+
+/// Warnings of a shot printed in full.
+const SHOWN_WARNINGS: usize = 10;
 
 /// The error for missing sequence files: the first few, with the frame and the expected path.
 fn missing_error(scene: &std::path::Path, missing: &[(String, i64, PathBuf)]) -> CliError {
@@ -301,14 +434,8 @@ fn outputs_json(
     })
 }
 
-fn print_dry_run(
-    scene: &Scene,
-    frames: &std::ops::RangeInclusive<i64>,
-    output: &OutputSpec,
-    first: &ShotFrame,
-    numbering: &[FileNumbering],
-    missing: &[(String, i64, PathBuf)],
-) {
+fn print_dry_run(scene: &Scene, plan: &RunPlan) {
+    let RunPlan { frames, output, first, numbering, missing, .. } = plan;
     let description = scene.description();
     let range = scene.frame_range();
     say!("scene: {}", scene.path().display());

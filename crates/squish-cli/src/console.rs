@@ -11,3 +11,14 @@ macro_rules! say {
 }
 
 pub(crate) use say;
+
+/// Prints a frame's warnings (`warning: …`, with the frame number in a shot); returns how many.
+pub fn print_warnings(frame: Option<i64>, warnings: &[squish::pipeline::FrameWarning]) -> usize {
+    for w in warnings {
+        match frame {
+            Some(f) => say!("warning: frame {f}: {}", w.message),
+            None => say!("warning: {}", w.message),
+        }
+    }
+    warnings.len()
+}

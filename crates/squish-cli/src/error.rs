@@ -17,6 +17,15 @@ impl CliError {
     }
 
     /// Bad input or usage, exit code 2.
+    /// `--strict` and `count` warnings were printed: exit 1.
+    pub fn strict(count: usize) -> Self {
+        Self::failure(format!(
+            "--strict: {count} warning{} (above): a requested treatment did not happen or penetration remains; \
+             the outputs were written",
+            if count == 1 { "" } else { "s" }
+        ))
+    }
+
     pub fn input(message: impl Into<String>) -> Self {
         Self { message: message.into(), code: 2 }
     }

@@ -4,6 +4,7 @@
 //! Each input is kept whole ([`MeshDocument`]), so that results written in the input's format
 //! keep everything else the file holds (UVs, materials, skins, extra properties).
 
+use std::ffi::{OsStr, OsString};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -70,9 +71,10 @@ impl InputMesh {
         self.welded.as_deref()
     }
 
-    /// The file name without its extension.
-    pub fn stem(&self) -> String {
-        self.path.file_stem().map_or_else(|| "mesh".to_string(), |s| s.to_string_lossy().into_owned())
+    /// The file name without its extension, byte for byte (a name that is not UTF-8 stays as
+    /// it is in the output names).
+    pub fn stem(&self) -> OsString {
+        self.path.file_stem().map_or_else(|| OsString::from("mesh"), OsStr::to_os_string)
     }
 
     /// Processed positions expanded back to the file's vertices (same order and count).
@@ -131,9 +133,26 @@ impl FormatChoice {
 }
 
 /// Output names for two inputs: their stems, disambiguated when equal.
-pub fn output_stems(a: &InputMesh, b: &InputMesh) -> [String; 2] {
-    let (sa, sb) = (a.stem(), b.stem());
-    if sa == sb { [format!("{sa}_a"), format!("{sb}_b")] } else { [sa, sb] }
+pub fn output_stems(a: &InputMesh, b: &InputMesh) -> [OsString; 2] {
+    let (mut sa, mut sb) = (a.stem(), b.stem());
+    if sa == sb {
+        sa.push("_a");
+        sb.push("_b");
+    }
+    [sa, sb]
+}
+
+/// `dir/<stem>.<ext>`, keeping the stem's bytes.
+pub fn output_path(dir: &Path, stem: &OsStr, extension: &str) -> PathBuf {
+    let mut name = stem.to_os_string();
+    name.push(".");
+    name.push(extension);
+    dir.join(name)
+}
+
+/// The stems as names for messages and reports (bytes that are not UTF-8 shown as U+FFFD).
+pub fn display_names(stems: &[OsString; 2]) -> [String; 2] {
+    [0, 1].map(|i| stems[i].to_string_lossy().into_owned())
 }
 
 /// Creates the output directory (and parents).

@@ -4,6 +4,9 @@
 //!
 //! Files are written atomically (temporary file + rename), so stopping never leaves a truncated
 //! result; only an abort can leave a `.<name>.XXXXXX.tmp` file behind.
+//!
+//! Front ends that own the signal themselves (the Python module, whose interpreter turns Ctrl-C
+//! into `KeyboardInterrupt`) make their own [`Interrupt`] and [`Interrupt::request`] a stop.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -11,15 +14,26 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// Exit code of an aborted process: 128 + SIGINT, what shells report for a Ctrl-C.
 const ABORT_EXIT_CODE: i32 = 130;
 
-/// Counts Ctrl-C presses since the handler was installed.
+/// Counts stop requests (Ctrl-C presses since the handler was installed).
+#[derive(Debug, Default)]
 pub struct Interrupt {
     presses: AtomicUsize,
 }
 
 impl Interrupt {
-    /// True once Ctrl-C was pressed.
+    /// A stop request not yet made, not tied to the process's Ctrl-C (see [`install`] for that).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// True once Ctrl-C was pressed (or a stop was requested).
     pub fn requested(&self) -> bool {
         self.presses.load(Ordering::SeqCst) > 0
+    }
+
+    /// Asks the job to stop scheduling frames; the frames in progress finish.
+    pub fn request(&self) {
+        self.presses.fetch_add(1, Ordering::SeqCst);
     }
 }
 

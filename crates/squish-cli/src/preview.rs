@@ -641,7 +641,8 @@ pub fn write_png(path: &Path, image: &Image) -> Result<PathBuf, CliError> {
 pub fn preview_frames(text: &str, range: &std::ops::RangeInclusive<i64>) -> Result<BTreeSet<i64>, CliError> {
     let (start, end) = (*range.start(), *range.end());
     if text.trim() == "auto" {
-        return Ok([start, start + (end - start) / 2, end].into_iter().collect());
+        let middle = ((start as i128 + end as i128) / 2) as i64;
+        return Ok([start, middle, end].into_iter().collect());
     }
     let bounds = squish_io::scene::FrameRange { start, end, fps: 24.0 };
     let mut frames = BTreeSet::new();

@@ -422,7 +422,7 @@ pub fn percent(ratio: f64) -> String {
 
 /// One frame of `report.json`.
 #[derive(Serialize)]
-struct FrameEntry<'a> {
+pub struct FrameEntry<'a> {
     frame: i64,
     time_ms: f64,
     /// Largest output step over the objects, largest input step, and their ratio.
@@ -434,6 +434,24 @@ struct FrameEntry<'a> {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     articulations: Vec<ArticulationQuality>,
     stats: FrameReport,
+}
+
+impl<'a> FrameEntry<'a> {
+    /// The entry of a computed frame.
+    pub fn of(record: &'a FrameRecord) -> Self {
+        let (max_output_step, max_input_step, step_ratio) = frame_steps(record);
+        FrameEntry {
+            frame: record.frame,
+            time_ms: record.stats.total.as_secs_f64() * 1e3,
+            max_output_step,
+            max_input_step,
+            step_ratio,
+            objects: &record.objects,
+            pairs: &record.pairs,
+            articulations: articulation_figures(record),
+            stats: FrameReport::from(&record.stats),
+        }
+    }
 }
 
 /// How a run ended.
@@ -496,24 +514,7 @@ pub fn write_report<S: Serialize>(
     outcome: &ShotOutcome,
 ) -> Result<ShotSummary, CliError> {
     let summary = ShotSummary::of(outcome);
-    let per_frame = outcome
-        .records
-        .iter()
-        .map(|r| {
-            let (max_output_step, max_input_step, step_ratio) = frame_steps(r);
-            FrameEntry {
-                frame: r.frame,
-                time_ms: r.stats.total.as_secs_f64() * 1e3,
-                max_output_step,
-                max_input_step,
-                step_ratio,
-                objects: &r.objects,
-                pairs: &r.pairs,
-                articulations: articulation_figures(r),
-                stats: FrameReport::from(&r.stats),
-            }
-        })
-        .collect();
+    let per_frame = outcome.records.iter().map(FrameEntry::of).collect();
     let report = Report {
         squish_version: env!("CARGO_PKG_VERSION"),
         scene,

@@ -14,6 +14,9 @@ pub struct FrameReport {
     pub stages_ms: PerStage<f64>,
     pub objects: Vec<ObjectStats>,
     pub pairs: Vec<PairStats>,
+    /// What the frame did not do that it was asked to (empty contact zone, containment,
+    /// reduced parameters, no bulge, residual penetration above the tolerance).
+    pub warnings: Vec<squish::pipeline::FrameWarning>,
 }
 
 impl From<&FrameStats> for FrameReport {
@@ -23,6 +26,7 @@ impl From<&FrameStats> for FrameReport {
             stages_ms: stats.stages.millis(),
             objects: stats.objects.clone(),
             pairs: stats.pairs.clone(),
+            warnings: stats.warnings.clone(),
         }
     }
 }

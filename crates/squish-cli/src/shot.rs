@@ -353,14 +353,26 @@ fn compute_frame(
     let frame = shot.frame();
     let result = worker.deformer.deform(&frame).map_err(|e| CliError::input(format!("frame {f}: {e}")))?;
     write(f, &shot, &result.positions)?;
-    let (objects, pairs) = frame_quality::measure(&frame, &result, &mut worker.measure);
+    let record = frame_record(f, &frame, &result, &mut worker.measure);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
-    let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
-    let record = FrameRecord { frame: f, stats: result.stats, objects, pairs, support };
     let inputs = shot.objects.into_iter().map(|o| o.mesh.positions).collect();
     continuity.add(f, inputs, result.positions);
     Ok(FrameDone { record, preview, kept })
+}
+
+/// The figures of computed frame `frame` (its frame-to-frame steps, which need its neighbours,
+/// are left unset); `measure` keeps the quality measure's trees for the next frames.
+pub fn frame_record(frame: i64, shot: &Frame, result: &FrameResult, measure: &mut MeasureCache) -> FrameRecord {
+    let (objects, pairs) = frame_quality::measure(shot, result, measure);
+    let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
+    let mut stats = result.stats.clone();
+    for (k, pair) in pairs.iter().enumerate() {
+        if let (Some(before), Some(after)) = (pair.penetration_before, pair.penetration_after) {
+            stats.note_residual_penetration(k, before, after);
+        }
+    }
+    FrameRecord { frame, stats, objects, pairs, support }
 }
 
 /// The vertices farthest along the 26 directions of a 3 × 3 × 3 stencil (axes, edge and corner

@@ -97,3 +97,70 @@ fn contact_exports_labels_points_and_a_summary() {
         }
     }
 }
+
+/// Issue 28: with `--strict`, a frame that leaves a treatment undone exits 1 after writing its
+/// outputs and says why on the console and in report.json; without it, the same run exits 0.
+/// Here τ = 2 (ε_c clamped to the typical penetration) and a ball wholly inside another
+/// (containment, penetration left).
+#[test]
+fn strict_fails_on_warnings_and_reports_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = write_inputs(dir.path());
+    let out = dir.path().join("tau");
+    let run = |extra: &[&str], a: &Path, b: &Path, out: &Path| {
+        squish().arg("deform").arg(a).arg(b).arg("-o").arg(out).args(extra).output().unwrap()
+    };
+    let output = run(&["--set", "pair.contact_tau=3", "--strict"], &a, &b, &out);
+    assert_eq!(output.status.code(), Some(1), "{}", String::from_utf8_lossy(&output.stderr));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("warning: pair (\"upper\", \"lower\"): pair.contact_tau = 3"), "{stdout}");
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--strict: 1 warning"));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["frame"]["warnings"][0]["kind"], "contact_spread_clamped");
+    assert!(out.join("upper.obj").is_file() && out.join("lower.ply").is_file());
+    assert!(run(&["--set", "pair.contact_tau=3"], &a, &b, &out).status.success());
+
+    let inner = dir.path().join("inner.obj");
+    let mut small = shapes::icosphere(0.3, 2);
+    small.map_positions(|p| p + DVec3::new(0.0, 0.0, 0.1));
+    squish_io::write_mesh(&inner, &small).unwrap();
+    let output = run(&["--strict"], &inner, &b, &dir.path().join("inside"));
+    assert_eq!(output.status.code(), Some(1));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("\"inner\" lies wholly inside \"lower\"") && stdout.contains("still penetrates"),
+        "{stdout}"
+    );
+    let output = squish()
+        .arg("contact")
+        .arg(&inner)
+        .arg(&b)
+        .arg("-o")
+        .arg(dir.path().join("c"))
+        .arg("--strict")
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(1));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("c/contact.json")).unwrap()).unwrap();
+    assert_eq!(summary["warnings"][0]["kind"], "containment");
+}
+
+/// Issue 28: an input name that is not UTF-8 became U+FFFD in the output's name; its bytes are
+/// now kept.
+#[cfg(unix)]
+#[test]
+fn output_names_keep_the_input_name_bytes() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = write_inputs(dir.path());
+    let odd = dir.path().join(OsStr::from_bytes(b"caf\xe9.obj"));
+    std::fs::copy(&a, &odd).unwrap();
+    let out = dir.path().join("out");
+    let output = squish().arg("deform").arg(&odd).arg(&b).arg("-o").arg(&out).output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(out.join(OsStr::from_bytes(b"caf\xe9.obj")).is_file());
+    assert!(!out.join("caf\u{FFFD}.obj").exists());
+}

@@ -78,3 +78,30 @@ fn info_fails_cleanly_on_bad_files() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("bad.obj:4"), "{stderr}");
 }
+
+/// Issue 28: an OBJ `f` line of 100 000 corners (a disk fanned from one corner into long thin
+/// faces) did not finish in 30 s; the analysis is now near-linear (criterion bench
+/// `pathological`), and the answer is right: one manifold open component, no self-intersection.
+#[test]
+fn info_on_a_polygon_of_100_000_corners() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ngon.obj");
+    let n = 100_000;
+    let mut text = String::new();
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        text.push_str(&format!("v {} {} 0\n", a.cos(), a.sin()));
+    }
+    text.push('f');
+    for i in 1..=n {
+        text.push_str(&format!(" {i}"));
+    }
+    text.push('\n');
+    std::fs::write(&path, text).unwrap();
+    let info = info_json(&path);
+    assert_eq!(info["faces"], n - 2);
+    assert_eq!(info["components"], 1);
+    assert_eq!(info["manifold"], true);
+    assert_eq!(info["boundary_loops"], 1);
+    assert_eq!(info["self_intersecting_faces"], 0);
+}

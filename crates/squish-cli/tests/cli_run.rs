@@ -354,3 +354,35 @@ fn previews_show_the_objects_at_the_chosen_frames() {
         assert_ne!(centre, corner, "{name}: the centre shows the background");
     }
 }
+
+/// Issue 28: `run --strict` exits 1 when a frame has a warning (here a small ball wholly inside
+/// the ground slab on every frame: a containment), after writing every frame and the report;
+/// the warnings are printed with their frame and kept per frame in report.json.
+#[test]
+fn strict_run_fails_on_warnings_after_writing_everything() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut ball = shapes::icosphere(0.1, 2);
+    ball.map_positions(|p| p - DVec3::new(0.0, 0.0, 0.25));
+    squish_io::write_mesh(&dir.path().join("ball.obj"), &ball).unwrap();
+    let mut ground = shapes::cuboid(DVec3::new(4.0, 4.0, 0.5), 10);
+    ground.map_positions(|p| p - DVec3::new(0.0, 0.0, 0.25));
+    squish_io::write_mesh(&dir.path().join("ground.obj"), &ground).unwrap();
+    let scene = dir.path().join("scene.toml");
+    let text = "frames = { start = 1, end = 3 }\n\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\n\n\
+                [[objects]]\nname = \"ground\"\nmesh = \"ground.obj\"\n\n[[pairs]]\nobjects = [\"ball\", \"ground\"]\n";
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.path().join("out");
+    let output = squish().arg("run").arg(&scene).arg("-o").arg(&out).arg("--strict").output().unwrap();
+    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("warning: frame 1: pair (\"ball\", \"ground\"): \"ball\" lies wholly inside"), "{stdout}");
+    // Per frame: the containment and the penetration left (all of it).
+    assert!(stderr(&output).contains("--strict: 6 warnings"), "{}", stderr(&output));
+    assert!(out.join("ball/0003.obj").is_file());
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let frames = report["per_frame"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    assert_eq!(frames[2]["stats"]["warnings"][0]["kind"], "containment");
+    assert!(run(&scene, &out, &[]).status.success());
+}

@@ -71,14 +71,40 @@ pub(crate) struct GltfFile {
 
 pub(crate) fn read_gltf_file(path: &Path, options: &GltfReadOptions) -> Result<GltfFile, IoError> {
     let bytes = std::fs::read(path).map_err(|e| IoError::io(path, "open", e))?;
-    let glb = bytes.starts_with(b"glTF");
-    let (json, bin) = if glb { split_glb(path, &bytes)? } else { (&bytes[..], None) };
+    let (json, bin) = if bytes.starts_with(b"glTF") {
+        split_glb(path, &bytes)?
+    } else if starts_like_json(&bytes) {
+        (&bytes[..], None)
+    } else {
+        return Err(not_gltf(path, &bytes));
+    };
     let document = parse_document(path, json)?;
     let buffers = load_buffers(path, &document, bin)?;
     let reader =
         Reader { path, document: &document, data: BufferData { path, document: &document, buffers: &buffers } };
     let scene = reader.scene(options)?;
     Ok(GltfFile { scene, json: json.to_vec(), buffers })
+}
+
+/// True if the first byte other than white space (after an optional UTF-8 byte order mark) is
+/// `{`, as in every JSON glTF.
+fn starts_like_json(bytes: &[u8]) -> bool {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{')
+}
+
+/// The error for a file that is neither GLB (magic `glTF`) nor JSON: it names the bytes found.
+fn not_gltf(path: &Path, bytes: &[u8]) -> IoError {
+    let head: Vec<String> = bytes.iter().take(4).map(|b| format!("{b:02X}")).collect();
+    let found =
+        if head.is_empty() { "the file is empty".to_string() } else { format!("it starts with {}", head.join(" ")) };
+    IoError::offset(
+        path,
+        0,
+        format!(
+            "not a glTF file: a .glb starts with the magic bytes 'glTF' (67 6C 54 46) and a .gltf with '{{', but {found}; the file is corrupt or in another format (export it again)"
+        ),
+    )
 }
 
 /// Extensions that change how geometry is stored, which this reader cannot decode.
@@ -112,6 +138,26 @@ fn parse_document(path: &Path, json: &[u8]) -> Result<gltf::Document, IoError> {
             path,
             format!("the file requires unsupported glTF extensions: {}", unsupported.join(", ")),
         ));
+    }
+    // The `gltf` crate's validation indexes the accessor of every POSITION attribute without a
+    // bounds check (gltf-json 1.4.1, mesh.rs): an index past the accessors must be an error here.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(index) = position
+                && index.value() >= root.accessors.len()
+            {
+                return Err(IoError::element(
+                    path,
+                    format!("mesh {m} primitive {p}"),
+                    format!(
+                        "its POSITION attribute refers to accessor {}, but the file has {} accessors; the file is corrupt (export it again)",
+                        index.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
+        }
     }
     // glTF requires min/max on POSITION accessors, and the validator rejects files without
     // them; several exporters omit them. They are metadata this reader never uses (bounds are

@@ -47,8 +47,12 @@ pub struct ObjDocument {
     /// The `vn` values.
     normals: Vec<DVec3>,
     texcoords: usize,
+    /// The `vt` values (u, v; a missing or unreadable number reads 0).
+    texcoord_values: Vec<[f64; 2]>,
     /// Per face (polygon), its corners' vertex and normal indices (0-based).
     faces: Vec<Vec<(u32, Option<u32>)>>,
+    /// Per face, its corners' `vt` indices (0-based).
+    face_texcoords: Vec<Vec<Option<u32>>>,
 }
 
 /// What an OBJ file holds besides positions and faces: the figures `squish info` reports.
@@ -130,6 +134,12 @@ impl ObjDocument {
     /// Per face (polygon, file order), its corners' vertex and `vn` indices (0-based).
     pub fn faces(&self) -> &[Vec<(u32, Option<u32>)>] {
         &self.faces
+    }
+
+    /// The `vt` values (u, v) and, per face (as [`Self::faces`]), its corners' `vt` indices
+    /// (0-based): the texture coordinates an exporter to another format (USD) carries over.
+    pub fn texcoords(&self) -> (&[[f64; 2]], &[Vec<Option<u32>>]) {
+        (&self.texcoord_values, &self.face_texcoords)
     }
 
     /// What the file holds besides positions and faces.
@@ -278,6 +288,9 @@ impl ObjDocument {
         let mut positions: Vec<DVec3> = Vec::new();
         let mut normals: Vec<DVec3> = Vec::new();
         let mut texcoords = 0usize;
+        let mut texcoord_values: Vec<[f64; 2]> = Vec::new();
+        let mut face_texcoords: Vec<Vec<Option<u32>>> = Vec::new();
+        let mut corner_texcoords: Vec<Option<u32>> = Vec::new();
         let mut triangles: Vec<[u32; 3]> = Vec::new();
         let mut faces: Vec<Vec<(u32, Option<u32>)>> = Vec::new();
         let mut doc_lines: Vec<ObjLine> = Vec::new();
@@ -337,10 +350,17 @@ impl ObjDocument {
                         kind = LineKind::Normal { index, tail };
                     }
                 }
-                Some("vt") => texcoords += 1,
+                Some("vt") => {
+                    texcoords += 1;
+                    // Lenient: the line is written back as read; only exports to other formats
+                    // read these values.
+                    let mut number = || tokens.next().and_then(|t| t.parse::<f64>().ok()).unwrap_or(0.0);
+                    texcoord_values.push([number(), number()]);
+                }
                 Some("f" | "fo") => {
                     let face = faces.len();
                     corners.clear();
+                    corner_texcoords.clear();
                     for token in tokens {
                         let mut parts = token.split('/');
                         let mut resolved = [None; 3];
@@ -368,6 +388,7 @@ impl ObjDocument {
                         }
                         let vertex = resolved[0].unwrap_or(0);
                         corners.push((vertex, resolved[2]));
+                        corner_texcoords.push(resolved[1]);
                     }
                     if corners.len() < 3 {
                         return Err(IoError::line(
@@ -384,6 +405,7 @@ impl ObjDocument {
                         triangles.push([corners[0].0, corners[i].0, corners[i + 1].0]);
                     }
                     faces.push(corners.clone());
+                    face_texcoords.push(corner_texcoords.clone());
                 }
                 // Everything else (vp, o, g, s, usemtl, mtllib, l, p, curves…) does not
                 // change the surface.
@@ -416,7 +438,16 @@ impl ObjDocument {
             ));
         }
         let mesh = TriMesh::new(positions, triangles).map_err(|e| IoError::mesh(path, e))?;
-        Ok(Self { path: path.to_path_buf(), lines: doc_lines, mesh, normals, texcoords, faces })
+        Ok(Self {
+            path: path.to_path_buf(),
+            lines: doc_lines,
+            mesh,
+            normals,
+            texcoords,
+            texcoord_values,
+            faces,
+            face_texcoords,
+        })
     }
 }
 

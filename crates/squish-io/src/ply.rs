@@ -950,6 +950,7 @@ fn parse_document(path: &Path, bytes: &[u8]) -> Result<PlyDocument, IoError> {
                 .collect(),
         });
     }
+    check_body_ends(path, &header, &mut body)?;
     Ok(PlyDocument {
         path: path.to_path_buf(),
         header: bytes[..header.body_start].to_vec(),
@@ -960,6 +961,90 @@ fn parse_document(path: &Path, bytes: &[u8]) -> Result<PlyDocument, IoError> {
 
 fn is_index_list_name(name: &str) -> bool {
     name == "vertex_indices" || name == "vertex_index"
+}
+
+/// After the declared records the body must end: more data means the header's counts are too
+/// small, and reading only what they declare would drop the rest without a word. The extra data
+/// is read as records of the last element, to say how many the header should declare. A final
+/// line end after binary data (some writers add one) is not data.
+fn check_body_ends(path: &Path, header: &Header, body: &mut Body) -> Result<(), IoError> {
+    let at = body.error(path, String::new());
+    let remaining = match body {
+        Body::Ascii { .. } => usize::from(body.start_record()),
+        Body::Binary { data, pos, .. } => {
+            let rest = data.get(*pos..).unwrap_or(&[]);
+            if matches!(rest, [] | [b'\n'] | [b'\r', b'\n']) { 0 } else { rest.len() }
+        }
+    };
+    if remaining == 0 {
+        return Ok(());
+    }
+    let location = match at {
+        IoError::Line { line, .. } => format!("after line {line}"),
+        IoError::Offset { offset, .. } => format!("after byte {offset}"),
+        _ => String::new(),
+    };
+    let Some(last) = header.elements.last() else {
+        return Err(body.error(
+            path,
+            "the header declares no element but the file has data after 'end_header'; the header is wrong (export the file again)"
+                .to_string(),
+        ));
+    };
+    // Count whole extra records of the last element; a record that does not parse stops it.
+    let is_ascii = matches!(body, Body::Ascii { .. });
+    // The check above already started the first ASCII record.
+    let mut started = is_ascii;
+    let mut extra = 0u64;
+    let mut complete = false;
+    'records: while extra <= u32::MAX as u64 {
+        if is_ascii && !std::mem::take(&mut started) && !body.start_record() {
+            complete = true;
+            break;
+        }
+        for p in &last.properties {
+            let site =
+                ValueSite { element: &last.name, record: last.count + extra, count: last.count, property: &p.name };
+            let ok = match p.kind {
+                PropertyKind::Scalar(ty) => body.read(path, ty, &site).is_ok(),
+                PropertyKind::List { count, item } => match body.read(path, count, &site) {
+                    Ok(n) if n >= 0.0 => (0..n as u64).all(|_| body.read(path, item, &site).is_ok()),
+                    _ => false,
+                },
+            };
+            if !ok {
+                break 'records;
+            }
+        }
+        if body.leftover_tokens() > 0 {
+            break;
+        }
+        extra += 1;
+        if let Body::Binary { data, pos, .. } = body
+            && *pos >= data.len()
+        {
+            complete = true;
+            break;
+        }
+    }
+    let fix = format!(
+        "fix the count on header line {} or export the file again; reading only the declared records would drop the rest",
+        last.line
+    );
+    let message = if complete && extra > 0 {
+        format!(
+            "the header declares {} {} records but the body holds {} ({extra} more {location}); {fix}",
+            last.count,
+            last.name,
+            last.count + extra
+        )
+    } else {
+        format!(
+            "the body has data {location}, past the {} {} records the header declares (the last element); {fix}",
+            last.count, last.name
+        )
+    };
+    Err(IoError::Format { path: path.to_path_buf(), message })
 }
 
 fn is_face_index_list(p: &PropertyDecl) -> bool {

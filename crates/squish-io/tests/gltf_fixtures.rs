@@ -327,6 +327,21 @@ fn bad_contents_are_located() {
     let path = dir.path().join("broken.gltf");
     std::fs::write(&path, b"{ \"asset\": { \"version\": \"2.0\" }, \"nodes\": [ { \"mesh\": 0.5 } ] ").unwrap();
     assert!(read_error(&path).contains("invalid glTF JSON"));
+    // Issue 28: a GLB whose magic number is wrong was called "invalid glTF JSON"; the error
+    // now says that the magic bytes are wrong and shows them.
+    let f = square_fixture(U16, 4);
+    let good = f.write_glb(dir.path(), "magic");
+    let mut bytes = std::fs::read(&good).unwrap();
+    bytes[..4].copy_from_slice(b"glTX");
+    std::fs::write(&good, &bytes).unwrap();
+    let e = read_error(&good);
+    assert!(
+        e.contains("magic.glb") && e.contains("not a glTF file") && e.contains("67 6C 54 58") && !e.contains("JSON:"),
+        "{e}"
+    );
+    let path = dir.path().join("empty.glb");
+    std::fs::write(&path, b"").unwrap();
+    assert!(read_error(&path).contains("the file is empty"));
     let path = dir.path().join("dangling.gltf");
     std::fs::write(&path, br#"{ "asset": { "version": "2.0" }, "nodes": [ { "mesh": 3 } ] }"#).unwrap();
     let e = read_error(&path);

@@ -267,3 +267,51 @@ fn missing_file() {
     let e = read_ply(Path::new("/no/such/file.ply")).unwrap_err();
     assert!(matches!(e, IoError::Io { .. }) && e.to_string().contains("/no/such/file.ply"), "{e}");
 }
+
+/// Issue 28: a header that declares fewer faces than the body holds dropped the rest silently
+/// (1230 of 1280 faces kept). Now an error names the file, the element, both counts and the
+/// header line to fix, in ASCII and in both binary encodings.
+#[test]
+fn more_records_than_the_header_declares_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = shapes::icosphere(1.0, 3);
+    assert_eq!(mesh.num_triangles(), 1280);
+    for format in [PlyFormat::Ascii, PlyFormat::BinaryLittleEndian, PlyFormat::BinaryBigEndian] {
+        let path = dir.path().join("full.ply");
+        write_ply(&path, &mesh, &PlyWriteOptions::default().with_format(format)).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        let header_end = text.find("end_header").unwrap();
+        let face_line = text[..header_end].lines().position(|l| l.starts_with("element face")).unwrap() + 1;
+        let cut = |from: &str, to: &str| {
+            let mut b = bytes.clone();
+            let at = b.windows(from.len()).position(|w| w == from.as_bytes()).unwrap();
+            b.splice(at..at + from.len(), to.bytes());
+            b
+        };
+        let e = error_for("faces.ply", &cut("element face 1280", "element face 1230"));
+        assert!(
+            e.contains("declares 1230 face records but the body holds 1280 (50 more")
+                && e.contains(&format!("header line {face_line}")),
+            "{format:?}: {e}"
+        );
+        // Data that is not whole records is still an error, not a silent drop.
+        let mut junk = bytes.clone();
+        junk.extend_from_slice(b"\x01\x02\x03garbage\n");
+        let e = error_for("junk.ply", &junk);
+        assert!(e.contains("past the 1280 face records"), "{format:?}: {e}");
+        // A final line end after binary data is not data.
+        let mut newline = bytes.clone();
+        newline.push(b'\n');
+        let dir2 = tempfile::tempdir().unwrap();
+        let p = dir2.path().join("nl.ply");
+        std::fs::write(&p, &newline).unwrap();
+        assert_eq!(read_ply(&p).unwrap().num_triangles(), 1280, "{format:?}");
+    }
+    // Vertices: a point cloud whose header declares fewer vertices than it holds.
+    let e = error_for(
+        "cloud.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n\n",
+    );
+    assert!(e.contains("declares 1 vertex records but the body holds 2"), "{e}");
+}

@@ -199,6 +199,37 @@ fn frames_and_output_are_checked() {
     assert!(err.contains("scene.toml:1:") && err.contains("invalid TOML"), "{err}");
 }
 
+/// Issue 28: ranges at the ends of i64 panicked ("capacity overflow", an overflow in
+/// `end − start`) or called 0..i64::MAX "-9223372036854775808 frames".
+#[test]
+fn extreme_frame_ranges_are_errors_not_panics() {
+    let shot = basic_shot();
+    let range =
+        |start: &str, end: &str| HEADER.replace("start = 1, end = 48", &format!("start = {start}, end = {end}"));
+    let err = shot.error(&range("-9223372036854775808", "9223372036854775807"));
+    assert!(err.contains("[frames] end: 9223372036854775807 is beyond ±9007199254740992"), "{err}");
+    let err = shot.error(&range("-9223372036854775808", "1"));
+    assert!(err.contains("[frames] start: -9223372036854775808 is beyond ±9007199254740992"), "{err}");
+    let err = shot.error(&range("-5000000000000000000", "5000000000000000000"));
+    assert!(err.contains("is beyond ±9007199254740992"), "{err}");
+    let err = shot.error(&range("0", "9000000000000000"));
+    assert!(err.contains("9000000000000001 frames is more than the 1000000"), "{err}");
+    let err = shot.error(&range("0", "9223372036854775807"));
+    assert!(err.contains("9223372036854775807 is beyond") && !err.contains("-9223372036854775808 frames"), "{err}");
+    // The largest accepted numbers load, and their length is right.
+    let scene = shot.load(&range("9007199254740990", "9007199254740992")).unwrap();
+    assert_eq!(scene.frame_range().len(), 3);
+    assert_eq!(scene.frames().count(), 3);
+}
+
+/// Issue 28: `mesh = "."` said the folder does not exist.
+#[test]
+fn a_folder_given_as_mesh_is_named_as_such() {
+    let shot = basic_shot();
+    let err = shot.error(&HEADER.replace("mesh = \"ball.obj\"", "mesh = \".\""));
+    assert!(err.contains("is a folder, not a mesh file") && !err.contains("does not exist"), "{err}");
+}
+
 #[test]
 fn object_names_and_pairs_are_checked() {
     let shot = basic_shot();

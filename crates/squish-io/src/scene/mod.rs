@@ -174,7 +174,16 @@ impl Scene {
         let mut assets = Vec::with_capacity(description.objects.len());
         for (i, object) in description.objects.iter().enumerate() {
             if !matches!(object.mesh, MeshSource::Sequence { .. }) && !object.mesh.file().is_file() {
-                return Err(located(i, "mesh", missing(object.mesh.file())));
+                let file = object.mesh.file();
+                let message = if file.is_dir() {
+                    format!(
+                        "{} is a folder, not a mesh file; give a .obj, .ply, .gltf or .glb file in it",
+                        file.display()
+                    )
+                } else {
+                    missing(file)
+                };
+                return Err(located(i, "mesh", message));
             }
             let (source, numbering) =
                 load_source(&object.name, &object.mesh, frames, description.frames.fps, &mut cache)?;

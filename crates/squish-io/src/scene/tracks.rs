@@ -111,6 +111,11 @@ fn unknown_in_table<P: Params>(key: &str, table_keys: &[&str]) -> TrackError {
 pub fn param_value(v: &Value) -> Result<ParamValue, String> {
     match v {
         Value::Boolean(b) => Ok(ParamValue::Bool(*b)),
+        // Parameters hold f64, exact for whole numbers up to 2⁵³: a larger integer would be
+        // silently rounded (i64::MAX becomes 2⁶³), so it is refused with its own digits.
+        Value::Integer(i) if i.unsigned_abs() > 1 << 53 => Err(format!(
+            "{i} is beyond ±9007199254740992 (2^53), where whole numbers stop being exact; use a smaller number"
+        )),
         Value::Integer(_) | Value::Float(_) => Ok(ParamValue::Number(number(v).unwrap_or_default())),
         Value::String(w) if w == "inf" => Ok(ParamValue::Number(f64::INFINITY)),
         Value::String(w) => Ok(ParamValue::Word(w.clone())),

@@ -129,7 +129,8 @@ impl Default for FrameRange {
 impl FrameRange {
     /// Number of frames (0 for an empty range; saturates beyond `usize`).
     pub fn len(&self) -> usize {
-        usize::try_from(i128::from(self.end) - i128::from(self.start) + 1).unwrap_or(if self.end < self.start {
+        // In i128: `end − start + 1` of two i64 can overflow i64.
+        usize::try_from(self.end as i128 - self.start as i128 + 1).unwrap_or(if self.is_empty() {
             0
         } else {
             usize::MAX

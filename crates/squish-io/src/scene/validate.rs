@@ -25,6 +25,11 @@ use crate::IoError;
 /// would take noticeable time.
 pub(crate) const MAX_FRAMES: i64 = 1_000_000;
 
+/// Largest frame number: 2⁵³, beyond which an `f64` (frames become times and keyframe
+/// positions) no longer holds every whole number, and far from `i64`'s ends so that a frame ± 1
+/// never overflows.
+pub(crate) const MAX_FRAME_NUMBER: u64 = 1 << 53;
+
 pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(), IoError> {
     if let Some(problem) = scene.preview.as_ref().and_then(|p| p.problem()) {
         return Err(src.error_at_key(&[Seg::Key("preview")], problem));
@@ -36,8 +41,20 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
             format!("end {} is before start {}; frames are inclusive, so end must be ≥ start", f.end, f.start),
         ));
     }
-    let count = i128::from(f.end) - i128::from(f.start) + 1;
-    if count > i128::from(MAX_FRAMES) {
+    for (key, frame) in [("start", f.start), ("end", f.end)] {
+        if frame.unsigned_abs() > MAX_FRAME_NUMBER {
+            return Err(src.error_at_key(
+                &[Seg::Key("frames"), Seg::Key(key)],
+                format!(
+                    "frame {frame} is beyond ±{MAX_FRAME_NUMBER}, where whole frames stop being exact in time \
+                     computations; use frame numbers such as 1 to 240"
+                ),
+            ));
+        }
+    }
+    // In i128: `end − start + 1` of two i64 can overflow i64.
+    let count = f.end as i128 - f.start as i128 + 1;
+    if count > MAX_FRAMES as i128 {
         return Err(src.error_at_key(
             &[Seg::Key("frames"), Seg::Key("end")],
             format!("{count} frames is more than the {MAX_FRAMES} a scene may hold; check start and end"),

@@ -264,6 +264,9 @@ pub struct PairContact {
     /// Area of the contact on 𝒮: the area of 𝒞_a at its points on 𝒮 (that of 𝒞_b agrees up to
     /// discretization).
     pub contact_area: f64,
+    /// Method A: the ball radius used when the given r_s left the zone empty (halved until the
+    /// balls fit inside the elastic object); `None` when r_s was used as given.
+    pub ball_radius: Option<f64>,
     pub stats: ContactStats,
 }
 
@@ -329,6 +332,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
                 SideContact::empty(&b, direction, -direction, kb),
             ],
             contact_area: 0.0,
+            ball_radius: None,
             stats,
         });
     }
@@ -370,10 +374,19 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let k = [ka, kb];
     let surfaces = [0, 1].map(|l| side_surface(sides[l], &mappings[l], toward[l], k[l], k[1 - l]));
     let mut crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
-    if let Some(floor) = params.contact_threshold_floor {
+    if params.contact_threshold_floor.is_some() || params.contact_tau > 0.0 {
         crit.penetration =
             super::zone::typical_penetration(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]]);
+    }
+    if let Some(floor) = params.contact_threshold_floor {
         crit.threshold = crit.threshold.max(-floor * crit.penetration);
+    }
+    // τ is clamped so that the zone is never empty while the meshes penetrate (docs/decisions.md,
+    // "Contact spread τ"): ε_c ≤ P, the typical penetration depth, which points of ℳ always
+    // reach. For τ ≤ 0 the clamp cannot bind (m_𝒮 ≤ P), so it is not computed.
+    if params.contact_tau > 0.0 && crit.penetration > 0.0 && crit.threshold > crit.penetration {
+        crit.unclamped_threshold = Some(crit.threshold);
+        crit.threshold = crit.penetration;
     }
     if let Some(max) = params.max_contact_threshold {
         crit.threshold = crit.threshold.min(max);
@@ -393,17 +406,30 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         };
         extract_zone(sides[l], sides[1 - l], &mappings[l], &surfaces[l], &setup)
     };
+    let mut ball_radius = None;
     let zones = match ball {
-        Some((elastic, radius)) => super::ball::ball_zones(
-            sides,
-            &mappings,
-            &surfaces,
-            [&ia, &ib],
-            elastic,
-            radius,
-            direction,
-            shared.as_ref(),
-        )?,
+        Some((elastic, radius)) => {
+            let run = |r: f64| {
+                super::ball::ball_zones(sides, &mappings, &surfaces, [&ia, &ib], elastic, r, direction, shared.as_ref())
+            };
+            // A ball wider than the elastic object at the contact touches its far side from
+            // every vertex, and the zone is empty (§4.4.1 discussion: r_s is bounded by the
+            // local feature size). The radius is then halved until balls fit, and the radius
+            // used is reported (docs/decisions.md, "Ball radius").
+            let mut zones = run(radius)?;
+            let mut used = radius;
+            for _ in 0..MAX_BALL_HALVINGS {
+                if !(zones[elastic].zone.is_empty() && ia.num_inside() + ib.num_inside() > 0) {
+                    break;
+                }
+                used *= 0.5;
+                zones = run(used)?;
+            }
+            if used != radius {
+                ball_radius = Some(used);
+            }
+            zones
+        }
         None => {
             let mut zones = [0, 1].map(geometric);
             if let Some(shared) = &shared {
@@ -470,6 +496,10 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         intersection_points: inter.points,
         sides,
         contact_area,
+        ball_radius,
         stats,
     })
 }
+
+/// How many times a ball radius that gives an empty zone is halved (1/256 of it at most).
+const MAX_BALL_HALVINGS: usize = 8;

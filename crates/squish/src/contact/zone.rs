@@ -47,8 +47,12 @@ pub struct CriterionStats {
     pub threshold: f64,
     /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without
     /// penetration): continuous, and 0 when the contact starts. Computed only for a pair with a
-    /// threshold floor ([`crate::params::PairParams::contact_threshold_floor`]), 0 otherwise.
+    /// threshold floor ([`crate::params::PairParams::contact_threshold_floor`]) or τ > 0, 0 otherwise.
     pub penetration: f64,
+    /// m_𝒮 + τσ_𝒮 when it was above P and ε_c was clamped to P (τ > 0 only; see
+    /// `docs/decisions.md`, "Contact spread τ"), `None` otherwise.
+    #[serde(default)]
+    pub unclamped_threshold: Option<f64>,
 }
 
 /// Penetration c at every sample of ℳ (0 for a vertex outside ℳ, which integration never asks).
@@ -90,7 +94,7 @@ pub fn criterion(
         spread += s;
     }
     let std_dev = (spread / area).max(0.0).sqrt();
-    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev, penetration: 0.0 }
+    CriterionStats { area, mean, std_dev, threshold: mean + tau * std_dev, penetration: 0.0, unclamped_threshold: None }
 }
 
 /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without penetration),

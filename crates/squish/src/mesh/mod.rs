@@ -25,6 +25,7 @@ pub use region::{
     face_set_pieces, region_vertex_normals,
 };
 pub use submesh::{NOT_IN_SUBMESH, SubMesh};
+pub(crate) use topology::faces_around_vertices;
 pub use topology::{NO_FACE, Topology};
 
 use glam::DVec3;

@@ -34,6 +34,29 @@ pub struct Topology {
     vertex_faces: Vec<u32>,
 }
 
+/// The faces around each vertex of `triangles` (`vertices` of them), in increasing face id, as
+/// compressed rows: the faces of vertex `v` are `faces[offsets[v]..offsets[v + 1]]`.
+pub(crate) fn faces_around_vertices(vertices: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>) {
+    let mut offsets = vec![0u32; vertices + 1];
+    for t in triangles {
+        for &v in t {
+            offsets[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..vertices {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut faces = vec![0u32; 3 * triangles.len()];
+    for (f, t) in triangles.iter().enumerate() {
+        for &v in t {
+            faces[fill[v as usize] as usize] = f as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    (offsets, faces)
+}
+
 impl Topology {
     /// Builds the connectivity. Works on any triangle soup whose indices are in range (checked by
     /// [`TriMesh::new`]); non-manifold configurations are recorded, not rejected.
@@ -109,26 +132,7 @@ impl Topology {
             })
             .collect();
 
-        let (vertex_face_offsets, vertex_faces) = {
-            let mut counts = vec![0u32; nv + 1];
-            for t in &mesh.triangles {
-                for &v in t {
-                    counts[v as usize + 1] += 1;
-                }
-            }
-            for i in 0..nv {
-                counts[i + 1] += counts[i];
-            }
-            let mut fill = counts.clone();
-            let mut list = vec![0u32; 3 * nf];
-            for (f, t) in mesh.triangles.iter().enumerate() {
-                for &v in t {
-                    list[fill[v as usize] as usize] = f as u32;
-                    fill[v as usize] += 1;
-                }
-            }
-            (counts, list)
-        };
+        let (vertex_face_offsets, vertex_faces) = faces_around_vertices(nv, &mesh.triangles);
 
         Self {
             num_vertices: nv,
@@ -361,6 +365,9 @@ impl Topology {
     pub fn face_components(&self, mesh: &TriMesh) -> (Vec<u32>, usize) {
         let nf = mesh.num_triangles();
         let mut label = vec![u32::MAX; nf];
+        // Each vertex's faces are scanned once: a fan of n faces around one vertex is O(n),
+        // not O(n²).
+        let mut vertex_done = vec![false; self.num_vertices];
         let mut count = 0u32;
         let mut stack = Vec::new();
         for seed in 0..nf {
@@ -371,6 +378,9 @@ impl Topology {
             stack.push(seed as u32);
             while let Some(f) = stack.pop() {
                 for &v in &mesh.triangles[f as usize] {
+                    if std::mem::replace(&mut vertex_done[v as usize], true) {
+                        continue;
+                    }
                     for &g in self.vertex_faces(v) {
                         if label[g as usize] == u32::MAX {
                             label[g as usize] = count;

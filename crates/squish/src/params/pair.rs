@@ -42,6 +42,9 @@ pub struct PairParams {
     pub enabled: bool,
     /// Contact spread: the contact threshold is ε_c = m + τσ of the penetration depths; larger τ,
     /// smaller contact zone (negative values enlarge it).
+    ///
+    /// For τ > 0, ε_c is capped at the typical penetration depth, so that the zone never vanishes
+    /// while the meshes penetrate (docs/decisions.md, "τ clamp").
     #[param(symbol = "τ", section = "§4.4.2, Eq. 4.3", keyframable)]
     pub contact_tau: f64,
     /// Mapping direction, along which the objects are matched; oriented along the second

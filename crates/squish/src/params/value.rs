@@ -81,6 +81,7 @@ enum NumberOrWord {
 #[serde(untagged)]
 enum ValueForm {
     Bool(bool),
+    Integer(i64),
     Number(f64),
     List(Vec<NumberOrWord>),
     Word(String),
@@ -100,6 +101,14 @@ impl<'de> serde::Deserialize<'de> for ParamValue {
         };
         Ok(match form {
             ValueForm::Bool(b) => Self::Bool(b),
+            // Values are f64, exact for whole numbers up to 2⁵³: a larger integer would be
+            // silently rounded (i64::MAX becomes 2⁶³), so it is refused with its own digits.
+            ValueForm::Integer(i) if i.unsigned_abs() > 1 << 53 => {
+                return Err(serde::de::Error::custom(format!(
+                    "{i} is beyond ±9007199254740992 (2^53), where whole numbers stop being exact; use a smaller number"
+                )));
+            }
+            ValueForm::Integer(i) => Self::Number(i as f64),
             ValueForm::Number(x) => Self::Number(x),
             ValueForm::List(xs) => Self::List(xs.into_iter().map(number).collect::<Result<_, D::Error>>()?),
             ValueForm::Word(w) if w == "inf" => Self::Number(f64::INFINITY),

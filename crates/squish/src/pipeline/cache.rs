@@ -104,6 +104,16 @@ impl ObjectCache {
         other.bvh.contains(p).then(|| sub.sub.parent_vertex[0])
     }
 
+    /// For whole regions that no edge crosses: true if `mesh` (this object, region `r`) has a
+    /// vertex inside `other` (closed, region `other_r`), i.e. lies inside it.
+    pub fn lies_inside(&self, r: usize, mesh: &TriMesh, other: &ObjectCache, other_r: usize) -> bool {
+        let whole = |c: &ObjectCache, r: usize| c.regions.get(r).is_some_and(|region| region.sub.is_none());
+        if !other.closed || !whole(self, r) || !whole(other, other_r) {
+            return false;
+        }
+        mesh.triangles.first().is_some_and(|t| other.bvh.contains(mesh.positions[t[0] as usize]))
+    }
+
     /// The bounding box of region `r` at this frame.
     pub fn region_bounds(&self, r: usize) -> Aabb3 {
         match self.regions[r].sub.as_deref() {

@@ -39,6 +39,7 @@ mod results;
 mod self_contact;
 mod setup;
 mod stats;
+mod warnings;
 
 use std::time::Instant;
 
@@ -47,6 +48,7 @@ use glam::DVec3;
 pub use error::PipelineError;
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
+pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
 
 use crate::contact::PairContact;
 use crate::deform::RegionDeformation;
@@ -204,6 +206,8 @@ impl Deformer {
             .collect();
         let region_pairs = contacts::region_pairs(frame, &caches);
         let mut contacts = contacts::contact_region_pairs(frame, &caches, &inputs, &region_pairs)?;
+        let contained = warnings::contained_sides(frame, &caches, &region_pairs, &contacts);
+        let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
         let mut region_contacts = RegionContacts::gather(frame, &caches, &region_pairs, &mut contacts, &sizes);
         drop(caches);
 
@@ -216,6 +220,8 @@ impl Deformer {
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
+        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
+        let warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
@@ -229,6 +235,7 @@ impl Deformer {
                 pairs,
                 regions: objects.regions,
                 articulations: Vec::new(),
+                warnings,
             },
         })
     }

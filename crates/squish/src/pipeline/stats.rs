@@ -146,6 +146,9 @@ pub struct FrameStats {
     /// Every articulation with self-contact (ch. 6), object by object.
     #[serde(default)]
     pub articulations: Vec<crate::skinning::ArticulationStats>,
+    /// What the frame did not do that it was asked to (see [`super::FrameWarning`]).
+    #[serde(default)]
+    pub warnings: Vec<super::FrameWarning>,
 }
 
 /// Which part of its object a working region is (same order as [`FrameStats::regions`]).

@@ -782,12 +782,10 @@ pub fn self_intersection_counts(
     let sides_of = |f: u32| -> u8 {
         mesh.triangles[f as usize].iter().fold(0u8, |mask, &v| mask | side.get(v as usize).copied().unwrap_or(0))
     };
-    let found = TriangleBvh::with_faces(mesh, setup.faces.iter().copied())?.self_intersections();
-    let mut across: Vec<u32> =
-        found.pairs.iter().filter(|[f, g]| sides_of(*f) | sides_of(*g) == 3).flat_map(|&[f, g]| [f, g]).collect();
-    across.sort_unstable();
-    across.dedup();
-    Ok(SelfIntersectionCounts { all: found.faces.len(), across: across.len() })
+    let faces = setup.faces.iter().copied();
+    let all = crate::spatial::self_intersecting_faces(mesh, faces.clone(), |_, _| true)?;
+    let across = crate::spatial::self_intersecting_faces(mesh, faces, |f, g| sides_of(f) | sides_of(g) == 3)?;
+    Ok(SelfIntersectionCounts { all: all.len(), across: across.len() })
 }
 
 #[cfg(test)]

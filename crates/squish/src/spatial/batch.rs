@@ -278,7 +278,9 @@ mod tests {
             time("100k winding numbers (crossings), parallel", &mut || {
                 points.par_iter().map(|&p| tree.winding_number(p)).filter(|&w| w != 0).count()
             });
-            time("self-intersections (faces found)", &mut || tree.self_intersections().faces.len());
+            time("self-intersections (faces found)", &mut || {
+                super::super::self_intersections(&mesh).unwrap().faces.len()
+            });
             let mut other = shapes::icosphere(0.8, 5);
             other.map_positions(|p| p + DVec3::new(1.0, 0.1, 0.2));
             time("build + pairs vs a 20k-face sphere", &mut || {

@@ -30,6 +30,7 @@ mod closest;
 mod exact;
 mod flat_bvh;
 mod joint;
+mod obb_tree;
 mod queries;
 mod segment_slabs;
 mod self_intersection;
@@ -46,7 +47,7 @@ pub(crate) use flat_bvh::Visit;
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, CrossingHint, Hit, Ray};
 pub use segment_slabs::SegmentSlabs;
-pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersections};
+pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersecting_faces, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
 pub use winding::{FastWinding, generalized_winding_number, penetration_depths, solid_angle};
 

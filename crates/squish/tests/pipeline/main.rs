@@ -8,3 +8,4 @@ mod common;
 mod frames;
 mod regions;
 mod self_contact;
+mod warnings;

@@ -126,7 +126,7 @@ fn intersecting_fingers(scene: &ProceduralScene) -> usize {
 #[test]
 fn each_finger_pressing_a_ball_gets_its_own_contact() {
     let scene = scenes::fingers_on_ball(0.06, 6, 32);
-    assert!(self_intersections(&scene.objects[0].mesh).unwrap().pairs.is_empty(), "fingers must not touch");
+    assert!(self_intersections(&scene.objects[0].mesh).unwrap().faces.is_empty(), "fingers must not touch");
     let fingers = intersecting_fingers(&scene);
     assert_eq!(fingers, 5);
     let checked = check_regions(&scene, 0.02);

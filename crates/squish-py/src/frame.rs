@@ -1,0 +1,306 @@
+//! One frame: `squish.deform` and `squish.contact` (two meshes, as `squish deform` and `squish
+//! contact`), and `squish.Frame` (any number of objects, pairs and self-contact articulations).
+//!
+//! The two-mesh calls build their frame with the command line's own functions
+//! ([`squish_cli::cmd_deform::deform_pair`], [`squish_cli::cmd_contact::define_contact`]), so the
+//! results are those of the command on the same meshes and parameters, bit for bit, and the
+//! report dicts hold the figures of its report files. `Frame.deform` reports the figures of a
+//! `report.json` frame entry. The GIL is released while computing.
+
+use glam::DVec3;
+use numpy::{PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
+use squish::pipeline::{Deformer, FramePair};
+use squish::params::Articulation;
+use squish_cli::params::PairSettings;
+use squish_cli::frame_quality::MeasureCache;
+use squish_cli::quality::FrameEntry;
+use squish_cli::shot::{ShotFrame, ShotObject, frame_record, worker_pool};
+
+use crate::errors::{cli_error, input_error, parameter_error, pipeline_error, to_python};
+use crate::mesh::{Mesh, positions_array, vertices_from};
+use crate::params::{apply, check_per_vertex, from_python};
+
+/// The settings of a two-mesh call: `a_params`, `b_params`, `pair` and keyword arguments
+/// `a_KEY`, `b_KEY`, `pair_KEY`, checked for the two meshes.
+fn pair_settings(
+    meshes: [&Mesh; 2],
+    a_params: Option<&Bound<'_, PyDict>>,
+    b_params: Option<&Bound<'_, PyDict>>,
+    pair: Option<&Bound<'_, PyDict>>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PairSettings> {
+    let mut settings = PairSettings::default();
+    for (prefix, dict) in [("a", a_params), ("b", b_params)] {
+        if let Some(dict) = dict {
+            apply(if prefix == "a" { &mut settings.a } else { &mut settings.b }, prefix, dict)?;
+        }
+    }
+    if let Some(dict) = pair {
+        apply(&mut settings.pair, "pair", dict)?;
+    }
+    if let Some(kwargs) = kwargs {
+        for (name, value) in kwargs.iter() {
+            let name: String = name.extract()?;
+            let (prefix, key) = ["a_", "b_", "pair_"]
+                .iter()
+                .find_map(|p| name.strip_prefix(p).map(|key| (p.trim_end_matches('_'), key)))
+                .ok_or_else(|| {
+                    parameter_error(squish::ParamError::new(
+                        &name,
+                        None,
+                        "keyword arguments are a_KEY, b_KEY or pair_KEY (e.g. a_stiffness=2, pair_contact_tau=0.5); or pass a_params, b_params, pair dicts",
+                    ))
+                })?;
+            let one = PyDict::new(kwargs.py());
+            one.set_item(key, value)?;
+            match prefix {
+                "a" => apply(&mut settings.a, "a", &one)?,
+                "b" => apply(&mut settings.b, "b", &one)?,
+                _ => apply(&mut settings.pair, "pair", &one)?,
+            }
+        }
+    }
+    for (prefix, params) in [("a", &settings.a), ("b", &settings.b)] {
+        params.validate().map_err(|e| parameter_error(e.with_prefix(prefix)))?;
+    }
+    settings.pair.validate().map_err(|e| parameter_error(e.with_prefix("pair")))?;
+    check_per_vertex(&settings.a, "a", meshes[0].mesh.num_vertices())?;
+    check_per_vertex(&settings.b, "b", meshes[1].mesh.num_vertices())?;
+    Ok(settings)
+}
+
+/// Deforms two intersecting meshes into clean contact (one frame); see the package docs for the
+/// parameters (`help(squish.deform)`).
+#[pyfunction]
+#[pyo3(signature = (a, b, a_params=None, b_params=None, pair=None, **params))]
+pub fn deform<'py>(
+    py: Python<'py>,
+    a: &Mesh,
+    b: &Mesh,
+    a_params: Option<&Bound<'py, PyDict>>,
+    b_params: Option<&Bound<'py, PyDict>>,
+    pair: Option<&Bound<'py, PyDict>>,
+    params: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyTuple>, Bound<'py, PyAny>)> {
+    let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
+    let (result, figures) = py
+        .detach(|| {
+            squish_cli::cmd_deform::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new())
+        })
+        .map_err(cli_error)?;
+    let vertices = PyTuple::new(
+        py,
+        [positions_array(py, &result.positions[0])?, positions_array(py, &result.positions[1])?],
+    )?;
+    Ok((vertices, to_python(py, &figures)?))
+}
+
+/// The contact definition of two meshes (thesis ch. 4) without deforming them: per-vertex labels
+/// (0 outside, 1 intersection, 2 mapping region, 3 contact zone), the regions' exact boundary
+/// points, and the figures of `squish contact`'s contact.json.
+#[pyfunction]
+#[pyo3(signature = (a, b, a_params=None, b_params=None, pair=None, **params))]
+pub fn contact<'py>(
+    py: Python<'py>,
+    a: &Mesh,
+    b: &Mesh,
+    a_params: Option<&Bound<'py, PyDict>>,
+    b_params: Option<&Bound<'py, PyDict>>,
+    pair: Option<&Bound<'py, PyDict>>,
+    params: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
+    let definition = py
+        .detach(|| {
+            squish_cli::cmd_contact::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None])
+        })
+        .map_err(cli_error)?;
+    let report = to_python(py, &definition.figures)?;
+    let labels = definition.labels.map(|l| PyArray1::from_vec(py, l));
+    report.set_item("labels", PyTuple::new(py, labels)?)?;
+    let points = &definition.boundary_points;
+    let positions: Vec<DVec3> = points.iter().map(|p| DVec3::from_array(p.0)).collect();
+    let boundary = PyDict::new(py);
+    boundary.set_item("positions", positions_array(py, &positions)?)?;
+    boundary.set_item("kind", PyArray1::from_vec(py, points.iter().map(|p| p.1).collect::<Vec<i32>>()))?;
+    boundary.set_item("side", PyArray1::from_vec(py, points.iter().map(|p| p.2).collect::<Vec<i32>>()))?;
+    report.set_item("boundary_points", boundary)?;
+    Ok(report)
+}
+
+/// Every object's deformed vertices and the frame's report.
+type FrameOutput<'py> = (Vec<Bound<'py, PyArray2<f64>>>, Bound<'py, PyAny>);
+
+/// One frame of any number of objects, pairs and self-contact articulations.
+///
+/// ```python
+/// frame = squish.Frame()
+/// ball = frame.add_object("ball", ball_mesh, stiffness=1.0)
+/// ground = frame.add_object("ground", ground_mesh, rigid=True)
+/// frame.add_pair(ball, ground, contact_tau=0.5)
+/// vertices, report = frame.deform()
+/// ```
+/// (`squish.Frame` is a Python subclass whose methods carry the schema in their docstrings.)
+#[pyclass(module = "squish", subclass)]
+#[derive(Clone, Debug, Default)]
+pub struct Frame {
+    pub frame: ShotFrame,
+}
+
+impl Frame {
+    /// The index of an object given by index or name.
+    fn object_index(&self, object: &Bound<'_, PyAny>) -> PyResult<usize> {
+        if let Ok(i) = object.extract::<usize>() {
+            if i < self.frame.objects.len() {
+                return Ok(i);
+            }
+            return Err(input_error(format!("object {i}: the frame has {} objects", self.frame.objects.len())));
+        }
+        let name: String = object.extract().map_err(|_| input_error("an object is given by its index or name"))?;
+        self.frame.objects.iter().position(|o| o.name == name).ok_or_else(|| {
+            let names: Vec<&str> = self.frame.objects.iter().map(|o| o.name.as_str()).collect();
+            input_error(format!("no object named \"{name}\"; the objects are {}", names.join(", ")))
+        })
+    }
+}
+
+#[pymethods]
+impl Frame {
+    #[new]
+    fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds an object; returns its index. Parameters: a dict and/or keyword arguments (the
+    /// object parameters of `squish.params_schema()`).
+    #[pyo3(signature = (name, mesh, params=None, **kwargs))]
+    fn add_object(
+        &mut self,
+        name: String,
+        mesh: &Mesh,
+        params: Option<&Bound<'_, PyDict>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<usize> {
+        if self.frame.objects.iter().any(|o| o.name == name) {
+            return Err(input_error(format!("an object is already named \"{name}\"; give each object its own name")));
+        }
+        let prefix = name.clone();
+        let params: ObjectParams = from_python(&prefix, params, kwargs)?;
+        check_per_vertex(&params, &prefix, mesh.mesh.num_vertices())?;
+        self.frame.objects.push(ShotObject { name, mesh: mesh.mesh.clone(), params });
+        Ok(self.frame.objects.len() - 1)
+    }
+
+    /// Adds a pair of objects (indices or names) that may be in contact; the mapping direction is
+    /// oriented along the second's normals. Returns its index.
+    #[pyo3(signature = (a, b, params=None, **kwargs))]
+    fn add_pair(
+        &mut self,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
+        params: Option<&Bound<'_, PyDict>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<usize> {
+        let objects = [self.object_index(a)?, self.object_index(b)?];
+        let prefix = format!("{}/{}", self.frame.objects[objects[0]].name, self.frame.objects[objects[1]].name);
+        let params: PairParams = from_python(&prefix, params, kwargs)?;
+        self.frame.pairs.push(FramePair { objects, params });
+        Ok(self.frame.pairs.len() - 1)
+    }
+
+    /// Adds a self-contact articulation (thesis ch. 6) to an object: `regions` are the two
+    /// overlapping working regions as vertex indices (the parent side, then the child side);
+    /// `joints` the world positions `(3, 3)` of the parent bone's start, the articulation and
+    /// the child bone's end (needed unless `direction` is given).
+    #[pyo3(signature = (object, name, regions, joints=None, params=None, **kwargs))]
+    #[allow(clippy::too_many_arguments)] // the Python signature
+    fn add_articulation(
+        &mut self,
+        object: &Bound<'_, PyAny>,
+        name: String,
+        regions: (Vec<u32>, Vec<u32>),
+        joints: Option<&Bound<'_, PyAny>>,
+        params: Option<&Bound<'_, PyDict>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<()> {
+        let index = self.object_index(object)?;
+        let target = &mut self.frame.objects[index];
+        let prefix = format!("{}.{name}", target.name);
+        let params: ArticulationParams = from_python(&prefix, params, kwargs)?;
+        let count = target.mesh.num_vertices();
+        for region in [&regions.0, &regions.1] {
+            if let Some(&v) = region.iter().find(|&&v| v as usize >= count) {
+                return Err(input_error(format!("{prefix}: region vertex {v}, but the mesh has {count} vertices")));
+            }
+        }
+        let joints = match joints {
+            Some(joints) => {
+                let points = vertices_from(joints)?;
+                let [p, q, r]: [DVec3; 3] = points
+                    .try_into()
+                    .map_err(|_| input_error(format!("{prefix}: joints: give three points (3, 3)")))?;
+                Some([p, q, r])
+            }
+            None => None,
+        };
+        if joints.is_none() && params.direction.is_none() {
+            return Err(parameter_error(squish::ParamError::new(
+                &format!("{prefix}.direction"),
+                None,
+                "give the joints' positions or a direction [x, y, z]",
+            )));
+        }
+        target.params.self_contact.push(Articulation { name, regions: [regions.0, regions.1], joints, params });
+        Ok(())
+    }
+
+    /// The objects' names, in order.
+    #[getter]
+    fn objects(&self) -> Vec<String> {
+        self.frame.objects.iter().map(|o| o.name.clone()).collect()
+    }
+
+    /// The mesh of an object (index or name).
+    fn mesh(&self, object: &Bound<'_, PyAny>) -> PyResult<Mesh> {
+        Ok(Mesh { mesh: self.frame.objects[self.object_index(object)?].mesh.clone() })
+    }
+
+    /// The parameters of an object (index or name), as a dict of the schema's keys.
+    fn params<'py>(&self, py: Python<'py>, object: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let params = &self.frame.objects[self.object_index(object)?].params;
+        to_python(py, &params.values().into_iter().collect::<std::collections::BTreeMap<_, _>>())
+    }
+
+    /// Deforms the frame: every object's vertices (same count and order as its mesh) and the
+    /// frame's figures (those of a `report.json` frame entry). `threads`: worker threads (default:
+    /// every core).
+    #[pyo3(signature = (threads=None))]
+    fn deform<'py>(
+        &self,
+        py: Python<'py>,
+        threads: Option<usize>,
+    ) -> PyResult<FrameOutput<'py>> {
+        let pool = worker_pool(threads).map_err(cli_error)?;
+        let shot = &self.frame;
+        let (result, record) = py.detach(|| {
+            pool.install(|| {
+                let frame = shot.frame();
+                let result = Deformer::new().deform(&frame)?;
+                let record = frame_record(0, &frame, &result, &mut MeasureCache::default());
+                Ok::<_, squish::pipeline::PipelineError>((result, record))
+            })
+        })
+        .map_err(pipeline_error)?;
+        let vertices = result.positions.iter().map(|p| positions_array(py, p)).collect::<PyResult<Vec<_>>>()?;
+        let report = to_python(py, &FrameEntry::of(&record))?;
+        report.del_item("frame")?;
+        Ok((vertices, report))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("squish.Frame({} objects, {} pairs)", self.frame.objects.len(), self.frame.pairs.len())
+    }
+}

@@ -1,0 +1,410 @@
+//! `squish.Scene`: a scene file, its frames, and runs of its shot that write the same files and
+//! report as `squish run` ([`squish_cli::cmd_run::RunPlan`], the command's own code).
+//!
+//! A run computes its frames in parallel with the GIL released, on a worker thread, while the
+//! calling thread watches for Ctrl-C (`Python::check_signals`, every 50 ms): a `KeyboardInterrupt`
+//! asks the run to stop scheduling frames, the frames in progress finish and are written, the
+//! report lists the missing frames, and then the `KeyboardInterrupt` is raised with the command
+//! line's message (how many frames were done and the frames to run again).
+
+use std::collections::BTreeMap;
+use std::ops::RangeInclusive;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use glam::DVec3;
+use numpy::PyArray2;
+use pyo3::exceptions::PyKeyboardInterrupt;
+use pyo3::prelude::*;
+use squish_cli::cmd_run::{RunPlan, RunRequest};
+use squish_cli::interrupt::Interrupt;
+use squish_cli::scene_shot::library_frame;
+use squish_io::Scene as SceneFile;
+use squish_io::scene::{MeshSource, OutputFormat};
+
+use crate::errors::{cli_error, input_error, io_error, json_to_python};
+use crate::frame::Frame;
+use crate::mesh::{faces_array, positions_array};
+
+/// A scene file (docs/scene-format.md), loaded with its meshes: `Scene.load(path)`.
+#[pyclass(module = "squish", frozen)]
+pub struct Scene {
+    scene: Arc<SceneFile>,
+}
+
+/// Frames as the user gives them: `None` (the scene's), `(a, b)` inclusive, a `range`, an int, or
+/// text `"A:B"` as `squish run --frames`.
+fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyResult<Option<RangeInclusive<i64>>> {
+    let Some(frames) = frames else { return Ok(None) };
+    let invalid = || {
+        input_error(format!(
+            "frames: {}: give (first, last), a range, a frame, or \"A:B\"",
+            frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+        ))
+    };
+    let text = if let Ok(text) = frames.extract::<String>() {
+        text
+    } else if let Ok(frame) = frames.extract::<i64>() {
+        format!("{frame}")
+    } else if let Ok((a, b)) = frames.extract::<(i64, i64)>() {
+        format!("{a}:{b}")
+    } else if frames.get_type().name()? == "range" {
+        let (start, stop, step): (i64, i64, i64) =
+            (frames.getattr("start")?.extract()?, frames.getattr("stop")?.extract()?, frames.getattr("step")?.extract()?);
+        if step != 1 || stop <= start {
+            return Err(invalid());
+        }
+        format!("{start}:{}", stop - 1)
+    } else {
+        return Err(invalid());
+    };
+    squish_io::parse_frame_selection(&text, &scene.frame_range())
+        .map(Some)
+        .map_err(|e| input_error(format!("{}: frames {text}: {e}", scene.path().display())))
+}
+
+/// An output format by its extension.
+fn output_format(format: Option<&str>) -> PyResult<Option<OutputFormat>> {
+    let Some(format) = format else { return Ok(None) };
+    let formats = [OutputFormat::Obj, OutputFormat::Ply, OutputFormat::Glb, OutputFormat::Gltf, OutputFormat::Pc2];
+    formats.into_iter().find(|f| f.extension() == format).map(Some).ok_or_else(|| {
+        input_error(format!("format \"{format}\": use \"obj\", \"ply\", \"glb\", \"gltf\" or \"pc2\""))
+    })
+}
+
+#[pymethods]
+impl Scene {
+    /// Reads, checks and loads a scene file and every mesh and data file it names.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let scene = py.detach(|| SceneFile::load(&path)).map_err(io_error)?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// The scene file.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.scene.path().to_path_buf()
+    }
+
+    /// The scene's frames, `(first, last)` inclusive.
+    #[getter]
+    fn frame_range(&self) -> (i64, i64) {
+        let r = self.scene.frame_range();
+        (r.start, r.end)
+    }
+
+    /// Frames per second.
+    #[getter]
+    fn fps(&self) -> f64 {
+        self.scene.frame_range().fps
+    }
+
+    /// The objects' names, in order.
+    #[getter]
+    fn objects(&self) -> Vec<String> {
+        self.scene.description().objects.iter().map(|o| o.name.clone()).collect()
+    }
+
+    /// The output folder (the scene's `output.dir`, absolute) and format.
+    #[getter]
+    fn output(&self) -> (PathBuf, &'static str) {
+        let output = self.scene.output();
+        (output.dir.clone(), output.format.extension())
+    }
+
+    /// The frame `frame` as a `squish.Frame`: every object posed, with its parameters at that
+    /// frame, and every pair enabled at that frame.
+    fn frame<'py>(&self, py: Python<'py>, frame: f64) -> PyResult<Bound<'py, PyAny>> {
+        let scene = &self.scene;
+        let spec = py.detach(|| scene.evaluate(frame)).map_err(io_error)?;
+        // The package's `squish.Frame` (the subclass with the documented methods).
+        let object = py.import("squish")?.getattr("Frame")?.call0()?;
+        object.cast::<Frame>()?.borrow_mut().frame = library_frame(spec);
+        Ok(object)
+    }
+
+    /// Runs the shot as `squish run` does: frames in parallel, each frame's files written
+    /// atomically as it is done, `report.A-B.json` for the frames run and `report.json` merging
+    /// every part in the folder. `output`: the folder (default: the scene's); `frames`: the frames
+    /// to run, as `(first, last)`, a range or `"A:B"` (default: every frame; a selection writes a
+    /// part, like `--frames`); `threads`: worker threads (default: every core); `format`: "obj",
+    /// "ply", "glb", "gltf" or "pc2" (default: the scene's); `keep_points`: keep every frame's
+    /// output vertices in the result (`ShotResult.points`, `squish.usd.write_shot`).
+    ///
+    /// Raises `InputError` for a bad scene or frame (after writing the report of the frames done),
+    /// and `KeyboardInterrupt` after Ctrl-C, once the frames in progress are written and the report
+    /// lists the missing frames.
+    #[pyo3(signature = (output=None, frames=None, threads=None, format=None, keep_points=false))]
+    fn run(
+        &self,
+        py: Python<'_>,
+        output: Option<PathBuf>,
+        frames: Option<&Bound<'_, PyAny>>,
+        threads: Option<usize>,
+        format: Option<&str>,
+        keep_points: bool,
+    ) -> PyResult<ShotResult> {
+        let request = RunRequest {
+            frames: frame_selection(&self.scene, frames)?,
+            output_dir: output,
+            format: output_format(format)?,
+            threads,
+            allow_missing_files: false,
+        };
+        let scene = &self.scene;
+        let plan = py.detach(|| RunPlan::new(scene, &request)).map_err(cli_error)?;
+        let interrupt = Interrupt::new();
+        let (run, keyboard) = py.detach(|| {
+            std::thread::scope(|s| {
+                let worker = s.spawn(|| plan.run(None, keep_points, &interrupt));
+                let mut keyboard: Option<PyErr> = None;
+                while !worker.is_finished() {
+                    std::thread::sleep(Duration::from_millis(50));
+                    if keyboard.is_none()
+                        && let Err(error) = Python::attach(|py| py.check_signals())
+                    {
+                        interrupt.request();
+                        keyboard = Some(error);
+                    }
+                }
+                let run = worker.join().unwrap_or_else(|_| {
+                    Err(squish_cli::error::CliError::failure("internal error: the run's worker thread panicked"))
+                });
+                (run, keyboard)
+            })
+        });
+        let mut run = run.map_err(cli_error)?;
+        if let Some(error) = run.animated_error.take() {
+            return Err(cli_error(error));
+        }
+        if let Some(failure) = run.outcome.failure.take() {
+            return Err(cli_error(failure.error));
+        }
+        if let Some(stopped) = run.interrupted_error() {
+            // A KeyboardInterrupt that is not Python's own (a signal handler raising something
+            // else) is raised as it was.
+            return Err(match keyboard {
+                Some(error) if error.is_instance_of::<PyKeyboardInterrupt>(py) => {
+                    PyKeyboardInterrupt::new_err(stopped.to_string())
+                }
+                Some(error) => error,
+                None => cli_error(stopped),
+            });
+        }
+        let report_text = std::fs::read_to_string(&run.report)
+            .map_err(|e| input_error(format!("cannot read {}: {e}", run.report.display())))?;
+        let objects = plan
+            .first
+            .objects
+            .iter()
+            .zip(&plan.numbering)
+            .zip(&self.scene.description().objects)
+            .map(|((object, numbering), spec)| ShotObject {
+                name: object.name.clone(),
+                source: spec.mesh.file().clone(),
+                sequence: matches!(spec.mesh, MeshSource::Sequence { .. }),
+                triangles: numbering.triangles.clone(),
+                vertex_map: numbering.vertex_map.clone(),
+            })
+            .collect();
+        Ok(ShotResult {
+            output: plan.output.dir.clone(),
+            format: plan.output.format.extension(),
+            fps: self.scene.frame_range().fps,
+            frames: run.outcome.records.iter().map(|r| r.frame).collect(),
+            report_path: run.report,
+            part_report_path: run.part_report,
+            report_text,
+            objects,
+            points: std::mem::take(&mut run.outcome.kept),
+        })
+    }
+
+    /// The frames whose results are already in `output` (default: the scene's folder): listed by
+    /// a report part there, with every object's file of the frame present. Per-frame formats
+    /// (obj, ply) only; other formats give an empty list.
+    #[pyo3(signature = (output=None, format=None))]
+    fn completed_frames(&self, output: Option<PathBuf>, format: Option<&str>) -> PyResult<Vec<i64>> {
+        let mut spec = self.scene.output().clone();
+        if let Some(dir) = output {
+            spec.dir = std::path::absolute(&dir).unwrap_or(dir);
+        }
+        if let Some(format) = output_format(format)? {
+            spec.format = format;
+        }
+        if !spec.format.per_frame() {
+            return Ok(Vec::new());
+        }
+        let names = self.objects();
+        let mut done = std::collections::BTreeSet::new();
+        let Ok(entries) = std::fs::read_dir(&spec.dir) else { return Ok(Vec::new()) };
+        for entry in entries.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if !(name.starts_with("report.") && name.ends_with(".json") && name != "report.json") {
+                continue;
+            }
+            // A part that cannot be read lists nothing: its frames are computed again.
+            let Ok(text) = std::fs::read_to_string(entry.path()) else { continue };
+            let Ok(part) = serde_json::from_str::<serde_json::Value>(&text) else { continue };
+            for frame in part["per_frame"].as_array().into_iter().flatten().filter_map(|f| f["frame"].as_i64()) {
+                if names.iter().all(|n| spec.path_for(n, frame).is_file()) {
+                    done.insert(frame);
+                }
+            }
+        }
+        Ok(done.into_iter().collect())
+    }
+
+    fn __repr__(&self) -> String {
+        let r = self.scene.frame_range();
+        format!(
+            "squish.Scene({:?}, {} objects, frames {}:{})",
+            self.scene.path().display().to_string(),
+            self.scene.description().objects.len(),
+            r.start,
+            r.end
+        )
+    }
+}
+
+/// An object of a shot's result.
+#[derive(Clone, Debug)]
+struct ShotObject {
+    name: String,
+    source: PathBuf,
+    sequence: bool,
+    /// The file's triangles, in the file's numbering.
+    triangles: Vec<[u32; 3]>,
+    /// File vertex → processed vertex, when the scene welded the source.
+    vertex_map: Option<Vec<u32>>,
+}
+
+/// The result of `Scene.run`: where the files are, the merged report, and (with `keep_points`)
+/// every frame's output vertices in each source file's numbering.
+#[pyclass(module = "squish", frozen)]
+pub struct ShotResult {
+    output: PathBuf,
+    format: &'static str,
+    fps: f64,
+    frames: Vec<i64>,
+    report_path: PathBuf,
+    part_report_path: PathBuf,
+    report_text: String,
+    objects: Vec<ShotObject>,
+    points: BTreeMap<i64, Vec<Vec<DVec3>>>,
+}
+
+#[pymethods]
+impl ShotResult {
+    /// The output folder.
+    #[getter]
+    fn output(&self) -> PathBuf {
+        self.output.clone()
+    }
+
+    /// The output format's extension.
+    #[getter]
+    fn format(&self) -> &'static str {
+        self.format
+    }
+
+    /// Frames per second of the scene.
+    #[getter]
+    fn fps(&self) -> f64 {
+        self.fps
+    }
+
+    /// The frames computed by this run, in order.
+    #[getter]
+    fn frames(&self) -> Vec<i64> {
+        self.frames.clone()
+    }
+
+    /// The merged `report.json` (path).
+    #[getter]
+    fn report_path(&self) -> PathBuf {
+        self.report_path.clone()
+    }
+
+    /// This run's report part `report.A-B.json` (path).
+    #[getter]
+    fn part_report_path(&self) -> PathBuf {
+        self.part_report_path.clone()
+    }
+
+    /// The merged `report.json` as a dict.
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_python(py, &self.report_text)
+    }
+
+    /// The objects' names, in order.
+    #[getter]
+    fn objects(&self) -> Vec<String> {
+        self.objects.iter().map(|o| o.name.clone()).collect()
+    }
+
+    /// The source file of an object (its mesh file, the glTF file, or a sequence's pattern), and
+    /// whether it is a sequence.
+    fn source(&self, object: usize) -> PyResult<(PathBuf, bool)> {
+        let o = self.object(object)?;
+        Ok((o.source.clone(), o.sequence))
+    }
+
+    /// The faces of an object in its source file's numbering, int64 `(m, 3)`.
+    fn faces<'py>(&self, py: Python<'py>, object: usize) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        faces_array(py, &self.object(object)?.triangles)
+    }
+
+    /// Every object's output vertices at `frame`, in its source file's numbering (float64
+    /// `(n, 3)` arrays). Needs `keep_points=True` in `Scene.run`.
+    fn points<'py>(&self, py: Python<'py>, frame: i64) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+        let Some(positions) = self.points.get(&frame) else {
+            let why = if self.points.is_empty() {
+                "run the scene with keep_points=True to keep the output vertices".to_string()
+            } else {
+                format!("frames {}:{} were run", self.frames.first().unwrap_or(&0), self.frames.last().unwrap_or(&0))
+            };
+            return Err(input_error(format!("frame {frame}: no output vertices kept; {why}")));
+        };
+        positions
+            .iter()
+            .zip(&self.objects)
+            .map(|(p, o)| match &o.vertex_map {
+                Some(map) => {
+                    let file: Vec<DVec3> = map.iter().map(|&v| p[v as usize]).collect();
+                    positions_array(py, &file)
+                }
+                None => positions_array(py, p),
+            })
+            .collect()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "squish.ShotResult({} frames, {} objects, {:?})",
+            self.frames.len(),
+            self.objects.len(),
+            self.output.display().to_string()
+        )
+    }
+}
+
+impl ShotResult {
+    fn object(&self, i: usize) -> PyResult<&ShotObject> {
+        self.objects
+            .get(i)
+            .ok_or_else(|| input_error(format!("object {i}: the shot has {} objects", self.objects.len())))
+    }
+}
+
+/// Merges every report part `report.A-B.json` in `output` into `output/report.json` (frames
+/// `first..=last` of the scene; the missing ones listed in `missing_frames`), as `squish run`
+/// does after each run. Returns the merged report's path.
+#[pyfunction]
+pub fn merge_reports(py: Python<'_>, output: PathBuf, first: i64, last: i64) -> PyResult<PathBuf> {
+    let dir: &Path = &output;
+    py.detach(|| squish_cli::report_parts::merge_reports(dir, first, last)).map_err(cli_error)
+}
