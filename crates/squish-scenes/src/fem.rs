@@ -176,7 +176,8 @@ fn number(text: &str, key: &str) -> Result<f64, String> {
 
 fn vector(text: &str, key: &str) -> Result<DVec3, String> {
     let v = value(text, key)?;
-    let xs: Vec<f64> = v.split_whitespace().map(str::parse).collect::<Result<_, _>>().map_err(|_| format!("`{key} = {v}`"))?;
+    let xs: Vec<f64> =
+        v.split_whitespace().map(str::parse).collect::<Result<_, _>>().map_err(|_| format!("`{key} = {v}`"))?;
     match xs[..] {
         [x, y, z] => Ok(DVec3::new(x, y, z)),
         _ => Err(format!("`{key} = {v}` is not three numbers")),
@@ -186,7 +187,8 @@ fn vector(text: &str, key: &str) -> Result<DVec3, String> {
 /// The rows of `summary.csv` as maps from column to value.
 fn summary_rows(csv: &str) -> Result<Vec<Vec<(String, f64)>>, String> {
     let mut lines = csv.lines().filter(|l| !l.trim().is_empty());
-    let header: Vec<String> = lines.next().ok_or("summary.csv is empty")?.split(',').map(|s| s.trim().to_string()).collect();
+    let header: Vec<String> =
+        lines.next().ok_or("summary.csv is empty")?.split(',').map(|s| s.trim().to_string()).collect();
     lines
         .map(|line| {
             let values: Vec<f64> = line
@@ -232,8 +234,11 @@ impl FemReference {
             let radius = number(reference, &format!("radius_{body}"))?;
             let centre = vector(reference, &format!("centre_{body}"))?;
             let toward = if *body == "A" { -DVec3::Z } else { DVec3::Z };
-            let ids: Vec<u32> =
-                cap.split_whitespace().map(str::parse).collect::<Result<_, _>>().map_err(|e| format!("cap ids: {e}"))?;
+            let ids: Vec<u32> = cap
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("cap ids: {e}"))?;
             bodies.push(FemBody::new(mesh, radius, centre, toward, ids)?);
         }
         let rows = summary_rows(summary)?;
@@ -307,7 +312,8 @@ impl FemReference {
                 .collect();
             let simulated_mesh = TriMesh { positions: simulated.clone(), triangles: body.cap_faces.clone() };
             let output_mesh = TriMesh { positions: output.clone(), triangles: body.rest.triangles.clone() };
-            let (Ok(simulated_tree), Ok(output_tree)) = (TriangleBvh::new(&simulated_mesh), TriangleBvh::new(&output_mesh))
+            let (Ok(simulated_tree), Ok(output_tree)) =
+                (TriangleBvh::new(&simulated_mesh), TriangleBvh::new(&output_mesh))
             else {
                 out.hausdorff.push(f64::INFINITY);
                 continue;
@@ -316,7 +322,8 @@ impl FemReference {
             let mut hausdorff = 0.0f64;
             for &c in &compared {
                 let v = body.cap[c] as usize;
-                hausdorff = hausdorff.max(distance(&simulated_tree, output[v])).max(distance(&output_tree, simulated[c]));
+                hausdorff =
+                    hausdorff.max(distance(&simulated_tree, output[v])).max(distance(&output_tree, simulated[c]));
             }
             out.hausdorff.push(hausdorff / r_min);
             let normals = vertex_normals(&body.rest);

@@ -34,7 +34,9 @@ fn vertices(path: &Path) -> Vec<DVec3> {
 
 /// The reference in `dir`.
 fn load(dir: &Path) -> FemReference {
-    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()));
+    let read = |name: &str| {
+        std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
+    };
     let reference = read("reference.txt");
     let summary = read("summary.csv");
     let bodies: Vec<&str> = if dir.join("rest_B.obj").exists() { vec!["A", "B"] } else { vec!["A"] };
@@ -72,9 +74,7 @@ fn run(reference: &FemReference, k: usize, params: &dyn Fn(usize) -> ObjectParam
 /// The steps of 5–20% approach.
 fn compared_steps(reference: &FemReference) -> Vec<usize> {
     let r = reference.min_radius();
-    (0..reference.steps.len())
-        .filter(|&k| (0.045..=0.205).contains(&(reference.steps[k].approach() / r)))
-        .collect()
+    (0..reference.steps.len()).filter(|&k| (0.045..=0.205).contains(&(reference.steps[k].approach() / r))).collect()
 }
 
 #[test]
@@ -83,7 +83,9 @@ fn fem_table() {
     let extent: Option<f64> = std::env::var("SQUISH_FEM_EXTENT").ok().map(|v| v.parse().unwrap());
     for reference in references() {
         println!("\n{}", reference.name);
-        println!("| approach | Hausdorff A | Hausdorff B | contact radius (FEM) | bulge A (FEM) | spread A (FEM) | spread B (FEM) |");
+        println!(
+            "| approach | Hausdorff A | Hausdorff B | contact radius (FEM) | bulge A (FEM) | spread A (FEM) | spread B (FEM) |"
+        );
         for k in compared_steps(&reference) {
             let params = |_: usize| {
                 let p = ObjectParams::default();

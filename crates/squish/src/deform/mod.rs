@@ -218,7 +218,7 @@ pub fn deform_region_with(
     let start = Instant::now();
     let plan = plan_region(mesh, topology, solver, zones, params, overrides)?;
     let stage = Instant::now();
-    let cubic = plan.volume_cubic(mesh)?;
+    let cubic = plan.volume_cubic(mesh, topology)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
         let solution = solve_bulge_height(&cubic, params.extent);
         (solution.height, solution.exact, solution.residual)
@@ -285,9 +285,10 @@ pub struct RegionPlan {
 }
 
 impl RegionPlan {
-    /// ΔV(h) of the region's faces (relative to the region's vertex centroid).
-    pub fn volume_cubic(&self, mesh: &TriMesh) -> Result<VolumeCubic, DeformError> {
-        VolumeCubic::new(mesh, &self.displacement, vertex_centroid(&mesh.positions))
+    /// ΔV(h) of the volume swept by the region's displacement ([`VolumeCubic::swept`], relative
+    /// to the region's vertex centroid): the enclosed volume's change for a closed object.
+    pub fn volume_cubic(&self, mesh: &TriMesh, topology: &Topology) -> Result<VolumeCubic, DeformError> {
+        VolumeCubic::swept(mesh, topology, &self.displacement, vertex_centroid(&mesh.positions))
     }
 
     /// The positions for an applied height `applied` (γ·h_v): moved vertices get

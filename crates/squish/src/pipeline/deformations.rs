@@ -67,8 +67,8 @@ pub(super) fn deform_regions(
         .enumerate()
         .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
             let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
-            let ObjectCache { regions, topology, closed, .. } = cache;
-            let (topology, closed) = (&*topology, *closed);
+            let ObjectCache { regions, topology, .. } = cache;
+            let topology = &*topology;
             regions
                 .par_iter_mut()
                 .zip(zones)
@@ -82,7 +82,7 @@ pub(super) fn deform_regions(
                         .extent
                         .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
                     let scale = Scale { extent, edge_length: figures[i].mean_edge_length(&region.components) };
-                    deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale).map(Some)
+                    deform_one(object, topology, region, r, zones, normals[i].as_deref(), scale).map(Some)
                 })
                 .collect()
         })
@@ -103,11 +103,9 @@ struct Scale {
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see the
 /// module doc). `object_normals`: the object's vertex normals when the contact stage computed
 /// them (it does for objects with a region processed whole).
-#[allow(clippy::too_many_arguments)]
 fn deform_one(
     object: &FrameObject,
     topology: &Topology,
-    closed: bool,
     region: &mut RegionCache,
     index: usize,
     zones: &[ContactZone],
@@ -137,7 +135,7 @@ fn deform_one(
     let Some(solver) = region.solver.as_mut() else {
         return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
     };
-    let mut params = DeformParams::of(object.params, extent, object.params.preserve_volume.unwrap_or(closed));
+    let mut params = DeformParams::of(object.params, extent, object.params.preserve_volume.unwrap_or(true));
     if let Some(map) = object.params.bulge_map.as_ref() {
         params.bulge_map = Some(match region.sub.as_deref() {
             None => map.clone(),

@@ -6,6 +6,8 @@
 
 mod common;
 mod frames;
+mod gap;
+mod open_meshes;
 mod regions;
 mod self_contact;
 mod warnings;
