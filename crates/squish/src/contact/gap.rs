@@ -22,34 +22,28 @@
 //! with h, while staying invisible.
 
 use super::ContactZone;
-use super::pair::ContactSide;
+use crate::mesh::{Topology, TriMesh};
 
 /// The automatic gap as a fraction of the coarser zone's mean edge length.
 pub const PAIR_GAP_FRACTION: f64 = 0.1;
 
-/// Mean length of the edges of `side` with an end inside `zone` (0 for an empty zone).
-pub fn zone_edge_length(side: &ContactSide, zone: &ContactZone) -> f64 {
+/// Mean length of the edges of `mesh` (with its `topology`) with an end inside `zone` (0 for an
+/// empty zone).
+pub fn zone_edge_length(mesh: &TriMesh, topology: &Topology, zone: &ContactZone) -> f64 {
     let (mut total, mut count) = (0.0, 0usize);
-    for &[i, j] in side.topology.edges() {
+    for &[i, j] in topology.edges() {
         if zone.region.contains(i) || zone.region.contains(j) {
-            total += (side.mesh.positions[i as usize] - side.mesh.positions[j as usize]).length();
+            total += (mesh.positions[i as usize] - mesh.positions[j as usize]).length();
             count += 1;
         }
     }
     if count == 0 { 0.0 } else { total / count as f64 }
 }
 
-/// The gap of a pair: `requested` (`None`: automatic, from the two zones' edge lengths) bounded by
-/// the typical penetration depth `penetration`.
-pub fn effective_gap(
-    requested: Option<f64>,
-    sides: [&ContactSide; 2],
-    zones: [&ContactZone; 2],
-    penetration: f64,
-) -> f64 {
-    let gap = requested.unwrap_or_else(|| {
-        PAIR_GAP_FRACTION * zone_edge_length(sides[0], zones[0]).max(zone_edge_length(sides[1], zones[1]))
-    });
+/// The gap of a pair: `requested` (`None`: automatic, [`PAIR_GAP_FRACTION`] of the larger of the
+/// two zones' edge lengths `edge_lengths`) bounded by the typical penetration depth `penetration`.
+pub fn effective_gap(requested: Option<f64>, edge_lengths: [f64; 2], penetration: f64) -> f64 {
+    let gap = requested.unwrap_or(PAIR_GAP_FRACTION * edge_lengths[0].max(edge_lengths[1]));
     gap.min(penetration).max(0.0)
 }
 

@@ -458,7 +458,10 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let mut zones = zones;
     let gap = match params.contact_gap {
         Some(0.0) => 0.0,
-        requested => super::gap::effective_gap(requested, sides, [&zones[0].zone, &zones[1].zone], crit.penetration),
+        requested => {
+            let edges = [0, 1].map(|l| super::gap::zone_edge_length(sides[l].mesh, sides[l].topology, &zones[l].zone));
+            super::gap::effective_gap(requested, edges, crit.penetration)
+        }
     };
     for (l, z) in zones.iter_mut().enumerate() {
         super::gap::apply_gap(&mut z.zone, k[1 - l] * gap);
