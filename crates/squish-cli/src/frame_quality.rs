@@ -1,7 +1,8 @@
 //! Quality figures of one computed frame, measured by the shot's workers: per object, the relative
 //! volume change, the contact area and the largest displacement from the input (the
 //! frame-to-frame steps are set once the previous frame is known); per pair, the deepest
-//! penetration of either mesh into the other before and after deformation (closed meshes only).
+//! penetration of either mesh into the other before and after deformation (closed meshes only)
+//! and how many faces of each intersect the other (exact triangle–triangle test, any mesh).
 
 use glam::DVec3;
 use serde::Serialize;
@@ -59,6 +60,11 @@ pub struct PairQuality {
     pub penetration_after: Option<f64>,
     /// `penetration_after / penetration_before` (`None` when there was no penetration).
     pub penetration_ratio: Option<f64>,
+    /// Faces of each object that intersect a face of the other (exact test, touching counts),
+    /// before (input) and after (output). At the default `pair.contact_gap` the outputs have
+    /// none; with a gap of 0 the coincident contact surfaces interleave.
+    pub intersecting_faces_before: [usize; 2],
+    pub intersecting_faces_after: [usize; 2],
 }
 
 /// What measuring a frame reuses from the previous frames a worker measured: per object,
@@ -78,8 +84,9 @@ struct ObjectTrees {
 }
 
 impl MeasureCache {
-    /// Trees of object `i` over `input` and `output` positions; `None` for an open mesh (no
-    /// inside, no penetration) or a mesh the trees cannot be built for.
+    /// Trees of object `i` over `input` and `output` positions, built or refitted (kept in the
+    /// cache for open meshes too: their faces are counted); `None` for an open mesh (no inside,
+    /// no penetration) or a mesh the trees cannot be built for.
     fn trees(&mut self, i: usize, mesh: &TriMesh, output: &[DVec3]) -> Option<&ObjectTrees> {
         if self.objects.len() <= i {
             self.objects.resize_with(i + 1, || None);
@@ -88,7 +95,7 @@ impl MeasureCache {
         let reusable = slot.as_ref().is_some_and(|t| t.triangles == mesh.triangles);
         if reusable {
             let trees = slot.as_mut()?;
-            if trees.closed && (trees.input.refit(&mesh.positions).is_err() || trees.output.refit(output).is_err()) {
+            if trees.input.refit(&mesh.positions).is_err() || trees.output.refit(output).is_err() {
                 *slot = None;
                 return None;
             }
@@ -100,6 +107,20 @@ impl MeasureCache {
         }
         slot.as_ref().filter(|t| t.closed)
     }
+}
+
+/// Distinct faces of each tree that intersect a face of the other.
+fn intersecting_faces(a: &TriangleBvh, b: &TriangleBvh) -> [usize; 2] {
+    if !a.bounds().intersects(&b.bounds()) {
+        return [0, 0];
+    }
+    let pairs = a.intersections_with(b);
+    let mut faces: [Vec<u32>; 2] = [pairs.iter().map(|p| p[0]).collect(), pairs.iter().map(|p| p[1]).collect()];
+    faces.iter_mut().for_each(|f| {
+        f.sort_unstable();
+        f.dedup();
+    });
+    faces.map(|f| f.len())
 }
 
 /// Deepest vertex of either point set inside the other tree's closed mesh.
@@ -136,6 +157,12 @@ pub fn measure(
             ),
             _ => (None, None),
         };
+        let (faces_before, faces_after) = match (&cache.objects[a], &cache.objects[b]) {
+            (Some(ta), Some(tb)) => {
+                (intersecting_faces(&ta.input, &tb.input), intersecting_faces(&ta.output, &tb.output))
+            }
+            _ => ([0, 0], [0, 0]),
+        };
         pairs.push(PairQuality {
             objects: pair_stats.objects.clone(),
             in_contact: pair_stats.in_contact,
@@ -146,6 +173,8 @@ pub fn measure(
                 (Some(b), Some(a)) if b > 0.0 => Some(a / b),
                 _ => None,
             },
+            intersecting_faces_before: faces_before,
+            intersecting_faces_after: faces_after,
         });
     }
     let objects = stats

@@ -230,6 +230,10 @@ pub struct ShotSummary {
     /// Largest residual penetration (world units) and largest ratio residual / input.
     pub max_residual_penetration: Option<Extreme>,
     pub max_penetration_ratio: Option<Extreme>,
+    /// Most faces of one object intersecting the other after deformation (a pair's larger count;
+    /// `pair.contact_gap` keeps it at 0), and the same for the inputs.
+    pub max_intersecting_faces_after: Option<Extreme>,
+    pub max_intersecting_faces_before: Option<Extreme>,
     /// Largest frame-to-frame output step, and largest ratio of a frame's largest output step to
     /// its largest input step (all objects), i.e. how much more the result moved than the input.
     pub max_output_step: Option<Extreme>,
@@ -325,6 +329,8 @@ impl ShotSummary {
             max_volume_change: None,
             max_residual_penetration: None,
             max_penetration_ratio: None,
+            max_intersecting_faces_after: None,
+            max_intersecting_faces_before: None,
             max_output_step: None,
             max_step_ratio: None,
             total_frame_time_s: 0.0,
@@ -356,6 +362,9 @@ impl ShotSummary {
                 if let Some(ratio) = p.penetration_ratio {
                     keep_max(&mut s.max_penetration_ratio, ratio, r.frame, at);
                 }
+                let faces = |f: [usize; 2]| f[0].max(f[1]) as f64;
+                keep_max(&mut s.max_intersecting_faces_before, faces(p.intersecting_faces_before), r.frame, at);
+                keep_max(&mut s.max_intersecting_faces_after, faces(p.intersecting_faces_after), r.frame, at);
             }
             if let (_, _, Some(ratio)) = frame_steps(r) {
                 let at = r
@@ -400,6 +409,9 @@ impl ShotSummary {
                 let _ = write!(text, ", residual penetration ≤ {} of the input's", percent(p.value));
             }
             None => text.push_str(", no penetration measured"),
+        }
+        if let Some(faces) = &self.max_intersecting_faces_after {
+            let _ = write!(text, ", ≤ {} intersecting faces after", faces.value);
         }
         if let Some(step) = &self.max_step_ratio {
             let _ = write!(text, ", largest step {:.2}× the input's (frame {})", step.value, step.frame);

@@ -11,5 +11,6 @@
 //!   against.
 
 pub mod bench;
+pub mod fem;
 pub mod procedural;
 pub mod timing;

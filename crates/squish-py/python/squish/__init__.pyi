@@ -27,9 +27,9 @@ class ObjectParams(TypedDict, total=False):
     bulge: float
     """Volume compensation: 0 no bulge, 1 the volume is preserved, more than 1 exaggerated. Default: 1.0."""
     bulge_height: float
-    """Height of the bulge when the volume is not preserved (open meshes). Default: 0.0."""
+    """Height of the bulge when the volume is not preserved (`preserve_volume = false`). Default: 0.0."""
     preserve_volume: bool | Literal['auto']
-    """Solve the bulge's height so that the enclosed volume is preserved exactly. Default: 'auto'."""
+    """Solve the bulge's height so that the volume is preserved exactly: a closed mesh keeps the volume it encloses, an open one (cloth, a ground patch) sweeps no net volume — what its contact pushes in bulges out around it (docs/decisions.md, "Open meshes bulge"). Default: 'auto'."""
     profile_v2: float
     """Abscissa of the profile curve's second control point v2 (where the bulge peaks). Default: 0.3333333333333333."""
     profile_v3: float
@@ -80,6 +80,8 @@ class PairParams(TypedDict, total=False):
     """Radius of method A's virtual ball: the elastic object's pseudo-stiffness (a larger ball, a smaller contact zone). Required with `contact_method = "ball"`. Default: 'none'."""
     mapping: Literal['unique_direction', 'shared_parametrization']
     """How points are matched: `unique_direction` (method B) or `shared_parametrization` (method A, both meshes with UVs). Default: 'unique_direction'."""
+    contact_gap: float | Literal['auto']
+    """Distance left between the two outputs across the contact zone: each side stops short of the contact surface 𝒮 by its share of it (the share it moves, k̄ of its partner), so that their triangles do not interleave. 0 gives the thesis' coincident surfaces. Default: 'auto'."""
 
 class ArticulationParams(TypedDict, total=False):
     """The articulation parameters (squish.params_schema())."""

@@ -21,6 +21,8 @@
 //! - method A's alternatives, chosen in [`PairParams`](crate::params::PairParams): [`map_regions_uv`], the
 //!   shared-parametrization mapping (§4.2.1), and [`ball_zone`], ball testing and sliding (§4.4.1,
 //!   rigid–elastic pairs);
+//! - [`apply_gap`]: the zones' targets backed off 𝒮 by the pair's contact gap, so that the
+//!   outputs do not interleave (not in the thesis; issue 29);
 //! - [`contact_pair`], which runs them all for a pair and returns a [`PairContact`] with the
 //!   stage times ([`ContactStats`]);
 //! - [`debug_export`]: per-vertex labels and boundary points for debugging.
@@ -50,6 +52,7 @@ mod ball;
 mod direction;
 mod error;
 mod export;
+mod gap;
 mod intersect;
 mod mapping;
 mod pair;
@@ -70,6 +73,7 @@ pub use error::ContactError;
 pub use export::{
     BoundaryKind, DebugPoint, DebugSide, LABEL_CONTACT, LABEL_INTERSECTION, LABEL_MAPPING, LABEL_OUTSIDE, debug_export,
 };
+pub use gap::{PAIR_GAP_FRACTION, apply_gap, effective_gap, zone_edge_length};
 pub use intersect::{Intersection, IntersectionPoint, IntersectionStats, intersect};
 pub use mapping::{MappingStats, Match, MatchKind, NO_SLOT, SideMapping, map_regions};
 pub use pair::{ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, contact_pair};

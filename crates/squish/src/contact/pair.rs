@@ -267,6 +267,9 @@ pub struct PairContact {
     /// Method A: the ball radius used when the given r_s left the zone empty (halved until the
     /// balls fit inside the elastic object); `None` when r_s was used as given.
     pub ball_radius: Option<f64>,
+    /// The gap left between the two sides' targets across the zone ([`PairParams::contact_gap`]
+    /// bounded by the typical penetration depth; 0 without contact).
+    pub gap: f64,
     pub stats: ContactStats,
 }
 
@@ -333,6 +336,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             ],
             contact_area: 0.0,
             ball_radius: None,
+            gap: 0.0,
             stats,
         });
     }
@@ -374,7 +378,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let k = [ka, kb];
     let surfaces = [0, 1].map(|l| side_surface(sides[l], &mappings[l], toward[l], k[l], k[1 - l]));
     let mut crit = criterion(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]], params.contact_tau);
-    if params.contact_threshold_floor.is_some() || params.contact_tau > 0.0 {
+    if params.contact_threshold_floor.is_some() || params.contact_tau > 0.0 || params.contact_gap != Some(0.0) {
         crit.penetration =
             super::zone::typical_penetration(sides, [&mappings[0], &mappings[1]], [&surfaces[0], &surfaces[1]]);
     }
@@ -450,6 +454,18 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
             zones
         }
     };
+    // The targets backed off 𝒮 so that the outputs do not interleave (super::gap).
+    let mut zones = zones;
+    let gap = match params.contact_gap {
+        Some(0.0) => 0.0,
+        requested => {
+            let edges = [0, 1].map(|l| super::gap::zone_edge_length(sides[l].mesh, sides[l].topology, &zones[l].zone));
+            super::gap::effective_gap(requested, edges, crit.penetration)
+        }
+    };
+    for (l, z) in zones.iter_mut().enumerate() {
+        super::gap::apply_gap(&mut z.zone, k[1 - l] * gap);
+    }
     stats.timings[Stage::ContactZone] += t.elapsed();
 
     let [ma, mb] = mappings;
@@ -497,6 +513,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         sides,
         contact_area,
         ball_radius,
+        gap,
         stats,
     })
 }

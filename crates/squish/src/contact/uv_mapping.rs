@@ -784,7 +784,10 @@ mod tests {
     }
 
     fn run(a: &WithUvs, b: &WithUvs, params: &PairParams) -> PairContact {
-        contact_pair(&a.side(), &b.side(), params).unwrap()
+        // The thesis' 𝒮 is checked here: the contact gap (tested with the pipeline, in
+        // tests/pipeline/gap.rs) is 0 unless a test asks for one.
+        let params = PairParams { contact_gap: params.contact_gap.or(Some(0.0)), ..*params };
+        contact_pair(&a.side(), &b.side(), &params).unwrap()
     }
 
     /// The whole contact definition with the shared parametrization: with the geometric criterion

@@ -47,7 +47,8 @@ pub struct CriterionStats {
     pub threshold: f64,
     /// The typical penetration depth P = ∫c₊² / ∫c₊ over ℳ (c₊ = max(c, 0); 0 without
     /// penetration): continuous, and 0 when the contact starts. Computed only for a pair with a
-    /// threshold floor ([`crate::params::PairParams::contact_threshold_floor`]) or τ > 0, 0 otherwise.
+    /// threshold floor ([`crate::params::PairParams::contact_threshold_floor`]), τ > 0 or a
+    /// contact gap (it bounds the gap), 0 otherwise.
     pub penetration: f64,
     /// m_𝒮 + τσ_𝒮 when it was above P and ε_c was clamped to P (τ > 0 only; see
     /// `docs/decisions.md`, "Contact spread τ"), `None` otherwise.

@@ -219,7 +219,7 @@ pub fn deform_region_with(
     overrides: &RegionOverrides,
 ) -> Result<RegionDeformation, DeformError> {
     let fields = region_fields(mesh, topology, solver, zones, params, overrides)?;
-    deform_with_fields(mesh, zones, fields, params)
+    deform_with_fields(mesh, topology, zones, fields, params)
 }
 
 /// Chapter 5's last step on a region whose [`RegionFields`] are known (§5.4–5.5, App. C): the
@@ -229,6 +229,7 @@ pub fn deform_region_with(
 /// differ from the ones the fields were computed with.
 pub fn deform_with_fields(
     mesh: &TriMesh,
+    topology: &Topology,
     zones: &[ContactZone],
     fields: RegionFields,
     params: &DeformParams,
@@ -237,7 +238,7 @@ pub fn deform_with_fields(
     let upstream_time = fields.stats.time;
     let plan = fields.plan(mesh, zones, params)?;
     let stage = Instant::now();
-    let cubic = plan.volume_cubic(mesh)?;
+    let cubic = plan.volume_cubic(mesh, topology)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
         let solution = solve_bulge_height(&cubic, params.extent);
         (solution.height, solution.exact, solution.residual)
@@ -304,9 +305,10 @@ pub struct RegionPlan {
 }
 
 impl RegionPlan {
-    /// ΔV(h) of the region's faces (relative to the region's vertex centroid).
-    pub fn volume_cubic(&self, mesh: &TriMesh) -> Result<VolumeCubic, DeformError> {
-        VolumeCubic::new(mesh, &self.displacement, vertex_centroid(&mesh.positions))
+    /// ΔV(h) of the volume swept by the region's displacement ([`VolumeCubic::swept`], relative
+    /// to the region's vertex centroid): the enclosed volume's change for a closed object.
+    pub fn volume_cubic(&self, mesh: &TriMesh, topology: &Topology) -> Result<VolumeCubic, DeformError> {
+        VolumeCubic::swept(mesh, topology, &self.displacement, vertex_centroid(&mesh.positions))
     }
 
     /// The positions for an applied height `applied` (γ·h_v): moved vertices get

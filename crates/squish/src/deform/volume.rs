@@ -12,6 +12,16 @@
 //! The working region may be part of a larger closed mesh: faces outside the region do not move,
 //! so ΔV over the region's faces is the object's ΔV.
 //!
+//! **Open meshes** (issue 29; docs/decisions.md, "Open meshes bulge"): an open surface encloses no
+//! volume, so what is kept is the signed volume *swept* by its displacement — the volume of the
+//! closed surface made of the output, the input reversed, and the ruled strips swept by the
+//! boundary edges that move ([`VolumeCubic::swept`]). For a closed mesh there is no strip and it
+//! is the change of the enclosed volume; it does not depend on the reference point, so it is
+//! invariant under rigid motions. Every strip `(i, j, j′, i′)`, i → j a boundary edge in its
+//! face's order, is two triangles `(i, j, j′)`, `(i, j′, i′)`, whose cones from o add their terms
+//! in h to the cubic. A cut working region's border does not move (the pipeline clamps the
+//! extent), so its strips add nothing.
+//!
 //! Root choice: the smallest non-negative root (App. C: "the smallest positive one"), found
 //! robustly without a companion matrix: the cubic is rescaled to `x = h/scale` (scale = the
 //! extent), its critical points split `[0, 10⁶]` into monotone pieces, and the first piece whose
@@ -25,7 +35,7 @@
 use glam::DVec3;
 
 use super::DeformError;
-use crate::mesh::TriMesh;
+use crate::mesh::{Topology, TriMesh};
 
 /// Bulge heights beyond this many extents are not searched (no meaningful deformation).
 const MAX_SCALED_HEIGHT: f64 = 1e6;
@@ -96,6 +106,42 @@ impl VolumeCubic {
             c[3] += in_h[3];
         }
         Ok(Self { coefficients: c.map(|x| x / 6.0) })
+    }
+
+    /// ΔV(h) of the volume swept by the region's displacement (see the module doc): [`Self::new`]
+    /// plus the strips swept by the boundary edges of `topology` (the region's) that have a moved
+    /// end. Equal to [`Self::new`] for a closed region.
+    pub fn swept(
+        mesh: &TriMesh,
+        topology: &Topology,
+        displacement: &AffineDisplacement,
+        reference: DVec3,
+    ) -> Result<Self, DeformError> {
+        let mut cubic = Self::new(mesh, displacement, reference)?;
+        let mut strips = [0.0; 4];
+        for e in topology.boundary_edges() {
+            let [a, b] = topology.edge(e);
+            if !(displacement.moved[a as usize] || displacement.moved[b as usize]) {
+                continue;
+            }
+            // The edge in the order of its one face, so that the strip closes the swept volume
+            // with outward orientation.
+            let face = mesh.triangles[topology.edge_faces(e)[0] as usize];
+            let k = face.iter().position(|&v| v == a).unwrap_or(0);
+            let [i, j] = if face[(k + 1) % 3] == b { [a, b] } else { [b, a] }.map(|v| v as usize);
+            let q = |v: usize| mesh.positions[v] - reference;
+            let moved = |v: usize| q(v) + displacement.constant[v];
+            let (li, lj) = (displacement.linear[i], displacement.linear[j]);
+            let first = det_expansion([q(i), q(j), moved(j)], [DVec3::ZERO, DVec3::ZERO, lj]);
+            let second = det_expansion([q(i), moved(j), moved(i)], [DVec3::ZERO, lj, li]);
+            for (s, (x, y)) in strips.iter_mut().zip(first.iter().zip(&second)) {
+                *s += x + y;
+            }
+        }
+        for (c, s) in cubic.coefficients.iter_mut().zip(strips) {
+            *c += s / 6.0;
+        }
+        Ok(cubic)
     }
 
     /// ΔV(h).

@@ -65,11 +65,13 @@ pub struct ObjectParams {
     /// Volume compensation: 0 no bulge, 1 the volume is preserved, more than 1 exaggerated.
     #[param(symbol = "γ", section = "§5.4.2", range = "[0, inf)", keyframable)]
     pub bulge: f64,
-    /// Height of the bulge when the volume is not preserved (open meshes).
+    /// Height of the bulge when the volume is not preserved (`preserve_volume = false`).
     #[param(symbol = "h_v", section = "§5.4.2", unit = "scene units", keyframable)]
     pub bulge_height: f64,
-    /// Solve the bulge's height so that the enclosed volume is preserved exactly.
-    #[param(section = "App. C", auto = "on for closed meshes, off for open ones")]
+    /// Solve the bulge's height so that the volume is preserved exactly: a closed mesh keeps the
+    /// volume it encloses, an open one (cloth, a ground patch) sweeps no net volume — what its
+    /// contact pushes in bulges out around it (docs/decisions.md, "Open meshes bulge").
+    #[param(section = "App. C", auto = "on (closed and open meshes)")]
     pub preserve_volume: Option<bool>,
     /// Abscissa of the profile curve's second control point v2 (where the bulge peaks).
     ///

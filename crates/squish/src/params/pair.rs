@@ -80,6 +80,20 @@ pub struct PairParams {
     /// (method A, both meshes with UVs).
     #[param(section = "§4.2")]
     pub mapping: MappingMethod,
+    /// Distance left between the two outputs across the contact zone: each side stops short of
+    /// the contact surface 𝒮 by its share of it (the share it moves, k̄ of its partner), so that
+    /// their triangles do not interleave. 0 gives the thesis' coincident surfaces.
+    ///
+    /// It grows with the penetration from 0 at the first touch (it is never more than the typical
+    /// penetration depth), so that the motion stays continuous (docs/decisions.md, "Contact gap").
+    #[param(
+        section = "§4.3",
+        unit = "scene units",
+        range = "[0, inf)",
+        keyframable,
+        auto = "0.1 × the mean length of the edges of the two contact zones (the coarser side's)"
+    )]
+    pub contact_gap: Option<f64>,
     /// An upper bound on ε_c (world units): with 0 every penetrating point of the mapping regions
     /// is in contact, whatever the spread of depths — what self-contact uses (ch. 6), where no
     /// interpenetration may remain. `None`: the thesis' criterion.
@@ -105,6 +119,7 @@ impl Default for PairParams {
             contact_method: ContactMethod::Geometric,
             ball_radius: None,
             mapping: MappingMethod::UniqueDirection,
+            contact_gap: None,
             max_contact_threshold: None,
             contact_threshold_floor: None,
         }
@@ -140,6 +155,12 @@ impl PairParams {
     /// Sets the mapping method.
     pub fn with_mapping(mut self, mapping: MappingMethod) -> Self {
         self.mapping = mapping;
+        self
+    }
+
+    /// Sets the contact gap (`None`: automatic; `Some(0.0)`: the thesis' coincident surfaces).
+    pub fn with_contact_gap(mut self, gap: Option<f64>) -> Self {
+        self.contact_gap = gap;
         self
     }
 

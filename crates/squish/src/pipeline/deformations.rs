@@ -91,8 +91,8 @@ pub(super) fn deform_regions(
         .enumerate()
         .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
             let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
-            let ObjectCache { regions, topology, closed, .. } = cache;
-            let (topology, closed) = (&*topology, *closed);
+            let ObjectCache { regions, topology, .. } = cache;
+            let topology = &*topology;
             regions
                 .par_iter_mut()
                 .zip(zones)
@@ -106,7 +106,7 @@ pub(super) fn deform_regions(
                         .extent
                         .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
                     let scale = Scale { extent, edge_length: figures[i].mean_edge_length(&region.components) };
-                    deform_one(object, topology, closed, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
+                    deform_one(object, topology, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
                 })
                 .collect()
         })
@@ -131,7 +131,6 @@ struct Scale {
 fn deform_one(
     object: &FrameObject,
     topology: &Topology,
-    closed: bool,
     region: &mut RegionCache,
     index: usize,
     zones: &[ContactZone],
@@ -170,7 +169,7 @@ fn deform_one(
         edge_length: (object_edge_length > 0.0).then_some(object_edge_length),
         domain_radius: None,
     };
-    let mut params = region_params(object, closed, region.sub.as_deref(), scales).map_err(err)?;
+    let mut params = region_params(object, region.sub.as_deref(), scales).map_err(err)?;
     let mut fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
     let mut clamped = false;
     if let Some(border) = border {
@@ -208,7 +207,7 @@ fn deform_one(
         border.iter().zip(&fields.domain).any(|(&on_cut, &within)| on_cut && within)
     });
     let kept = keep.then(|| KeptRegion { fields: fields.clone(), scales, clamped, domain_reaches_cut });
-    let deformation = deform_with_fields(mesh, zones, fields, &params).map_err(err)?;
+    let deformation = deform_with_fields(mesh, topology, zones, fields, &params).map_err(err)?;
     Ok(RegionOutcome {
         deformation,
         extent: params.extent,
@@ -221,15 +220,15 @@ fn deform_one(
 }
 
 /// The [`DeformParams`] of a region: the object's parameters at this frame with the resolved
-/// scales, volume preservation resolved by whether the object is closed, and the painted bulge
-/// map gathered onto the region's vertices.
+/// scales, volume preserved unless the parameters say otherwise (closed or open: an open mesh
+/// keeps its swept volume, see `deform::volume`), and the painted bulge map gathered onto the
+/// region's vertices.
 fn region_params<'a>(
     object: &FrameObject<'a>,
-    closed: bool,
     sub: Option<&SubRegion>,
     scales: ResolvedScales,
 ) -> Result<DeformParams<'a>, DeformError> {
-    let mut params = DeformParams::of(object.params, scales.extent, object.params.preserve_volume.unwrap_or(closed));
+    let mut params = DeformParams::of(object.params, scales.extent, object.params.preserve_volume.unwrap_or(true));
     if let Some(map) = object.params.bulge_map.as_ref() {
         params.bulge_map = Some(match sub {
             None => map.clone(),
@@ -275,10 +274,13 @@ pub(super) fn finish_kept_regions(
                 .map(|((region, zones), kept)| {
                     let Some(kept) = kept else { return Ok(None) };
                     let start = Instant::now();
-                    let mesh = region.sub.as_deref().map_or(object.mesh, |sub| &sub.sub.mesh);
-                    let params =
-                        region_params(object, cache.closed, region.sub.as_deref(), kept.scales).map_err(err)?;
-                    let mut deformation = deform_with_fields(mesh, zones, kept.fields.clone(), &params).map_err(err)?;
+                    let (mesh, topology) = region
+                        .sub
+                        .as_deref()
+                        .map_or((object.mesh, &cache.topology), |sub| (&sub.sub.mesh, &sub.topology));
+                    let params = region_params(object, region.sub.as_deref(), kept.scales).map_err(err)?;
+                    let mut deformation =
+                        deform_with_fields(mesh, topology, zones, kept.fields.clone(), &params).map_err(err)?;
                     let stats = &mut deformation.stats;
                     (stats.numeric_factorizations, stats.factorized_rows, stats.recomputed_rows) = (0, 0, 0);
                     stats.reduced_analyses = 0;

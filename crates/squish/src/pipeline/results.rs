@@ -88,7 +88,7 @@ pub(super) fn object_results(
             rigid: object.params.rigid,
             volume_before,
             volume_after: volume_before,
-            preserve_volume: object.params.preserve_volume.unwrap_or(cache.closed),
+            preserve_volume: object.params.preserve_volume.unwrap_or(true),
             regions: cache.regions.len(),
             zones: zones[i].iter().map(Vec::len).sum(),
             ..ObjectStats::default()

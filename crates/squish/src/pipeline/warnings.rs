@@ -1,6 +1,6 @@
 //! What a frame did not do that it was asked to (issue 28): a contact zone left empty while the
 //! meshes intersect, a mesh wholly inside another, a contact parameter that had to be reduced,
-//! an open mesh deformed without a bulge, a penetration left deeper than the tolerance. Each is
+//! an open mesh deformed with its volume preservation switched off and no bulge, a penetration left deeper than the tolerance. Each is
 //! a [`FrameWarning`] in [`super::FrameStats::warnings`], naming the pair or object and saying
 //! why and what to change; the command line prints them, writes them to its reports and fails
 //! with `--strict` when there is any. Nothing here changes a result.
@@ -26,7 +26,7 @@ pub enum WarningKind {
     ContactSpreadClamped,
     /// Method A's ball radius did not fit inside the elastic object; a smaller one was used.
     BallRadiusReduced,
-    /// An open mesh was deformed without volume preservation or bulge: it lost volume.
+    /// An open mesh was deformed with `preserve_volume = false` and no bulge height: it lost volume.
     NoBulge,
     /// The output still penetrates deeper than [`RESIDUAL_PENETRATION_TOLERANCE`] of the input.
     ResidualPenetration,
@@ -126,8 +126,9 @@ pub(super) fn frame_warnings(
                 pair: None,
                 object: Some(i),
                 message: format!(
-                    "object \"{}\" is an open mesh: its volume is not preserved (an open surface encloses none) and no bulge \
-                     was added, so it lost the volume pushed in; set its bulge_height, or close the mesh",
+                    "object \"{}\" is an open mesh deformed with preserve_volume = false and no bulge_height: it lost the \
+                     volume its contact pushed in; leave preserve_volume on (the swept volume is then kept) or set its \
+                     bulge_height",
                     object.name
                 ),
             });

@@ -449,14 +449,7 @@ pub const GAP_FRACTION: f64 = 0.5;
 /// vertices, whose chords would cross each other by the sampling error.
 fn separate(zone: &ContactZone, offset: f64) -> ContactZone {
     let mut zone = zone.clone();
-    for (v, t) in zone.targets.iter_mut().enumerate() {
-        if zone.region.contains(v as u32) {
-            *t -= offset * zone.normals[v];
-        }
-    }
-    for (t, n) in zone.boundary_targets.iter_mut().zip(&zone.boundary_normals) {
-        *t -= offset * *n;
-    }
+    crate::contact::apply_gap(&mut zone, offset);
     zone
 }
 
@@ -527,6 +520,9 @@ pub fn plan_articulation(
         safeguard_angle: articulation.params.safeguard_angle,
         max_contact_threshold: Some(0.0),
         contact_threshold_floor: Some(CONTACT_THRESHOLD_FLOOR),
+        // The articulation leaves its own gap (`contact_gap` of the articulation, `separate`
+        // below); the pair's would add to it.
+        contact_gap: Some(0.0),
         ..PairParams::default()
     };
     let contact = match &truncated {

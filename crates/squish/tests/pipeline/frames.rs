@@ -274,13 +274,16 @@ fn a_rigid_ground_keeps_its_shape_and_the_ball_lies_on_it() {
     let result = run(&scene);
     assert_eq!(result.positions[1], scene.objects[1].mesh.positions);
     // The rigid ground's top is z = 0: the ball may not sink into it by more than 2% of the
-    // initial depth (0.2); its contact zone lies exactly on it.
+    // initial depth (0.2); its contact zone lies exactly the contact gap above it (the rigid side
+    // keeps its surface, the ball leaves the whole gap).
     let lowest = result.positions[0].iter().fold(f64::INFINITY, |m, p| m.min(p.z));
     assert!(lowest > -0.004, "ball vertex below the rigid ground: {lowest}");
     let zone = result.deformations[0].as_ref().unwrap();
+    let gap = result.contacts[0].as_ref().unwrap().gap;
+    assert!(gap > 0.0);
     for (v, p) in result.positions[0].iter().enumerate() {
         if zone.contact[v] {
-            assert!(p.z.abs() < 1e-12, "contact vertex {v} off the rigid surface: {p}");
+            assert!((p.z - gap).abs() < 1e-12, "contact vertex {v} off the rigid surface by the gap {gap}: {p}");
         }
     }
     assert!(result.stats.objects[0].relative_volume_change.abs() < 1e-9);
@@ -386,13 +389,17 @@ fn the_deformer_runs_ball_testing_from_the_pair_parameters() {
     assert!(result.stats.pairs[0].zone_vertices[1] > 0 && result.stats.pairs[0].zone_vertices[0] == 0);
     assert!(stats.relative_volume_change.abs() < 1e-9);
     assert_no_flipped_face(&ground.mesh, &deformed(&scene, &result, 1), "the ground");
-    // The zone is pressed onto the ball.
+    // The zone is pressed onto the ball, the contact gap away from it.
     let zone = &contact.sides[1].zone;
     let centre = DVec3::new(0.0, 0.0, 1.0 - 0.15);
     for v in 0..ground.mesh.num_vertices() {
         if zone.region.contains(v as u32) {
             let d = (result.positions[1][v] - centre).length();
-            assert!((d - 1.0).abs() < 5e-3, "vertex {v} at {d} from the ball's centre");
+            assert!(
+                (d - 1.0 - contact.gap).abs() < 5e-3,
+                "vertex {v} at {d} from the ball's centre (gap {})",
+                contact.gap
+            );
         }
     }
 }

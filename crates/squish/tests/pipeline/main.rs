@@ -7,6 +7,8 @@
 mod common;
 mod edits;
 mod frames;
+mod gap;
+mod open_meshes;
 mod regions;
 mod self_contact;
 mod warnings;
