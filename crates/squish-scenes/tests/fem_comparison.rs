@@ -128,3 +128,109 @@ fn fem_table() {
         }
     }
 }
+
+/// The extent objects had before issue 29's calibration, `max(min(1.2·r, 3·r_partner),
+/// 1.5·√(A/π))`, for the "former" rows of the spread table.
+fn former_extent(size: f64, partner_size: f64, contact_area: f64) -> f64 {
+    (1.2 * size).min(3.0 * partner_size).max(1.5 * (contact_area / std::f64::consts::PI).sqrt())
+}
+
+/// How far a deformation spreads: the largest distance from `centre` of a rest vertex displaced
+/// by at least [`squish_scenes::fem::SPREAD_FRACTION`] of the largest displacement.
+fn spread_from(rest: &[DVec3], deformed: &[DVec3], centre: DVec3) -> f64 {
+    let largest = rest.iter().zip(deformed).map(|(r, d)| (*d - *r).length()).fold(0.0, f64::max);
+    rest.iter()
+        .zip(deformed)
+        .filter(|(r, d)| largest > 0.0 && (**d - **r).length() >= squish_scenes::fem::SPREAD_FRACTION * largest)
+        .map(|(r, _)| (*r - centre).length())
+        .fold(0.0, f64::max)
+}
+
+/// One row of the spread table: a soft ball of radius `ball_radius` pressed by `depth` along
+/// the vertex normal at vertex `at` of the soft `mesh`, at the automatic extent and at the former
+/// rule's (fixed to its value).
+fn spread_row(name: &str, mesh: &squish::TriMesh, at: usize, ball_radius: f64, depth: f64) -> String {
+    let normal = squish::mesh::vertex_normals(mesh)[at];
+    let contact = mesh.positions[at];
+    let mut ball = squish::mesh::shapes::icosphere(ball_radius, 4);
+    let centre = contact + normal * (ball_radius - depth);
+    ball.map_positions(|p| p + centre);
+    let sizes = [squish::deform::object_size(&ball), squish::deform::object_size(mesh)];
+    let deform = |extents: Option<[f64; 2]>| {
+        let params = |k: usize| match extents {
+            Some(e) => ObjectParams::default().with_extent(e[k]),
+            None => ObjectParams::default(),
+        };
+        let scene = squish_scenes::procedural::ProceduralScene {
+            name: name.to_string(),
+            objects: vec![
+                squish_scenes::procedural::SceneObject { name: "ball".into(), mesh: ball.clone(), params: params(0) },
+                squish_scenes::procedural::SceneObject { name: name.into(), mesh: mesh.clone(), params: params(1) },
+            ],
+            pairs: vec![squish::FramePair { objects: [0, 1], params: Default::default() }],
+        };
+        let result = Deformer::new().deform(&scene.frame()).unwrap();
+        let area = result.contacts[0].as_ref().map_or(0.0, |c| c.contact_area);
+        let extent = result.stats.objects[1].extent;
+        (spread_from(&mesh.positions, &result.positions[1], contact), area, extent)
+    };
+    let (spread, area, extent) = deform(None);
+    let former = [former_extent(sizes[0], sizes[1], area), former_extent(sizes[1], sizes[0], area)];
+    let (former_spread, _, _) = deform(Some(former));
+    let rho = (area / std::f64::consts::PI).sqrt();
+    format!(
+        "| {name} | {:.0}% | {rho:.4} | {:.3} → {extent:.3} | {former_spread:.3} → {spread:.3} | {:.1} → {:.1} |",
+        100.0 * depth / ball_radius,
+        former[1],
+        former_spread / rho,
+        spread / rho,
+    )
+}
+
+/// The spread table of docs/plausibility.md: how far a small ball's dent spreads on the bunny's
+/// flank and on spot's head (meshes of ../shared/data; skipped without them), former rule →
+/// automatic extent, against the small-on-large FEM reference `spheres_R4_sub3` (unit ball on a
+/// sphere of radius 4) in units of the contact radius.
+#[test]
+#[ignore = "prints the spread table of docs/plausibility.md"]
+fn spread_table() {
+    println!("| object | approach (of the ball's radius) | contact radius ρ | extent (former → automatic) | spread (former → automatic) | spread / ρ (former → automatic) |");
+    println!("|---|---|---|---|---|---|");
+    let meshes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/meshes");
+    // (mesh, which vertex: the farthest along `toward` among those whose |x| is below `within_x`)
+    let cases = [("bunny_29834", DVec3::Z, f64::INFINITY), ("spot_11533", DVec3::Y, 0.03)];
+    for (name, toward, within_x) in cases {
+        let path = meshes.join(format!("{name}.obj"));
+        if !path.exists() {
+            println!("skipped {name}: {} is absent", path.display());
+            continue;
+        }
+        let mesh = squish_io::read_mesh(&path).unwrap();
+        let at = (0..mesh.num_vertices())
+            .filter(|&v| mesh.positions[v].x.abs() < within_x)
+            .max_by(|&a, &b| mesh.positions[a].dot(toward).total_cmp(&mesh.positions[b].dot(toward)))
+            .unwrap();
+        for depth in [0.01, 0.02] {
+            println!("{}", spread_row(name, &mesh, at, 0.1, depth));
+        }
+    }
+    // The FEM reference of a small ball on a large sphere: B's spread (arc from the axis) over
+    // its contact radius, the deformer's (automatic) and the simulation's.
+    let Some(reference) = references().into_iter().find(|r| r.name == "spheres_R4_sub3") else {
+        println!("skipped the FEM rows: spheres_R4_sub3 is absent");
+        return;
+    };
+    println!("\n| spheres_R4_sub3, B | approach | contact radius (deformer, FEM) | spread B (deformer, FEM) | spread / contact radius (deformer, FEM) |");
+    println!("|---|---|---|---|---|");
+    for k in compared_steps(&reference) {
+        let c = run(&reference, k, &|_| ObjectParams::default(), None);
+        let [a, a_fem] = c.contact_radius;
+        let [s, s_fem] = c.spread[1];
+        println!(
+            "| | {:.1}% | {a:.3}, {a_fem:.3} | {s:.3}, {s_fem:.3} | {:.1}, {:.1} |",
+            100.0 * c.relative_approach,
+            s / a,
+            s_fem / a_fem
+        );
+    }
+}

@@ -45,6 +45,11 @@ impl Object {
     }
 }
 
+/// The mean edge length of a mesh (the automatic extent's floor).
+fn mean_edge(mesh: &TriMesh) -> f64 {
+    crate::mesh::mean_edge_length(mesh, &Topology::new(mesh))
+}
+
 fn translated(mut mesh: TriMesh, offset: DVec3) -> TriMesh {
     mesh.map_positions(|p| p + offset);
     mesh
@@ -138,7 +143,7 @@ fn methods_a_and_b_agree_where_both_apply() {
     }
     let params_a = PairParams::default().with_ball(r);
     let a = contact(&sphere, &slab, &params_a);
-    let extent = automatic_extent(object_size(&slab.mesh), object_size(&sphere.mesh), target_area);
+    let extent = automatic_extent(object_size(&slab.mesh), target_area, mean_edge(&slab.mesh));
     let zones = |c: &PairContact| vec![c.sides[1].zone.clone()];
     let method_b = deform(&slab, &zones(&b), extent, DirectionFieldMethod::Blended);
     let method_a = deform(&slab, &zones(&a), extent, DirectionFieldMethod::ParallelTransport);
@@ -223,7 +228,7 @@ fn both_direction_fields_are_fold_free_on_deep_collisions() {
         let c = contact(rigid, elastic, pair_params);
         let zones = vec![c.sides[1].zone.clone()];
         assert!(!zones[0].is_empty());
-        let extent = automatic_extent(object_size(&elastic.mesh), object_size(&rigid.mesh), c.contact_area);
+        let extent = automatic_extent(object_size(&elastic.mesh), c.contact_area, mean_edge(&elastic.mesh));
         for method in [DirectionFieldMethod::Blended, DirectionFieldMethod::ParallelTransport] {
             let d = deform(elastic, &zones, extent, method);
             let flips = flipped_faces(&elastic.mesh, &d.positions);

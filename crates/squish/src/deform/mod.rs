@@ -59,7 +59,9 @@ pub use contact_set::{ContactBoundaryPoint, ContactSet, NO_ZONE};
 pub use direction_field::{DirectionField, DirectionParams, MIN_DIFFUSED_LENGTH, blend_weight, direction_field};
 pub use error::DeformError;
 pub(crate) use extent::size_from_areas;
-pub use extent::{automatic_extent, object_size};
+pub use extent::{
+    EXTENT_CONTACT_FACTOR, EXTENT_CONTACT_FLOOR, EXTENT_EDGE_FACTOR, EXTENT_SIZE_FACTOR, automatic_extent, object_size,
+};
 pub use guide::{GuideFields, GuideParams, MIN_SLOPE_U, guide_fields};
 pub use parametrize::{Parametrization, ParametrizeParams, deformable_face_weights, parametrize};
 pub use params::DeformParams;

@@ -59,7 +59,7 @@ pub struct ObjectParams {
         unit = "scene units",
         range = "(0, inf)",
         keyframable,
-        auto = "max(min(1.2·r, 3·r_partner), 1.5·√(A/π)): r the object's size (area-weighted RMS distance to its centroid), r_partner the smallest size among the objects it is paired with, A the largest contact area of its pairs at this frame"
+        auto = "max(min(2·r, max(7·√(A/π), 2·h)), 1.5·√(A/π)): A the largest contact area of its pairs at this frame, r the object's size (area-weighted RMS distance to its centroid), h its mean edge length; calibrated against FEM (docs/plausibility.md)"
     )]
     pub extent: Option<f64>,
     /// Volume compensation: 0 no bulge, 1 the volume is preserved, more than 1 exaggerated.

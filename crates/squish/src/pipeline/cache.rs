@@ -160,7 +160,6 @@ pub(super) struct ComponentFigures {
     area: Vec<f64>,
     centroid: Vec<DVec3>,
     spread: Vec<f64>,
-    pub boxes: Vec<Aabb3>,
     /// Sum of the edge lengths and number of edges.
     edge_length: Vec<f64>,
     edges: Vec<usize>,
@@ -174,12 +173,10 @@ impl ComponentFigures {
         let n = components.count;
         let mut area = vec![0.0; n];
         let mut moment = vec![DVec3::ZERO; n];
-        let mut boxes = vec![Aabb3::EMPTY; n];
         for ((p, a), &c) in mesh.positions.iter().zip(&areas).zip(&components.vertex) {
             if c != u32::MAX {
                 area[c as usize] += a;
                 moment[c as usize] += *p * *a;
-                boxes[c as usize].grow(*p);
             }
         }
         let centroid: Vec<DVec3> =
@@ -197,7 +194,7 @@ impl ComponentFigures {
             edge_length[c] += (mesh.positions[a as usize] - mesh.positions[b as usize]).length();
             edges[c] += 1;
         }
-        Self { area, centroid, spread, boxes, edge_length, edges, object_size }
+        Self { area, centroid, spread, edge_length, edges, object_size }
     }
 
     /// Mean edge length of the union of `components` (the `h` of the heat step, §5.1).

@@ -5,7 +5,7 @@
 //! names and UVs of the regions). Outputs: one [`RegionPair`] per pair of overlapping regions of
 //! each [`FramePair`](super::FramePair) (or one without regions when none overlap) with its
 //! [`PairContact`], and [`RegionContacts`]: per region, its contact zones (for chapter 5), the
-//! regions it touches, and the partner sizes and contact areas of its automatic extent.
+//! regions it touches, and the contact area of its automatic extent.
 //!
 //! A cut region lying wholly inside a closed object it is paired with crosses no edge, so the
 //! contact definition sees nothing: that is [`PipelineError::RegionTooSmall`].
@@ -156,8 +156,6 @@ pub(super) struct RegionContacts {
     pub zones: Vec<Vec<Vec<ContactZone>>>,
     /// The regions it is in contact with, as `[object, region]`.
     pub touching: Vec<Vec<Vec<[usize; 2]>>>,
-    /// The smallest size of the regions it is paired with (+∞ without any).
-    pub partner_size: Vec<Vec<f64>>,
     /// The largest contact area of its region pairs.
     pub contact_area: Vec<Vec<f64>>,
     /// Where each zone came from: (index of the region pair's contact, side).
@@ -165,32 +163,25 @@ pub(super) struct RegionContacts {
 }
 
 impl RegionContacts {
-    /// Gathers the zones, partners, contact areas and touching regions of every region from the
-    /// region pairs' `contacts` (same order as `region_pairs`); `sizes`: each region's size.
+    /// Gathers the zones, contact areas and touching regions of every region from the region
+    /// pairs' `contacts` (same order as `region_pairs`).
     pub fn gather(
         frame: &Frame,
         caches: &[&ObjectCache],
         region_pairs: &[RegionPair],
         contacts: &mut [Option<PairContact>],
-        sizes: &[Vec<f64>],
     ) -> Self {
         let per_region = |fill: f64| -> Vec<Vec<f64>> { caches.iter().map(|c| vec![fill; c.regions.len()]).collect() };
         let mut zones: Vec<Vec<Vec<ContactZone>>> =
             caches.iter().map(|c| (0..c.regions.len()).map(|_| Vec::new()).collect()).collect();
         let mut touching: Vec<Vec<Vec<[usize; 2]>>> =
             caches.iter().map(|c| vec![Vec::new(); c.regions.len()]).collect();
-        let mut partner_size = per_region(f64::INFINITY);
         let mut contact_area = per_region(0.0);
         let mut lent: Vec<Vec<Vec<(usize, usize)>>> =
             caches.iter().map(|c| vec![Vec::new(); c.regions.len()]).collect();
         for (k, (rp, contact)) in region_pairs.iter().zip(contacts.iter_mut()).enumerate() {
             let Some(regions) = rp.regions else { continue };
             let objects = frame.pairs[rp.pair].objects;
-            for side in 0..2 {
-                let (o, r) = (objects[side], regions[side]);
-                let (other_o, other_r) = (objects[1 - side], regions[1 - side]);
-                partner_size[o][r] = partner_size[o][r].min(sizes[other_o][other_r]);
-            }
             let Some(contact) = contact else { continue };
             if contact.is_empty() {
                 continue;
@@ -206,7 +197,7 @@ impl RegionContacts {
                 }
             }
         }
-        Self { zones, touching, partner_size, contact_area, lent }
+        Self { zones, touching, contact_area, lent }
     }
 
     /// Moves the zones back into the contacts they came from (the zone lists keep their lengths).

@@ -8,7 +8,7 @@
 //!
 //! Conventions:
 //! - each region's extent φ_max is the object's or [`automatic_extent`] of the region's size, its
-//!   partners' sizes and its largest contact area; its length scale h is the mean edge length of
+//!   largest contact area and its mean edge length; its length scale h is the mean edge length of
 //!   the components it touches, so the result does not depend on where a cut falls;
 //! - a cut region's border must not move (faces outside would deform without being part of the
 //!   volume balance): a zone reaching the cut is [`PipelineError::RegionTooSmall`], and when 𝒟
@@ -83,7 +83,7 @@ pub(super) fn deform_regions(
     normals: &[Option<Vec<DVec3>>],
     keep: bool,
 ) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
-    let RegionContacts { zones, partner_size, contact_area, .. } = contacts;
+    let RegionContacts { zones, contact_area, .. } = contacts;
     caches
         .par_iter_mut()
         .zip(&frame.objects)
@@ -101,11 +101,12 @@ pub(super) fn deform_regions(
                     if zones.is_empty() {
                         return Ok(None);
                     }
+                    let edge_length = figures[i].mean_edge_length(&region.components);
                     let extent = object
                         .params
                         .extent
-                        .unwrap_or_else(|| automatic_extent(sizes[i][r], partner_size[i][r], contact_area[i][r]));
-                    let scale = Scale { extent, edge_length: figures[i].mean_edge_length(&region.components) };
+                        .unwrap_or_else(|| automatic_extent(sizes[i][r], contact_area[i][r], edge_length));
+                    let scale = Scale { extent, edge_length };
                     deform_one(object, topology, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
                 })
                 .collect()

@@ -63,8 +63,6 @@ pub(super) struct EditState {
     /// The contact stage's results (zones in place).
     pub contacts: Vec<Option<PairContact>>,
     pub region_pairs: Vec<RegionPair>,
-    /// Each region's size, for gathering the zones again.
-    pub sizes: Vec<Vec<f64>>,
     /// Per object and region: what its deformation reuses (`None` without zones).
     pub regions: Vec<Vec<Option<KeptRegion>>>,
     /// Per region pair: which side lies inside the other (for the warnings, which an edit keeps).
@@ -78,12 +76,11 @@ impl EditState {
         frame: &Frame,
         contacts: Vec<Option<PairContact>>,
         region_pairs: Vec<RegionPair>,
-        sizes: Vec<Vec<f64>>,
         regions: Vec<Vec<Option<KeptRegion>>>,
         contained: Vec<Option<[usize; 2]>>,
         closed: Vec<bool>,
     ) -> Self {
-        Self { key: FrameKey::of(frame), contacts, region_pairs, sizes, regions, contained, closed }
+        Self { key: FrameKey::of(frame), contacts, region_pairs, regions, contained, closed }
     }
 
     /// True if `frame` is an edit of the kept frame (see the module doc).

@@ -239,7 +239,7 @@ impl Deformer {
         let mut contacts = contacts::contact_region_pairs(frame, &caches, &inputs, &region_pairs)?;
         let contained = warnings::contained_sides(frame, &caches, &region_pairs, &contacts);
         let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
-        let mut region_contacts = RegionContacts::gather(frame, &caches, &region_pairs, &mut contacts, &sizes);
+        let mut region_contacts = RegionContacts::gather(frame, &caches, &region_pairs, &mut contacts);
         drop(caches);
 
         // Chapter 5 on every region with zones.
@@ -261,7 +261,6 @@ impl Deformer {
                 frame,
                 contacts.clone(),
                 region_pairs.clone(),
-                sizes,
                 kept.collect(),
                 contained.clone(),
                 closed.clone(),
@@ -298,7 +297,7 @@ impl Deformer {
         let mut contacts = state.contacts.clone();
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
         let mut region_contacts =
-            RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts, &state.sizes);
+            RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
         drop(caches);
         let outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
         region_contacts.give_back(&mut contacts);

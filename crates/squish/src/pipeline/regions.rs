@@ -34,9 +34,9 @@
 //!    closed partner, fast generalized winding number ≥ ½ for an open one). Partners are the other
 //!    objects of the object's pairs, taken whole.
 //! 2. **Band width**: `g = max(d, domain_factor·φ̃)`, φ̃ being the object's fixed extent or an over-estimate of
-//!    its automatic extent ([`automatic_extent`] with the sizes of the components the core
-//!    touches, the sizes of the partner components near the core, and the core's area in place of
-//!    the contact area). 𝒟 lies within φ_max of ∂𝒞 along the surface and ∂𝒞 lies in the core or
+//!    its automatic extent ([`automatic_extent`] with the size and mean edge length of the
+//!    components the core touches, and the core's area in place of the contact area: the
+//!    extent grows with the area). 𝒟 lies within φ_max of ∂𝒞 along the surface and ∂𝒞 lies in the core or
 //!    next to it; edge paths are longer than geodesics: the cut is `domain_factor·φ̃` away (2·φ̃
 //!    by default) — the radius of the parametrization domain 𝒫 (below) — so neither 𝒟 nor 𝒫
 //!    reaches it. If 𝒟 still does (a coarse mesh, a contact zone far beyond the intersection),
@@ -130,7 +130,6 @@ struct Partner<'a> {
     pub mesh: &'a TriMesh,
     pub bvh: &'a TriangleBvh,
     pub closed: bool,
-    pub figures: &'a ComponentFigures,
 }
 
 /// Chooses the regions of one object (see the module doc).
@@ -268,17 +267,7 @@ fn distance_pieces(
             touched.sort_unstable();
             touched.dedup();
             let size = figures.size_bound(&touched);
-            let core_box = Aabb3::from_points(sources.iter().map(|&v| mesh.positions[v as usize]));
-            let partner_size = partners
-                .iter()
-                .map(|p| {
-                    let near: Vec<u32> = (0..p.figures.boxes.len() as u32)
-                        .filter(|&c| p.figures.boxes[c as usize].intersects(&core_box))
-                        .collect();
-                    if near.is_empty() { 0.0 } else { p.figures.size_bound(&near) }
-                })
-                .fold(0.0, f64::max);
-            let partner_size = if partner_size > 0.0 { partner_size } else { f64::INFINITY };
+            let edge_length = figures.mean_edge_length(&touched);
             let core_area: f64 = mesh
                 .triangles
                 .iter()
@@ -289,7 +278,7 @@ fn distance_pieces(
                     crate::mesh::triangle_area(a, b, c)
                 })
                 .sum();
-            automatic_extent(size, partner_size, core_area)
+            automatic_extent(size, core_area, edge_length)
         }
     };
     // The parametrization domain's radius, so that the band holds 𝒫 (see [`WorkingRegion`]).
@@ -366,7 +355,6 @@ pub(super) fn update_working_regions(
                         mesh: frame.objects[j].mesh,
                         bvh: &caches[j].bvh,
                         closed: caches[j].closed,
-                        figures: &figures[j],
                     })
                     .collect();
                 let cache = caches[i];

@@ -36,9 +36,11 @@
 //!   the extent is clamped so that the deformation stays inside (as for working regions). Both
 //!   regions use the same extent.
 //! - Automatic extent: `5/3 · max(1.2·r, 1.5·√(A/π)) = max(2·r, 2.5·√(A/π))`, r the RMS radius
-//!   of ℛ on the rest pose (about the limb's radius), A the contact area: the pipeline's rule (see
-//!   [`crate::deform::automatic_extent`]) with the limb as both objects, scaled by
-//!   [`FOLD_EXTENT_SCALE`]. **Why larger than between objects:** a fold's contact pushes its
+//!   of ℛ on the rest pose (about the limb's radius), A the contact area ([`fold_extent`]): the
+//!   rule objects had before the pipeline's was calibrated against FEM (issue 29; see
+//!   [`crate::deform::automatic_extent`]), with the limb as both objects, scaled by
+//!   [`FOLD_EXTENT_SCALE`]. A fold keeps it: it was tuned on folds (below), which the FEM
+//!   references of two pressed bodies do not describe. **Why larger than between objects:** a fold's contact pushes its
 //!   border vertices deep (into the other side of the fold) right next to side-wall faces that
 //!   linear blend skinning has already turned far from their rest orientation, and a short
 //!   extent makes the profile's transition steep enough to tilt them past perpendicular. On the
@@ -65,9 +67,16 @@ use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_norm
 use crate::params::{Articulation, PairParams, Params};
 use crate::spatial::{SpatialError, TriangleBvh};
 
-/// The automatic extent of an articulation is the pipeline's rule scaled by this factor; see the
-/// module doc.
+/// The automatic extent of an articulation is `max(1.2·r, 1.5·√(A/π))` scaled by this factor;
+/// see the module doc.
 pub const FOLD_EXTENT_SCALE: f64 = 5.0 / 3.0;
+
+/// The automatic extent of a fold (see the module doc): `FOLD_EXTENT_SCALE · max(1.2·r,
+/// 1.5·√(A/π))`, r the RMS radius of ℛ on the rest pose, A the contact area.
+pub fn fold_extent(size: f64, contact_area: f64) -> f64 {
+    let contact_radius = (contact_area.max(0.0) / std::f64::consts::PI).sqrt();
+    FOLD_EXTENT_SCALE * (1.2 * size).max(crate::deform::EXTENT_CONTACT_FLOOR * contact_radius)
+}
 
 /// Why an articulation failed at a frame.
 #[derive(Debug, thiserror::Error)]
@@ -566,8 +575,7 @@ pub fn plan_articulation(
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
     let fields: [Vec<DVec3>; 2] = [0, 1]
         .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
-    // The pipeline's rule with the limb as both objects, scaled for a fold (see the module doc).
-    let automatic = FOLD_EXTENT_SCALE * crate::deform::automatic_extent(setup.size, setup.size, contact.contact_area);
+    let automatic = fold_extent(setup.size, contact.contact_area);
     let mut extent = articulation.params.extent.unwrap_or(automatic);
     // Fixed by the first extent, so that a clamped second attempt sees the same φ.
     let domain_radius = params.domain_radius_for(extent);

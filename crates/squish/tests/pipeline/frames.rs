@@ -128,7 +128,10 @@ fn identical_balls_give_mirror_symmetric_results() {
 #[test]
 fn pressing_a_ball_is_continuous_from_first_contact() {
     // 120 steps from a gap of 0.02 to a depth of 0.25: the largest displacement of any vertex
-    // between consecutive frames stays below 10× the step.
+    // between consecutive frames stays below 10× the step, and each object's automatic extent
+    // grows with the contact without a jump: by at most 7·√(ΔA/π) a frame (the rule's slope in
+    // the contact radius √(A/π)) while the area A grows by at most twice the rate of a unit
+    // sphere's cap, 2π·R·Δdepth.
     let steps = 120;
     let (from, to) = (-0.02, 0.25);
     let step = (to - from) / steps as f64;
@@ -136,12 +139,18 @@ fn pressing_a_ball_is_continuous_from_first_contact() {
     let mut previous: Option<Vec<Vec<DVec3>>> = None;
     let mut worst: f64 = 0.0;
     let mut first_contact = None;
+    let mut extents: Vec<[f64; 2]> = Vec::new();
+    let mut areas: Vec<f64> = Vec::new();
     for k in 0..=steps {
         let depth = from + step * k as f64;
         let scene = scenes::ball_on_ground(depth, 4, 24);
         let result = deformer.deform(&scene.frame()).unwrap();
         if first_contact.is_none() && result.stats.pairs[0].in_contact {
             first_contact = Some(k);
+        }
+        if result.stats.pairs[0].in_contact {
+            extents.push([0, 1].map(|i| result.stats.objects[i].extent));
+            areas.push(result.contacts[0].as_ref().map_or(0.0, |c| c.contact_area));
         }
         // Compare in the frame of each object's rigid motion: the ball moves down by `step`.
         let ball_motion = DVec3::new(0.0, 0.0, -step);
@@ -159,6 +168,22 @@ fn pressing_a_ball_is_continuous_from_first_contact() {
     println!("first contact at step {first_contact:?}; largest jump {worst:.3e} = {ratio:.2} × step");
     assert!(first_contact.is_some_and(|k| k > 0), "the sweep must start before the first contact");
     assert!(ratio < 10.0, "largest jump between frames {worst:.3e} is {ratio:.2} × the step");
+    let area_rate = areas.windows(2).map(|w| (w[1] - w[0]).abs() / step).fold(0.0, f64::max);
+    println!("contact area: largest growth {area_rate:.3} × the step (a unit sphere's cap: 2π)");
+    assert!(area_rate < 4.0 * std::f64::consts::PI, "the contact area jumped: {area_rate:.3} × the step");
+    for i in 0..2 {
+        let last = extents.last().map_or(0.0, |e| e[i]);
+        println!("object {i}: extent {:.4} at first contact, {last:.4} at the end", extents[0][i]);
+        for (k, (e, a)) in extents.windows(2).zip(areas.windows(2)).enumerate() {
+            let bound = squish::deform::EXTENT_CONTACT_FACTOR * ((a[1] - a[0]).abs() / std::f64::consts::PI).sqrt();
+            assert!(
+                (e[1][i] - e[0][i]).abs() <= bound * (1.0 + 1e-9) + 1e-12,
+                "object {i}'s extent changed by {:.4} at contact frame {k}, more than its area allows ({bound:.4})",
+                e[1][i] - e[0][i]
+            );
+            assert!(e[1][i] >= e[0][i] - 1e-12 * last, "object {i}'s extent shrank as the contact grew");
+        }
+    }
 }
 
 #[test]
