@@ -2,8 +2,8 @@
 //! (docs/plausibility.md): every step of 5–20% approach, contact side compared.
 //!
 //! `cargo test -p squish-scenes --test fem_comparison` checks the targets;
-//! `cargo test -p squish-scenes --test fem_comparison -- --ignored --nocapture` prints the table
-//! of docs/plausibility.md. `SQUISH_FEM_DIR` reads the references from another folder.
+//! `cargo test -p squish-scenes --test fem_comparison fem_table -- --ignored --nocapture` prints
+//! the comparison tables of docs/plausibility.md, `spread_table` the spread table. `SQUISH_FEM_DIR` reads the references from another folder.
 #![allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 
 use std::path::{Path, PathBuf};
@@ -98,6 +98,38 @@ fn row(c: &StepComparison) -> String {
     )
 }
 
+/// The target at the defaults, where the references resolve it: on the fine references
+/// (subdivision 4) every body's contact side within 1.5% R of the simulation at every step of
+/// 5–20% approach, and the small sphere of the small-on-large pair too (docs/plausibility.md:
+/// on the coarse references B's distance is the contact gap's, a tenth of a coarse edge).
+#[test]
+fn the_defaults_stay_within_the_target_shape_error() {
+    let mut checked = 0;
+    for reference in references() {
+        let fine = reference.name.ends_with("_sub4");
+        let small_on_large =
+            reference.bodies.len() == 2 && reference.bodies[1].radius >= 4.0 * reference.bodies[0].radius;
+        if !(fine || small_on_large) {
+            continue;
+        }
+        for k in compared_steps(&reference) {
+            let c = run(&reference, k, &|_| ObjectParams::default(), None);
+            let bodies = if fine { c.hausdorff.len() } else { 1 };
+            for (b, h) in c.hausdorff.iter().take(bodies).enumerate() {
+                assert!(
+                    *h <= 0.015,
+                    "{} at {:.1}%: body {b} is {:.2}% R from the simulation",
+                    reference.name,
+                    100.0 * c.relative_approach,
+                    100.0 * h
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 8, "only {checked} steps checked: are the references of data/fem/ there?");
+}
+
 /// The table of docs/plausibility.md. `SQUISH_FEM_EXTENT` sets every object's extent (world
 /// units; the references' smaller radius is 1), `SQUISH_FEM_GAP` the pair's contact gap (0: the
 /// thesis' coincident surfaces).
@@ -179,7 +211,8 @@ fn spread_row(name: &str, mesh: &squish::TriMesh, at: usize, ball_radius: f64, d
     let (former_spread, _, _) = deform(Some(former));
     let rho = (area / std::f64::consts::PI).sqrt();
     format!(
-        "| {name} | {:.0}% | {rho:.4} | {:.3} → {extent:.3} | {former_spread:.3} → {spread:.3} | {:.1} → {:.1} |",
+        "| {name} (size {:.3}) | {ball_radius} | {:.0}% | {rho:.4} | {:.3} → {extent:.3} | {former_spread:.3} → {spread:.3} | {:.1} → {:.1} |",
+        sizes[1],
         100.0 * depth / ball_radius,
         former[1],
         former_spread / rho,
@@ -194,8 +227,10 @@ fn spread_row(name: &str, mesh: &squish::TriMesh, at: usize, ball_radius: f64, d
 #[test]
 #[ignore = "prints the spread table of docs/plausibility.md"]
 fn spread_table() {
-    println!("| object | approach (of the ball's radius) | contact radius ρ | extent (former → automatic) | spread (former → automatic) | spread / ρ (former → automatic) |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| object | ball radius | approach (of the ball's radius) | contact radius ρ | extent (former → automatic) | spread (former → automatic) | spread / ρ (former → automatic) |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     let meshes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/meshes");
     // (mesh, which vertex: the farthest along `toward` among those whose |x| is below `within_x`)
     let cases = [("bunny_29834", DVec3::Z, f64::INFINITY), ("spot_11533", DVec3::Y, 0.03)];
@@ -210,8 +245,8 @@ fn spread_table() {
             .filter(|&v| mesh.positions[v].x.abs() < within_x)
             .max_by(|&a, &b| mesh.positions[a].dot(toward).total_cmp(&mesh.positions[b].dot(toward)))
             .unwrap();
-        for depth in [0.01, 0.02] {
-            println!("{}", spread_row(name, &mesh, at, 0.1, depth));
+        for (ball_radius, relative_depth) in [(0.1, 0.1), (0.1, 0.2), (0.3, 0.1)] {
+            println!("{}", spread_row(name, &mesh, at, ball_radius, relative_depth * ball_radius));
         }
     }
     // The FEM reference of a small ball on a large sphere: B's spread (arc from the axis) over
@@ -220,7 +255,9 @@ fn spread_table() {
         println!("skipped the FEM rows: spheres_R4_sub3 is absent");
         return;
     };
-    println!("\n| spheres_R4_sub3, B | approach | contact radius (deformer, FEM) | spread B (deformer, FEM) | spread / contact radius (deformer, FEM) |");
+    println!(
+        "\n| spheres_R4_sub3, B | approach | contact radius (deformer, FEM) | spread B (deformer, FEM) | spread / contact radius (deformer, FEM) |"
+    );
     println!("|---|---|---|---|---|");
     for k in compared_steps(&reference) {
         let c = run(&reference, k, &|_| ObjectParams::default(), None);

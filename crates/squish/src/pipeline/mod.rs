@@ -296,8 +296,7 @@ impl Deformer {
     fn edit(&self, frame: &Frame, state: &EditState, start: Instant) -> Result<FrameResult, PipelineError> {
         let mut contacts = state.contacts.clone();
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
-        let mut region_contacts =
-            RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
+        let mut region_contacts = RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
         drop(caches);
         let outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
         region_contacts.give_back(&mut contacts);

@@ -351,11 +351,7 @@ pub(super) fn update_working_regions(
                 let object = &frame.objects[i];
                 let others: Vec<Partner> = partners[i]
                     .iter()
-                    .map(|&j| Partner {
-                        mesh: frame.objects[j].mesh,
-                        bvh: &caches[j].bvh,
-                        closed: caches[j].closed,
-                    })
+                    .map(|&j| Partner { mesh: frame.objects[j].mesh, bvh: &caches[j].bvh, closed: caches[j].closed })
                     .collect();
                 let cache = caches[i];
                 select(object.mesh, &cache.topology, &cache.components, &figures[i], object.params, &others)
