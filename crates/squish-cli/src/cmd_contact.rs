@@ -16,7 +16,7 @@ use squish_render::{Label, rgba8};
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::{
-    InputMesh, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems, write_text,
+    InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems, write_text,
 };
 use crate::params::{PairSettings, contact_error, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
@@ -213,6 +213,9 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         labelled.clone().map(|p| Some(p.display().to_string())),
     )?;
     create_dir(&args.output)?;
+    // As `squish deform`: everything is written to a staging folder and moved into place at the
+    // end, so a failure leaves none of this run's files.
+    let staged = StagedOutputs::new(&args.output)?;
     for (l, input) in inputs.iter().enumerate() {
         let labels = input.to_file_values(&contact.labels[l]);
         let colors: Vec<[u8; 3]> = labels
@@ -225,7 +228,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         let mut properties = VertexProperty::rgb(&colors);
         properties.push(VertexProperty::int("label", &labels.iter().map(|&k| i32::from(k)).collect::<Vec<_>>()));
         write_ply_with(
-            &labelled[l],
+            &staged.path(&labelled[l]),
             &input.file.positions,
             Some(&input.file.triangles),
             &properties,
@@ -247,7 +250,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     properties.push(VertexProperty::int("kind", &kinds));
     properties.push(VertexProperty::int("side", &sides));
     let points_path = args.output.join("boundary_points.ply");
-    write_point_cloud_ply(&points_path, &points, &properties, &PlyWriteOptions::default())?;
+    write_point_cloud_ply(&staged.path(&points_path), &points, &properties, &PlyWriteOptions::default())?;
 
     let summary = Summary {
         inputs: [args.a.display().to_string(), args.b.display().to_string()],
@@ -255,7 +258,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         boundary_points: points_path.display().to_string(),
     };
     let json_path = args.output.join("contact.json");
-    write_text(&json_path, &serde_json::to_string_pretty(&summary)?)?;
+    write_text(&staged.path(&json_path), &serde_json::to_string_pretty(&summary)?)?;
     let result = &contact.result;
     let picture = if args.preview {
         // No deformation: both sides show the input, the output side with its contact zones.
@@ -275,10 +278,13 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         let any_gltf =
             inputs.iter().any(|i| matches!(i.format, squish_io::MeshFormat::Gltf | squish_io::MeshFormat::Glb));
         let settings = args.pictures.settings(ColorMode::Contact, &SceneDefaults::default(), any_gltf);
-        Some(write_frame_preview(&args.output.join("preview.png"), &frame, &settings)?)
+        let picture = args.output.join("preview.png");
+        write_frame_preview(&staged.path(&picture), &frame, &settings)?;
+        Some(picture)
     } else {
         None
     };
+    staged.commit()?;
     if result.is_empty() && !result.intersection_points.is_empty() {
         say!("the meshes intersect but have no contact zone");
     } else if result.is_empty() {

@@ -142,34 +142,53 @@ fn entries(dir: &Path) -> Vec<String> {
     names
 }
 
-#[test]
-fn deform_writes_all_of_its_outputs_or_none() {
+/// Runs `command` (deform or contact) on the ball and slab with `--preview` twice: first with a
+/// folder where its output `blocked` goes and an earlier run's `report` file, which must fail
+/// leaving the folder as it was; then without the obstacle, which must write exactly `outputs`.
+fn writes_all_of_its_outputs_or_none(command: &str, blocked: &str, report: &str, outputs: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     write_pair(dir.path());
     let out = dir.path().join("out");
-    // An earlier run's report, and a folder where B's output goes.
-    std::fs::create_dir_all(out.join("slab.obj")).unwrap();
-    std::fs::write(out.join("report.json"), "earlier").unwrap();
-    let output = squish()
-        .current_dir(dir.path())
-        .args(["deform", "ball.obj", "slab.obj", "-o", "out", "--preview"])
-        .output()
-        .unwrap();
+    std::fs::create_dir_all(out.join(blocked)).unwrap();
+    std::fs::write(out.join(report), "earlier").unwrap();
+    let run = || {
+        squish().current_dir(dir.path()).args([command, "ball.obj", "slab.obj", "-o", "out", "--preview"]).output().unwrap()
+    };
+    let output = run();
     let message = stderr(&output);
-    assert_eq!(output.status.code(), Some(2), "{message}");
-    assert!(message.contains("slab.obj") && message.contains("nothing was written"), "{message}");
-    // Neither A's output nor the picture nor a new report; no staging folder left.
-    assert_eq!(entries(&out), vec!["report.json".to_string(), "slab.obj".to_string()]);
-    assert_eq!(std::fs::read_to_string(out.join("report.json")).unwrap(), "earlier");
+    assert_eq!(output.status.code(), Some(2), "{command}: {message}");
+    assert!(message.contains(blocked) && message.contains("nothing was written"), "{command}: {message}");
+    // None of the other outputs, no new report, no staging folder left.
+    let mut before = vec![report.to_string(), blocked.to_string()];
+    before.sort();
+    assert_eq!(entries(&out), before, "{command}");
+    assert_eq!(std::fs::read_to_string(out.join(report)).unwrap(), "earlier", "{command}");
 
-    std::fs::remove_dir(out.join("slab.obj")).unwrap();
-    let output = squish()
-        .current_dir(dir.path())
-        .args(["deform", "ball.obj", "slab.obj", "-o", "out", "--preview"])
-        .output()
-        .unwrap();
-    assert!(output.status.success(), "{}", stderr(&output));
-    assert_eq!(entries(&out), ["ball.obj", "preview.png", "report.json", "slab.obj"].map(String::from).to_vec());
+    std::fs::remove_dir(out.join(blocked)).unwrap();
+    let output = run();
+    assert!(output.status.success(), "{command}: {}", stderr(&output));
+    assert_eq!(entries(&out), outputs.iter().map(|s| s.to_string()).collect::<Vec<_>>(), "{command}");
+}
+
+#[test]
+fn deform_writes_all_of_its_outputs_or_none() {
+    writes_all_of_its_outputs_or_none("deform", "slab.obj", "report.json", &[
+        "ball.obj",
+        "preview.png",
+        "report.json",
+        "slab.obj",
+    ]);
+}
+
+#[test]
+fn contact_writes_all_of_its_outputs_or_none() {
+    writes_all_of_its_outputs_or_none("contact", "slab.ply", "contact.json", &[
+        "ball.ply",
+        "boundary_points.ply",
+        "contact.json",
+        "preview.png",
+        "slab.ply",
+    ]);
 }
 
 #[test]
