@@ -20,7 +20,7 @@
 //!    a vertex of 𝒟 (past ∂𝒟, or inside 𝒞) or leaves the mesh; its crossings of edges are the
 //!    lateral boundaries ∂𝒵₁ (from the point on the −n×∇u side) and ∂𝒵₂.
 //! 4. 𝒵 is the set of vertices of 𝒟 reachable from the centre's isoline faces along edges that
-//!    no lateral boundary crosses.
+//!    no lateral boundary crosses (a vertex a boundary passes through is on it, not in 𝒵).
 //! 5. ν is harmonic on 𝒵 (cotangent stiffness with cut-face weights: faces crossed by a lateral
 //!    boundary count by the area on 𝒵's side, App. B) with the least-squares constraints
 //!    `(1 − α)ν_i + αν_j = 0` at the points of ∂𝒵₁ and `= 1` at those of ∂𝒵₂ (λ = 100, App. B),
@@ -193,16 +193,21 @@ pub fn radial_brush(
 
     // 4. 𝒵: the vertices of 𝒟 on the centre's side of both boundaries.
     let mut cut = vec![false; topology.num_edges()];
+    let mut on_boundary = vec![false; n];
     for c in lateral.iter().flatten() {
         cut[c.edge as usize] = true;
+        if let Some(v) = c.through {
+            on_boundary[v as usize] = true;
+        }
     }
+    let open = |v: u32| fields.deformable[v as usize] && !on_boundary[v as usize];
     let mut selected = vec![false; n];
     let mut queue = VecDeque::new();
     for arc in &arcs {
         for &(f, at) in &arc.faces {
             if at < radius / 2.0 {
                 for v in mesh.triangles[f as usize] {
-                    if fields.deformable[v as usize] && !selected[v as usize] {
+                    if open(v) && !selected[v as usize] {
                         selected[v as usize] = true;
                         queue.push_back(v);
                     }
@@ -213,7 +218,7 @@ pub fn radial_brush(
     while let Some(v) = queue.pop_front() {
         for &e in topology.vertex_edges(v) {
             let w = topology.other_vertex(e, v);
-            if !cut[e as usize] && fields.deformable[w as usize] && !selected[w as usize] {
+            if !cut[e as usize] && open(w) && !selected[w as usize] {
                 selected[w as usize] = true;
                 queue.push_back(w);
             }
@@ -293,12 +298,21 @@ fn solve_nu(
     Ok(nu)
 }
 
+/// How far the projected brush centre is moved towards its face's centroid (barycentric).
+const INSIDE_NUDGE: f64 = 1e-8;
+
+/// A path crossing an edge within this fraction of an end passes through that vertex.
+const THROUGH_VERTEX: f64 = 1e-9;
+
 /// A crossing of a traced path with a mesh edge: `(1 − alpha)·p_lo + alpha·p_hi` on `edge`.
 #[derive(Clone, Copy, Debug)]
 struct Crossing {
     edge: u32,
     alpha: f64,
     position: DVec3,
+    /// The vertex the path passes through, if it crosses the edge at an end (the vertex is then
+    /// on the boundary: it joins both sides, so it is left out of 𝒵).
+    through: Option<u32>,
 }
 
 /// A walk along an isoline of u.
@@ -366,7 +380,12 @@ impl Walker<'_> {
                 best = (f, q, bary, d);
             }
         }
-        let (f, q, bary, _) = best;
+        let (f, _, bary, _) = best;
+        // A hair inside the face, so that the isoline through the point is a segment of this
+        // face even when the point is a vertex or on an edge.
+        let bary = bary.map(|b| (1.0 - INSIDE_NUDGE) * b + INSIDE_NUDGE / 3.0);
+        let t = self.corners(f);
+        let q = bary[0] * t[0] + bary[1] * t[1] + bary[2] * t[2];
         let u = self.values(f);
         let level = if u.iter().all(|x| x.is_finite()) {
             bary[0] * u[0] + bary[1] * u[1] + bary[2] * u[2]
@@ -511,7 +530,14 @@ impl Walker<'_> {
             let edge = self.topology.face_edges(face)[k];
             // α along the edge from its lower vertex id.
             let alpha = if a < b { t } else { 1.0 - t };
-            crossings.push(Crossing { edge, alpha, position: q });
+            let through = if t <= THROUGH_VERTEX {
+                Some(a)
+            } else if t >= 1.0 - THROUGH_VERTEX {
+                Some(b)
+            } else {
+                None
+            };
+            crossings.push(Crossing { edge, alpha, position: q, through });
             let next = self.other_face(edge, face);
             if next == NO_FACE || !self.in_band(next) {
                 return Ok(crossings);

@@ -221,3 +221,35 @@ fn on_the_deformers_u_the_selection_is_symmetric_and_the_painted_map_moves_only_
     println!("the painted map moved {moved_inside} vertices of 𝒵, at most {rise:.2e}");
     assert!(moved_inside > count / 2);
 }
+
+/// Every centre a vertex (the isoline through a vertex, paths through vertices of the
+/// icosphere's great circles): the selection closes and spans the profiles.
+#[test]
+fn on_a_sphere_pressed_by_a_plane_the_selection_closes() {
+    let mesh = shapes::icosphere(1.0, 4);
+    let topology = Topology::new(&mesh);
+    let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
+    let zone = crate::deform::test_support::plane_zone(&mesh, &topology, DVec3::Z, -0.75);
+    let result = deform_region(&mesh, &topology, &mut solver, &[zone], &DeformParams::new(0.8)).unwrap();
+    let fields = BrushFields { u: &result.u, contact: &result.contact, deformable: &result.deformable };
+    let mut failures = Vec::new();
+    let mut tried = 0;
+    for v in 0..mesh.num_vertices() {
+        if !result.deformable[v] || (result.u[v] - 0.5).abs() > 0.1 {
+            continue;
+        }
+        tried += 1;
+        match radial_brush(&mesh, &topology, &fields, mesh.positions[v], 0.3) {
+            Ok(s) => {
+                let us: Vec<f64> = (0..mesh.num_vertices()).filter(|&w| s.selected[w]).map(|w| result.u[w]).collect();
+                let (lo, hi) = us.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &u| (a.min(u), b.max(u)));
+                assert!(us.len() > 20 && lo < 0.15 && hi > 0.85, "centre {v}: {} vertices, u {lo} … {hi}", us.len());
+                assert!(s.weights[v] > 0.9, "centre {v}: w = {}", s.weights[v]);
+            }
+            Err(e) => failures.push((v, e)),
+        }
+    }
+    println!("{tried} centres, {} failures: {:?}", failures.len(), failures.iter().take(3).collect::<Vec<_>>());
+    assert!(tried > 20);
+    assert!(failures.is_empty());
+}
