@@ -137,9 +137,11 @@ pub fn radial_brush(
     radius: f64,
 ) -> Result<RadialSelection, RadialBrushError> {
     let n = mesh.num_vertices();
-    for (what, actual) in
-        [("u", fields.u.len()), ("the contact flags", fields.contact.len()), ("the deformable flags", fields.deformable.len())]
-    {
+    for (what, actual) in [
+        ("u", fields.u.len()),
+        ("the contact flags", fields.contact.len()),
+        ("the deformable flags", fields.deformable.len()),
+    ] {
         if actual != n {
             return Err(RadialBrushError::LengthMismatch { what, expected: n, actual });
         }
@@ -165,9 +167,11 @@ pub fn radial_brush(
         return Err(RadialBrushError::CentreOutside { u: level });
     }
     walker.check_single_zone(face)?;
-    let longest = mesh.corners(face as usize).iter().enumerate().fold(0.0f64, |m, (k, &a)| {
-        m.max(a.distance(mesh.corners(face as usize)[(k + 1) % 3]))
-    });
+    let longest = mesh
+        .corners(face as usize)
+        .iter()
+        .enumerate()
+        .fold(0.0f64, |m, (k, &a)| m.max(a.distance(mesh.corners(face as usize)[(k + 1) % 3])));
     if radius < longest {
         return Err(RadialBrushError::RadiusBelowEdges { radius, edge: longest });
     }
@@ -264,7 +268,8 @@ fn solve_nu(
     selected: &[bool],
     lateral: &[Vec<Crossing>; 2],
 ) -> Result<Vec<f64>, RadialBrushError> {
-    let faces = (0..mesh.num_triangles() as u32).filter(|&f| mesh.triangles[f as usize].iter().any(|&v| selected[v as usize]));
+    let faces =
+        (0..mesh.num_triangles() as u32).filter(|&f| mesh.triangles[f as usize].iter().any(|&v| selected[v as usize]));
     let sub = SubMesh::from_faces(mesh, faces);
     let local_topology = Topology::new(&sub.mesh);
     let removed: Vec<bool> = sub.parent_vertex.iter().map(|&v| !selected[v as usize]).collect();
@@ -401,7 +406,8 @@ impl Walker<'_> {
         let n = fields.u.len();
         let in_region = |v: u32| fields.deformable[v as usize] || fields.contact[v as usize];
         let mut seen = vec![false; n];
-        let mut queue: VecDeque<u32> = self.mesh.triangles[f as usize].iter().copied().filter(|&v| in_region(v)).collect();
+        let mut queue: VecDeque<u32> =
+            self.mesh.triangles[f as usize].iter().copied().filter(|&v| in_region(v)).collect();
         for &v in &queue {
             seen[v as usize] = true;
         }

@@ -25,8 +25,11 @@ struct Synthetic {
 
 impl Synthetic {
     fn new(mesh: &TriMesh, centres: &[DVec3], inner: f64, outer: f64) -> Self {
-        let rho: Vec<f64> =
-            mesh.positions.iter().map(|p| centres.iter().map(|c| p.distance(*c)).fold(f64::INFINITY, f64::min)).collect();
+        let rho: Vec<f64> = mesh
+            .positions
+            .iter()
+            .map(|p| centres.iter().map(|c| p.distance(*c)).fold(f64::INFINITY, f64::min))
+            .collect();
         let contact: Vec<bool> = rho.iter().map(|&r| r < inner).collect();
         let u = rho.iter().map(|&r| ((r - inner) / (outer - inner)).max(0.0)).collect::<Vec<_>>();
         let deformable = rho.iter().zip(&u).map(|(&r, &u)| r >= inner && u < 1.0).collect();
@@ -71,9 +74,8 @@ fn the_selection_spans_the_profiles_and_nu_is_harmonic_with_its_boundary_values(
         }
     }
     // ν in [0, 1] (up to the least-squares slack), 0 and 1 on the lateral boundaries, ½ under the centre.
-    let (nu_min, nu_max) = selected.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-        (lo.min(s.nu[v]), hi.max(s.nu[v]))
-    });
+    let (nu_min, nu_max) =
+        selected.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(s.nu[v]), hi.max(s.nu[v])));
     assert!(nu_min > -0.02 && nu_max < 1.02, "{nu_min} {nu_max}");
     for (value, boundary) in [0.0, 1.0].iter().zip(&s.lateral) {
         assert!(boundary.len() >= 10, "{} points", boundary.len());
@@ -152,7 +154,10 @@ fn errors_name_the_fix() {
     let e = radial_brush(&mesh, &topology, &nothing.fields(), DVec3::ZERO, 0.2).unwrap_err();
     assert_eq!(e, RadialBrushError::NoDeformableRegion);
     let short = BrushFields { u: &synthetic.u[1..], ..fields };
-    assert!(matches!(radial_brush(&mesh, &topology, &short, DVec3::ZERO, 0.2), Err(RadialBrushError::LengthMismatch { .. })));
+    assert!(matches!(
+        radial_brush(&mesh, &topology, &short, DVec3::ZERO, 0.2),
+        Err(RadialBrushError::LengthMismatch { .. })
+    ));
 }
 
 #[test]
@@ -168,7 +173,10 @@ fn several_zones_are_refused_unless_their_deformed_regions_are_apart() {
     let apart = Synthetic::new(&mesh, &[DVec3::new(-0.8, 0.0, 0.0), DVec3::new(0.8, 0.0, 0.0)], 0.15, 0.6);
     let s = radial_brush(&mesh, &topology, &apart.fields(), DVec3::new(0.8, 0.45, 0.0), 0.2).unwrap();
     assert!((0..mesh.num_vertices()).any(|v| s.selected[v]));
-    assert!((0..mesh.num_vertices()).all(|v| !s.selected[v] || mesh.positions[v].x > 0.0), "only the zone under the brush");
+    assert!(
+        (0..mesh.num_vertices()).all(|v| !s.selected[v] || mesh.positions[v].x > 0.0),
+        "only the zone under the brush"
+    );
 }
 
 /// A grid pressed by a rigid sphere on its symmetry axis; no volume preservation, a fixed bulge
@@ -217,7 +225,8 @@ fn on_the_deformers_u_the_selection_is_symmetric_and_the_painted_map_moves_only_
             moved_inside += 1;
         }
     }
-    let rise = (0..mesh.num_vertices()).map(|v| (after.positions[v] - before.positions[v]).length()).fold(0.0, f64::max);
+    let rise =
+        (0..mesh.num_vertices()).map(|v| (after.positions[v] - before.positions[v]).length()).fold(0.0, f64::max);
     println!("the painted map moved {moved_inside} vertices of 𝒵, at most {rise:.2e}");
     assert!(moved_inside > count / 2);
 }
