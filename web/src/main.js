@@ -151,7 +151,8 @@ $('play').onclick = () => {
   }, 1000 / (state.scene.frames.fps || 24));
 };
 
-// Painting: strokes on the selected object's input surface while the brush is on.
+// Painting: strokes on the selected object's input surface while the brush is on (the local
+// brush paints a disc, the radial one along the profiles of u through the picked point).
 let painting = false;
 let lastStroke = 0;
 function stroke(event) {
@@ -162,6 +163,7 @@ function stroke(event) {
     type: 'paint',
     object: state.target.object,
     stroke: {
+      kind: $('brush-kind').value,
       center: [point.x, point.y, point.z],
       radius: Number($('brush-radius').value),
       operation: $('brush-op').value,

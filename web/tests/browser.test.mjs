@@ -220,6 +220,41 @@ test('a painted stroke changes the bulge map', async () => {
   await page.locator('#overlay').selectOption('none');
 });
 
+test('a radial stroke changes the bulge map along the profiles', async () => {
+  await page.evaluate(() => window.squish.send({ type: 'clear_paint', object: 0 }));
+  await waitFor((f) => f.objects[0].painted === null, 'the cleared map');
+  // A vertex of the ball halfway along the profiles (u near ½) that the brush's ray reaches first.
+  const target = await page.evaluate(() => {
+    const { view, frame } = window.squish;
+    const object = frame.objects[0];
+    const canvas = view.renderer.domElement.getBoundingClientRect();
+    const p = view.objects[0].before.position.clone();
+    for (let v = 0; v < object.overlays.u.length; v++) {
+      if (!object.overlays.deformable[v] || Math.abs(object.overlays.u[v] - 0.5) > 0.15) continue;
+      p.set(object.input[3 * v], object.input[3 * v + 1], object.input[3 * v + 2]).project(view.camera);
+      const event = { clientX: canvas.left + ((p.x + 1) / 2) * canvas.width, clientY: canvas.top + ((1 - p.y) / 2) * canvas.height };
+      const hit = view.pick(event, 0);
+      if (hit && hit.distanceTo(p.set(object.input[3 * v], object.input[3 * v + 1], object.input[3 * v + 2])) < 0.05) return [event.clientX, event.clientY];
+    }
+    return null;
+  });
+  assert.ok(target, 'a vertex of the ball with u near ½ is in view');
+  await page.locator('#paint-on').check();
+  await page.locator('#brush-kind').selectOption('radial');
+  await page.locator('#brush-op').selectOption('add');
+  await page.locator('#brush-strength').fill('3');
+  await page.mouse.click(target[0], target[1]);
+  await page.locator('#paint-on').uncheck();
+  await page.locator('#brush-kind').selectOption('local');
+  const f = await waitFor((f) => f.objects[0].painted !== null, 'a radially painted map');
+  const { u } = f.objects[0].overlays;
+  const raised = f.objects[0].painted.flatMap((eta, v) => (eta > 1 ? [u[v]] : []));
+  assert.ok(raised.length > 10, `${raised.length} vertices painted`);
+  assert.ok(Math.min(...raised) < 0.2 && Math.max(...raised) > 0.8, `the stroke runs from ∂𝒞 to ∂𝒟 (u ${Math.min(...raised)} … ${Math.max(...raised)})`);
+  assert.equal(await page.locator('#error').isHidden(), true, 'no error shown');
+  assert.equal(f.edit, true, 'the bulge map is downstream: a fast edit');
+});
+
 test('a key set on the timeline and removed again', async () => {
   const row = page.locator('.param[data-key="bulge_height"]');
   await row.locator('.name').click();

@@ -223,3 +223,66 @@ fn listening_beyond_this_machine_warns() {
     assert!(warning.starts_with("warning: listening on 0.0.0.0:"), "{warning}");
     assert!(warning.contains("127.0.0.1"), "the warning says what to use instead: {warning}");
 }
+
+#[test]
+fn a_radial_stroke_paints_only_the_selected_region_and_a_malformed_kind_is_refused() {
+    let (server, _) = Server::start();
+    let (_, scene) = server.request("GET", "/api/scene", b"");
+    let scene: serde_json::Value = serde_json::from_str(&dechunk(&scene)).unwrap();
+    let (_, shown) = server.message("{\"type\": \"frame\", \"frame\": 24}");
+    let ball = &shown["frame"]["objects"][0];
+    let numbers =
+        |v: &serde_json::Value| -> Vec<f64> { v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let flags = |v: &serde_json::Value| -> Vec<bool> { numbers(v).iter().map(|&x| x != 0.0).collect() };
+    let flat = numbers(&ball["input"]);
+    let triangles: Vec<u32> = numbers(&scene["objects"][0]["triangles"]).iter().map(|&x| x as u32).collect();
+    let mesh = squish::TriMesh {
+        positions: flat.chunks_exact(3).map(|p| glam::DVec3::new(p[0], p[1], p[2])).collect(),
+        triangles: triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+    };
+    let u: Vec<f64> =
+        numbers(&ball["overlays"]["u"]).iter().map(|&x| if x < 0.0 { f64::INFINITY } else { x }).collect();
+    let contact = flags(&ball["overlays"]["contact"]);
+    let deformable = flags(&ball["overlays"]["deformable"]);
+    // The brush centre: the vertex of 𝒟 nearest to u = ½.
+    let centre = (0..u.len())
+        .filter(|&v| deformable[v])
+        .min_by(|&a, &b| (u[a] - 0.5).abs().total_cmp(&(u[b] - 0.5).abs()))
+        .unwrap();
+    let at = mesh.positions[centre];
+    let radius = 0.3;
+    // The selection the core makes on the fields the page was sent.
+    let topology = squish::mesh::Topology::new(&mesh);
+    let fields = squish::deform::BrushFields { u: &u, contact: &contact, deformable: &deformable };
+    let selection = squish::deform::radial_brush(&mesh, &topology, &fields, at, radius).unwrap();
+
+    let stroke = |kind: &str, at: glam::DVec3| {
+        format!(
+            "{{\"type\": \"paint\", \"object\": 0, \"stroke\": {{\"kind\": \"{kind}\", \"center\": [{}, {}, {}], \"radius\": {radius}, \"operation\": \"add\", \"strength\": 1}}}}",
+            at.x, at.y, at.z
+        )
+    };
+    let (status, painted) = server.message(&stroke("radial", at));
+    assert_eq!(status, 200, "{painted}");
+    let eta = numbers(&painted["frame"]["objects"][0]["painted"]);
+    let mut changed = 0;
+    for (v, &eta) in eta.iter().enumerate() {
+        if eta != 1.0 {
+            assert!(selection.selected[v], "η changed at vertex {v}, outside the selected region");
+            changed += 1;
+        }
+        let w = selection.weights[v];
+        assert!((eta - 1.0 - w).abs() < 1e-9, "vertex {v}: η = {eta}, w = {w}");
+    }
+    assert!(changed > 20, "{changed} vertices painted");
+    assert_eq!(painted["frame"]["edit"], true, "the bulge map is downstream: a fast edit");
+
+    for (bad, says) in [
+        (stroke("cone", at), "unknown variant"),
+        (stroke("radial", mesh.positions[contact.iter().position(|&c| c).unwrap()]), "outside the deformable region"),
+    ] {
+        let (status, reply) = server.message(&bad);
+        assert_eq!(status, 400, "{bad}: {reply}");
+        assert!(reply["message"].as_str().unwrap().contains(says), "{bad}: {reply}");
+    }
+}

@@ -8,8 +8,9 @@
 //!   `keyframe`, as a key at the current frame;
 //! - `{"type": "revert", "target": …, "key": K}`: back to the scene file's value;
 //! - `{"type": "unkey", "target": …, "key": K}`: removes K's key at the current frame;
-//! - `{"type": "paint", "object": i, "stroke": {center, radius, operation, strength}}`: a local
-//!   brush stroke on the object's bulge map (§5.5.1);
+//! - `{"type": "paint", "object": i, "stroke": {kind, center, radius, operation, strength}}`: a
+//!   brush stroke on the object's bulge map (§5.5.1), `kind` `"local"` (the default) or `"radial"`
+//!   (along the profiles of the frame last computed, which must be the current frame);
 //! - `{"type": "clear_paint", "object": i}`: back to the scene's bulge map;
 //! - `{"type": "refresh"}`: send the current frame;
 //! - `{"type": "export", "name": N}`: write the edited scene and the frame's meshes.
@@ -18,7 +19,7 @@ use serde::Deserialize;
 use squish::params::{ParamValue, Params};
 use squish::{ObjectParams, PairParams};
 
-use super::session::{Session, Stroke, Target};
+use super::session::{BrushFrame, BrushKind, Session, Stroke, Target};
 
 /// A message from the page.
 #[derive(Debug, Deserialize)]
@@ -73,8 +74,9 @@ pub fn parse(text: &[u8]) -> Result<Request, String> {
     })
 }
 
-/// Applies `request` to the session's edits; true if they changed.
-pub fn apply(session: &mut Session, request: &Request) -> Result<bool, String> {
+/// Applies `request` to the session's edits; true if they changed. `computed` is what the radial
+/// brush follows: the fields of the frame last computed.
+pub fn apply(session: &mut Session, request: &Request, computed: Option<&BrushFrame>) -> Result<bool, String> {
     match request {
         Request::Frame { frame } => {
             let range = session.scene.frames();
@@ -107,9 +109,23 @@ pub fn apply(session: &mut Session, request: &Request) -> Result<bool, String> {
             let target =
                 frame.objects.get(*object).ok_or_else(|| format!("no object {object}: the scene has {count}"))?;
             let vertices = target.mesh.num_vertices();
+            let fields = match stroke.kind {
+                BrushKind::Local => None,
+                BrushKind::Radial => {
+                    let computed = computed.filter(|c| c.frame == session.edits.frame).ok_or_else(|| {
+                        format!(
+                            "radial brush: frame {} is not computed yet; paint again once it shows",
+                            session.edits.frame
+                        )
+                    })?;
+                    computed.objects.get(*object).and_then(Option::as_ref).filter(|f| f.u.len() == vertices)
+                }
+            };
+            let magnitudes =
+                stroke.magnitudes(&target.mesh, fields).map_err(|e| format!("object \"{}\": {e}", target.name))?;
             let mut map =
                 target.params.bulge_map.clone().filter(|m| m.len() == vertices).unwrap_or_else(|| vec![1.0; vertices]);
-            stroke.paint(&target.mesh, &mut map);
+            stroke.paint(&target.mesh, &magnitudes, &mut map);
             session.edits.painted[*object] = Some(map);
             Ok(true)
         }
@@ -169,6 +185,27 @@ mod tests {
             assert!(e.contains("message"), "{e}");
         }
         assert!(matches!(parse(b"{\"type\": \"frame\", \"frame\": 3}").unwrap(), Request::Frame { frame: 3 }));
+    }
+
+    #[test]
+    fn a_stroke_is_local_unless_it_says_radial() {
+        let stroke = |kind: &str| {
+            parse(
+                format!(
+                    "{{\"type\": \"paint\", \"object\": 0, \"stroke\": {{{kind}\"center\": [0, 0, 0], \"radius\": 1, \"operation\": \"add\", \"strength\": 1}}}}"
+                )
+                .as_bytes(),
+            )
+        };
+        let kind = |r: Result<Request, String>| match r.unwrap() {
+            Request::Paint { stroke, .. } => stroke.kind,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(kind(stroke("")), BrushKind::Local, "the format before the radial brush");
+        assert_eq!(kind(stroke("\"kind\": \"local\", ")), BrushKind::Local);
+        assert_eq!(kind(stroke("\"kind\": \"radial\", ")), BrushKind::Radial);
+        let e = stroke("\"kind\": \"cone\", ").unwrap_err();
+        assert!(e.contains("message") && e.contains("radial"), "{e}");
     }
 
     #[test]

@@ -41,7 +41,7 @@ use tokio::sync::watch;
 use crate::error::CliError;
 use crate::frame_quality::MeasureCache;
 use messages::{Reply, Request};
-use session::{Computed, Session};
+use session::{BrushFrame, Computed, Session};
 use view::{FrameView, SceneView};
 
 /// Largest request body or WebSocket message (a message is an edit, never a mesh).
@@ -73,6 +73,9 @@ struct App {
     latest: watch::Sender<Option<Arc<Outcome>>>,
     /// Set on Ctrl-C: WebSockets close.
     shutdown: watch::Sender<bool>,
+    /// The fields of the frame last computed, which the radial brush follows (kept apart from
+    /// the engine, whose lock a computation holds).
+    brush_frame: Mutex<Option<Arc<BrushFrame>>>,
 }
 
 /// The deformer and what it keeps between frames.
@@ -152,6 +155,7 @@ async fn serve(session: Session, address: SocketAddr, open: bool) -> Result<(), 
         edits_version,
         latest: watch::channel(None).0,
         shutdown: watch::channel(false).0,
+        brush_frame: Mutex::new(None),
     });
     let listener = tokio::net::TcpListener::bind(address)
         .await
@@ -290,8 +294,9 @@ async fn handle(app: &Arc<App>, text: &[u8]) -> Result<Reply, String> {
         .map_err(|e| format!("the export failed: {e}"))?;
     }
     // The version changes with the edits, under the session's lock (see `compute_latest`).
+    let computed = lock(&app.brush_frame).clone();
     let mut session = lock(&app.session);
-    if messages::apply(&mut session, &request)? {
+    if messages::apply(&mut session, &request, computed.as_deref())? {
         app.edits_version.send_modify(|v| *v += 1);
     }
     let version = *app.edits_version.borrow();
@@ -349,6 +354,7 @@ fn compute_latest(app: &App, done: Option<u64>) -> Option<Outcome> {
         Err(message) => {
             // The deformer keeps nothing of a failed frame; start the next one afresh.
             *deformer = Deformer::new().keep_for_edits();
+            *lock(&app.brush_frame) = None;
             return fail(message);
         }
     };
@@ -356,6 +362,7 @@ fn compute_latest(app: &App, done: Option<u64>) -> Option<Outcome> {
     let session = lock(&app.session);
     let view = FrameView::of(&session, &computed, version, edits.frame);
     drop(session);
+    *lock(&app.brush_frame) = Some(Arc::new(BrushFrame::of(&computed, edits.frame)));
     *last = Some(computed);
     match serde_json::to_string(&serde_json::json!({ "type": "frame", "frame": view })) {
         Ok(json) => Some(Outcome { version, json, ok: true }),

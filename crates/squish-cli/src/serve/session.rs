@@ -297,16 +297,31 @@ pub fn compute(deformer: &mut Deformer, shot: ShotFrame, cache: &mut MeasureCach
     Ok(Computed { shot, result, objects, pairs })
 }
 
-/// A local brush stroke on a bulge map (§5.5.1): inside `radius` of `center`, the operation's
-/// magnitude fades smoothly to 0 at the brush's edge ((1 − (d/r)²)², C¹ at the edge).
+/// A brush stroke on a bulge map (§5.5.1): the operation's magnitude is 1 at the brush's middle
+/// and fades smoothly (C¹) to 0 at its edge. The local brush acts within `radius` of `center`
+/// ((1 − (d/r)²)²); the radial brush along the profiles of the deformation, from ∂𝒞 to ∂𝒟, over
+/// an arc of ±`radius` of the isoline of u through `center` ((1 − (2ν − 1)²)²,
+/// [`squish::deform::radial_brush`]).
 #[derive(Clone, Copy, Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Stroke {
+    /// `local` when absent (the format before the radial brush).
+    #[serde(default)]
+    pub kind: BrushKind,
     pub center: [f64; 3],
     pub radius: f64,
     pub operation: BrushOperation,
     /// The value set, added or subtracted (for `smooth`: how much of the neighbours' mean).
     pub strength: f64,
+}
+
+/// The thesis' two brushes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BrushKind {
+    #[default]
+    Local,
+    Radial,
 }
 
 /// What a brush does to η (the thesis' set, add, subtract and smooth).
@@ -322,6 +337,40 @@ pub enum BrushOperation {
 /// Largest η a brush paints (the map scales the bulge; beyond this it only makes spikes).
 pub const MAX_PAINTED_ETA: f64 = 10.0;
 
+/// The fields of a computed frame the radial brush follows, per object (`None`: not deformed).
+#[derive(Clone, Debug, Default)]
+pub struct BrushFrame {
+    /// The frame they were computed at.
+    pub frame: i64,
+    pub objects: Vec<Option<ObjectBrushFields>>,
+}
+
+/// One object's radial parameter u, contact zone and deformable region, per vertex.
+#[derive(Clone, Debug)]
+pub struct ObjectBrushFields {
+    pub u: Vec<f64>,
+    pub contact: Vec<bool>,
+    pub deformable: Vec<bool>,
+}
+
+impl BrushFrame {
+    pub fn of(computed: &Computed, frame: i64) -> Self {
+        let objects = computed
+            .result
+            .deformations
+            .iter()
+            .map(|d| {
+                d.as_ref().map(|d| ObjectBrushFields {
+                    u: d.u.clone(),
+                    contact: d.contact.clone(),
+                    deformable: d.deformable.clone(),
+                })
+            })
+            .collect();
+        Self { frame, objects }
+    }
+}
+
 impl Stroke {
     pub fn check(&self) -> Result<(), String> {
         if !self.center.iter().all(|x| x.is_finite()) {
@@ -336,16 +385,40 @@ impl Stroke {
         Ok(())
     }
 
-    /// Paints `map` (η per vertex of `mesh`, at this frame's input positions).
-    pub fn paint(&self, mesh: &TriMesh, map: &mut [f64]) {
+    /// The brush's magnitude per vertex of `mesh` (the object at this frame's input positions);
+    /// the radial brush needs the object's `fields` at this frame.
+    pub fn magnitudes(&self, mesh: &TriMesh, fields: Option<&ObjectBrushFields>) -> Result<Vec<f64>, String> {
         let center = DVec3::from_array(self.center);
-        let falloff = |p: DVec3| {
-            let t = p.distance_squared(center) / (self.radius * self.radius);
-            if t < 1.0 { (1.0 - t) * (1.0 - t) } else { 0.0 }
-        };
+        match self.kind {
+            BrushKind::Local => Ok(mesh
+                .positions
+                .iter()
+                .map(|p| {
+                    let t = p.distance_squared(center) / (self.radius * self.radius);
+                    if t < 1.0 { (1.0 - t) * (1.0 - t) } else { 0.0 }
+                })
+                .collect()),
+            BrushKind::Radial => {
+                let fields = fields.ok_or(
+                    "radial brush: the object has no deformable region at this frame (no contact); paint at a frame with contact or use the local brush",
+                )?;
+                let topology = squish::mesh::Topology::new(mesh);
+                let fields = squish::deform::BrushFields {
+                    u: &fields.u,
+                    contact: &fields.contact,
+                    deformable: &fields.deformable,
+                };
+                squish::deform::radial_brush(mesh, &topology, &fields, center, self.radius)
+                    .map(|s| s.weights)
+                    .map_err(|e| e.to_string())
+            }
+        }
+    }
+
+    /// Paints `map` (η per vertex) with the brush's `magnitudes` per vertex.
+    pub fn paint(&self, mesh: &TriMesh, magnitudes: &[f64], map: &mut [f64]) {
         let mean = (self.operation == BrushOperation::Smooth).then(|| neighbour_means(mesh, map));
-        for (v, (p, eta)) in mesh.positions.iter().zip(map.iter_mut()).enumerate() {
-            let w = falloff(*p);
+        for (v, (&w, eta)) in magnitudes.iter().zip(map.iter_mut()).enumerate() {
             if w == 0.0 {
                 continue;
             }

@@ -14,7 +14,8 @@
 //!    App. C): the per-vertex B-spline profile, the bulge map η and the bulge height h_v that
 //!    preserves the volume.
 //!
-//! The automatic extent φ_max is [`automatic_extent`] (§7.1).
+//! The automatic extent φ_max is [`automatic_extent`] (§7.1). The radial brush that paints the
+//! bulge map along the profiles is [`radial_brush()`] (§5.5.1).
 //!
 //! Contact-zone vertices go to their targets p′_i on 𝒮; every other vertex outside 𝒟 is copied
 //! bit for bit. The working region may be part of a larger closed object (a [`crate::SubMesh`]):
@@ -38,6 +39,7 @@ mod guide;
 mod parametrize;
 mod params;
 mod profile;
+mod radial_brush;
 mod solver;
 mod transport;
 mod volume;
@@ -66,6 +68,7 @@ pub use guide::{GuideFields, GuideParams, MIN_SLOPE_U, guide_fields};
 pub use parametrize::{Parametrization, ParametrizeParams, deformable_face_weights, parametrize};
 pub use params::DeformParams;
 pub use profile::{Profile, ProfileSample, ProfileSampler, ProfileShape, Wrinkles};
+pub use radial_brush::{BrushFields, LateralPoint, RadialBrushError, RadialSelection, radial_brush, radial_falloff};
 pub use solver::RegionSolver;
 pub use transport::{MAX_CORRECTION, TransportField, transport_field};
 pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
