@@ -16,6 +16,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::part_contact::{PartContactCache, PartPairStats, resolve_part_contacts};
 use super::{Frame, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
@@ -30,6 +31,8 @@ pub(super) struct SelfContactCache {
     triangles: Vec<[u32; 3]>,
     topology: Option<Topology>,
     setups: Vec<Option<ArticulationSetup>>,
+    /// The contacts between its parts (issue 27).
+    parts: PartContactCache,
 }
 
 /// The self-contact result of one object at one frame.
@@ -46,37 +49,46 @@ pub struct SelfContactResult {
     pub cuts: Vec<(Vec<u32>, Vec<bool>)>,
 }
 
-/// Runs the articulations of every object that has some. Returns, per object, its result
-/// (`None` for objects without articulations) and the articulations' figures.
+/// The figures of a frame's self-contact stage: per articulation and per touching part pair.
+pub(super) type SelfContactStats = (Vec<ArticulationStats>, Vec<PartPairStats>);
+
+/// True if the object has self-contact to resolve: articulations or parts.
+pub(super) fn has_self_contact(params: &ObjectParams) -> bool {
+    !params.rigid && (!params.self_contact.is_empty() || params.self_contact_parts.is_some())
+}
+
+/// Runs the articulations, then the part contacts, of every object that has some. Returns, per
+/// object, its result (`None` for objects without self-contact) and the figures.
 pub(super) fn resolve_self_contacts(
     caches: &mut Vec<SelfContactCache>,
     frame: &Frame,
-) -> Result<(Vec<Option<SelfContactResult>>, Vec<ArticulationStats>), PipelineError> {
+) -> Result<(Vec<Option<SelfContactResult>>, SelfContactStats), PipelineError> {
     let count = frame.objects.len();
     caches.resize_with(count, SelfContactCache::default);
     caches.truncate(count);
-    let results: Vec<Option<(SelfContactResult, Vec<ArticulationStats>)>> = caches
+    let results: Vec<Option<(SelfContactResult, SelfContactStats)>> = caches
         .par_iter_mut()
         .zip(&frame.objects)
         .enumerate()
         .map(|(i, (cache, object))| {
-            if object.params.self_contact.is_empty() || object.params.rigid {
+            if !has_self_contact(object.params) {
                 return Ok(None);
             }
             resolve_object(i, cache, object.name, object.mesh, object.params).map(Some)
         })
         .collect::<Result<_, _>>()?;
-    let mut stats = Vec::new();
+    let (mut articulations, mut part_pairs) = (Vec::new(), Vec::new());
     let results = results
         .into_iter()
         .map(|r| {
-            r.map(|(result, s)| {
-                stats.extend(s);
+            r.map(|(result, (a, p))| {
+                articulations.extend(a);
+                part_pairs.extend(p);
                 result
             })
         })
         .collect();
-    Ok((results, stats))
+    Ok((results, (articulations, part_pairs)))
 }
 
 fn resolve_object(
@@ -85,7 +97,7 @@ fn resolve_object(
     name: &str,
     mesh: &TriMesh,
     params: &ObjectParams,
-) -> Result<(SelfContactResult, Vec<ArticulationStats>), PipelineError> {
+) -> Result<(SelfContactResult, SelfContactStats), PipelineError> {
     let n = mesh.num_vertices();
     let error = |articulation: &str, source| PipelineError::SelfContact {
         object: name.to_string(),
@@ -95,7 +107,12 @@ fn resolve_object(
     if cache.topology.is_none() || cache.triangles != mesh.triangles {
         let topology =
             mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
-        *cache = SelfContactCache { triangles: mesh.triangles.clone(), topology: Some(topology), setups: Vec::new() };
+        *cache = SelfContactCache {
+            triangles: mesh.triangles.clone(),
+            topology: Some(topology),
+            setups: Vec::new(),
+            parts: PartContactCache::default(),
+        };
     }
     let Some(topology) = cache.topology.as_ref() else {
         return Err(PipelineError::InvalidRegion { object: name.to_string(), reason: "no topology".into() });
@@ -169,7 +186,18 @@ fn resolve_object(
         }
         stats.push(s);
     }
-    Ok((SelfContactResult { positions: after.positions, contact, moved, cuts }, stats))
+    let (positions, part_pairs) = match &params.self_contact_parts {
+        Some(parts) => {
+            let (positions, part_moved, part_pairs) =
+                resolve_part_contacts(&mut cache.parts, index, name, &after, &rest, params, parts)?;
+            for (m, p) in moved.iter_mut().zip(part_moved) {
+                *m |= p;
+            }
+            (positions, part_pairs)
+        }
+        None => (after.positions, Vec::new()),
+    };
+    Ok((SelfContactResult { positions, contact, moved, cuts }, (stats, part_pairs)))
 }
 
 /// Makes the figures of the objects with articulations relative to the frame's input, not to the

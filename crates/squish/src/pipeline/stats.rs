@@ -146,6 +146,9 @@ pub struct FrameStats {
     /// Every articulation with self-contact (ch. 6), object by object.
     #[serde(default)]
     pub articulations: Vec<crate::skinning::ArticulationStats>,
+    /// Every touching pair of parts of a skinned object (issue 27), object by object.
+    #[serde(default)]
+    pub part_pairs: Vec<super::PartPairStats>,
     /// True if the frame was an edit of the previous one (only parameters of §5.4–5.5 changed,
     /// see [`super::DOWNSTREAM_KEYS`]): it reused that frame's contact stage and fields of
     /// §5.1–5.3, so its times and work counters are the edit's; every other figure is a full
