@@ -86,6 +86,10 @@ pub struct Articulation {
     /// end of the child bone; needed when [`ArticulationParams::direction`] is `None` (`joints`).
     pub joints: Option<[DVec3; 3]>,
     pub params: ArticulationParams,
+    /// Found by `self_contact = "auto"` rather than asked for: a frame where it fails leaves it
+    /// inactive (zero displacement) and reports why ([`crate::skinning::ArticulationStats::error`])
+    /// instead of failing the frame.
+    pub automatic: bool,
 }
 
 /// The parts of a skinned mesh between which self-contact is resolved beyond the articulations

@@ -37,11 +37,13 @@ use serde::{Deserialize, Serialize};
 
 use super::{Deformer, Frame, FrameObject, FramePair, PipelineError};
 use crate::mesh::TriMesh;
-use crate::params::{ObjectParams, PairParams, RegionChoice, SkinParts};
-use crate::skinning::{PartContactSetup, TouchingPair};
+use crate::params::{ObjectParams, PairParams, SkinParts};
+use crate::skinning::{PartContactSetup, RestIntersections, TouchingPair};
 
-/// Rings of faces each side of a part pair takes from its neighbouring parts.
-pub const MARGIN_RINGS: usize = 2;
+/// Rings of faces each side of a part pair takes from its neighbouring parts: the first, then
+/// the wider ones tried in turn when a contact reaches a region's border (the intersection is
+/// not closed inside the region).
+pub const MARGIN_RINGS: [usize; 3] = [2, 6, 18];
 
 /// Figures of one touching part pair at one frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -59,8 +61,9 @@ pub struct PartPairStats {
     /// True if the contact stage found a contact; its area.
     pub in_contact: bool,
     pub contact_area: f64,
-    /// Faces of the two working regions.
+    /// Faces of the two working regions, and the margin they were grown by (the last tried).
     pub region_faces: [usize; 2],
+    pub margin_rings: usize,
     /// Why the pair was left unresolved, if it was.
     pub error: Option<String>,
     pub time: Duration,
@@ -70,15 +73,16 @@ pub struct PartPairStats {
 struct PairDeformer {
     deformer: Deformer,
     labels: Vec<f64>,
-    parts: [Vec<u32>; 2],
+    region_faces: [usize; 2],
 }
 
 /// What an object's part contacts keep between frames.
 #[derive(Default)]
 pub(super) struct PartContactCache {
     setup: Option<PartContactSetup>,
+    rest_intersections: Option<RestIntersections>,
     parts: Option<SkinParts>,
-    deformers: BTreeMap<[u32; 2], PairDeformer>,
+    deformers: BTreeMap<([u32; 2], usize), PairDeformer>,
 }
 
 impl std::fmt::Debug for PartContactCache {
@@ -88,38 +92,42 @@ impl std::fmt::Debug for PartContactCache {
 }
 
 /// The vertex labels of the two working regions of part pair `[a, b]` (1 and 2, 0 elsewhere):
-/// each part's faces grown by [`MARGIN_RINGS`] rings (never into the other part), the vertices
-/// both reach set to 0 so that the regions share no vertex.
-fn pair_labels(mesh: &TriMesh, parts: &SkinParts, [a, b]: [u32; 2]) -> Vec<f64> {
+/// each part's faces grown by `rings` rings of faces (never into the other part). A vertex of
+/// one part's own faces goes to that part even when the other's margin reaches it; vertices both
+/// parts own (their seam), or both margins reach and neither owns, get 0, so that the regions
+/// share no vertex.
+fn pair_labels(mesh: &TriMesh, parts: &SkinParts, [a, b]: [u32; 2], rings: usize) -> Vec<f64> {
     let n = mesh.num_vertices();
-    let grow = |own: u32, other: u32| -> Vec<bool> {
-        let mut faces: Vec<bool> = parts.face_parts.iter().map(|&p| p == own).collect();
-        for _ in 0..MARGIN_RINGS {
-            let mut reached = vec![false; n];
-            for (t, _) in mesh.triangles.iter().zip(&faces).filter(|(_, in_)| **in_) {
-                for &v in t {
-                    reached[v as usize] = true;
-                }
-            }
-            for (f, t) in mesh.triangles.iter().enumerate() {
-                if !faces[f] && parts.face_parts[f] != other && t.iter().any(|&v| reached[v as usize]) {
-                    faces[f] = true;
-                }
-            }
-        }
+    let vertices_of = |faces: &[bool]| -> Vec<bool> {
         let mut vertices = vec![false; n];
-        for (t, _) in mesh.triangles.iter().zip(&faces).filter(|(_, in_)| **in_) {
+        for (t, _) in mesh.triangles.iter().zip(faces).filter(|(_, in_)| **in_) {
             for &v in t {
                 vertices[v as usize] = true;
             }
         }
         vertices
     };
+    let own = |part: u32| -> Vec<bool> { parts.face_parts.iter().map(|&p| p == part).collect() };
+    let grow = |own: u32, other: u32| -> Vec<bool> {
+        let mut faces: Vec<bool> = parts.face_parts.iter().map(|&p| p == own).collect();
+        for _ in 0..rings {
+            let reached = vertices_of(&faces);
+            for (f, t) in mesh.triangles.iter().enumerate() {
+                if !faces[f] && parts.face_parts[f] != other && t.iter().any(|&v| reached[v as usize]) {
+                    faces[f] = true;
+                }
+            }
+        }
+        vertices_of(&faces)
+    };
+    let (own_first, own_second) = (vertices_of(&own(a)), vertices_of(&own(b)));
     let (first, second) = (grow(a, b), grow(b, a));
     (0..n)
-        .map(|v| match (first[v], second[v]) {
-            (true, false) => 1.0,
-            (false, true) => 2.0,
+        .map(|v| match (own_first[v], own_second[v], first[v], second[v]) {
+            (true, false, _, _) => 1.0,
+            (false, true, _, _) => 2.0,
+            (false, false, true, false) => 1.0,
+            (false, false, false, true) => 2.0,
             _ => 0.0,
         })
         .collect()
@@ -140,18 +148,31 @@ fn crossing_faces(
     Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())
 }
 
-/// Resolves the touching part pairs of one object (see the module doc). `mesh` is the object
-/// after its articulations, `rest` its rest pose, `params` its parameters. Returns the new
-/// positions, the vertices moved and the pairs' figures.
+/// What [`resolve_part_contacts`] gives back for one object.
+pub(super) struct PartContactResult {
+    pub positions: Vec<DVec3>,
+    /// Per vertex: moved by a part contact.
+    pub moved: Vec<bool>,
+    pub pairs: Vec<PartPairStats>,
+    /// Faces intersecting beyond the rest pose's, in the stage's input and after the part
+    /// contacts.
+    pub self_intersecting_faces: [usize; 2],
+}
+
+/// Resolves the touching part pairs of one object (see the module doc). `input` is the object
+/// at this frame, `mesh` the object after its articulations, `rest` its rest pose, `params` its
+/// parameters.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn resolve_part_contacts(
     cache: &mut PartContactCache,
     index: usize,
     name: &str,
+    input: &TriMesh,
     mesh: &TriMesh,
     rest: &TriMesh,
     params: &ObjectParams,
     parts: &SkinParts,
-) -> Result<(Vec<DVec3>, Vec<bool>, Vec<PartPairStats>), PipelineError> {
+) -> Result<PartContactResult, PipelineError> {
     let n = mesh.num_vertices();
     if parts.face_parts.len() != mesh.num_triangles() {
         return Err(PipelineError::invalid_region(
@@ -168,6 +189,7 @@ pub(super) fn resolve_part_contacts(
     if stale {
         *cache = PartContactCache {
             setup: Some(PartContactSetup::new(rest, parts).map_err(spatial)?),
+            rest_intersections: Some(RestIntersections::new(rest).map_err(spatial)?),
             parts: Some(parts.clone()),
             deformers: BTreeMap::new(),
         };
@@ -191,46 +213,57 @@ pub(super) fn resolve_part_contacts(
         };
         let Some(setup) = cache.setup.as_ref() else { break };
         s.faces_before = crossing_faces(&current, parts, setup, pair.parts).map_err(spatial)?;
-        let entry = cache.deformers.entry(pair.parts).or_insert_with(|| {
-            let labels = pair_labels(mesh, parts, pair.parts);
-            let faces_of = |k: f64| -> Vec<u32> {
-                (0..mesh.num_triangles() as u32)
-                    .filter(|&f| mesh.triangles[f as usize].iter().all(|&v| labels[v as usize] == k))
-                    .collect()
+        for rings in MARGIN_RINGS {
+            let entry = cache.deformers.entry((pair.parts, rings)).or_insert_with(|| {
+                let labels = pair_labels(mesh, parts, pair.parts, rings);
+                let faces_of = |k: f64| -> usize {
+                    mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
+                };
+                let region_faces = [faces_of(1.0), faces_of(2.0)];
+                PairDeformer { deformer: Deformer::new(), labels, region_faces }
+            });
+            s.region_faces = entry.region_faces;
+            s.margin_rings = rings;
+            let mut region_params = params.clone().with_region_mask(entry.labels.clone());
+            region_params.self_contact = Vec::new();
+            region_params.self_contact_parts = None;
+            let frame = Frame {
+                objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
+                pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
             };
-            let parts = [faces_of(1.0), faces_of(2.0)];
-            PairDeformer { deformer: Deformer::new(), labels, parts }
-        });
-        s.region_faces = [entry.parts[0].len(), entry.parts[1].len()];
-        let mut region_params = params.clone().with_region_mask(entry.labels.clone());
-        region_params.region = RegionChoice::Mask;
-        region_params.self_contact = Vec::new();
-        region_params.self_contact_parts = None;
-        let frame = Frame {
-            objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
-            pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
-        };
-        match entry.deformer.deform(&frame) {
-            Ok(result) => {
-                s.in_contact = result.stats.pairs.iter().any(|p| p.in_contact);
-                s.contact_area = result.stats.pairs.iter().map(|p| p.contact_area).sum();
-                if let Some(new) = result.positions.into_iter().next() {
-                    for (v, (p, q)) in positions.iter_mut().zip(&new).enumerate() {
-                        if p != q {
-                            moved[v] = true;
-                            *p = *q;
+            match entry.deformer.deform(&frame) {
+                Ok(result) => {
+                    s.error = None;
+                    s.in_contact = result.stats.pairs.iter().any(|p| p.in_contact);
+                    s.contact_area = result.stats.pairs.iter().map(|p| p.contact_area).sum();
+                    if let Some(new) = result.positions.into_iter().next() {
+                        for (v, (p, q)) in positions.iter_mut().zip(&new).enumerate() {
+                            if p != q {
+                                moved[v] = true;
+                                *p = *q;
+                            }
                         }
                     }
+                    break;
                 }
+                // Too tight: the next, wider margin.
+                Err(e) => s.error = Some(e.to_string()),
             }
-            Err(e) => s.error = Some(e.to_string()),
         }
         let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         s.faces_after = crossing_faces(&after, parts, setup, pair.parts).map_err(spatial)?;
         s.time = start.elapsed();
         stats.push(s);
     }
-    Ok((positions, moved, stats))
+    let beyond = |m: &TriMesh| -> Result<usize, PipelineError> {
+        match &cache.rest_intersections {
+            Some(r) => Ok(r.faces_beyond(m).map_err(spatial)?.len()),
+            None => Ok(0),
+        }
+    };
+    let result = TriMesh { positions, triangles: mesh.triangles.clone() };
+    let self_intersecting_faces = [beyond(input)?, beyond(&result)?];
+    Ok(PartContactResult { positions: result.positions, moved, pairs: stats, self_intersecting_faces })
 }
 
 #[cfg(test)]

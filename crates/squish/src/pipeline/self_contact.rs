@@ -47,6 +47,9 @@ pub struct SelfContactResult {
     pub moved: Vec<bool>,
     /// Per articulation: ℛ's vertices (object ids) and their crease-cut label (true = 𝒲̄₁).
     pub cuts: Vec<(Vec<u32>, Vec<bool>)>,
+    /// With self-contact parts: the faces intersecting beyond the rest pose's, in the input and
+    /// after this stage (see [`ObjectStats::self_intersecting_faces`]).
+    pub self_intersecting_faces: Option<[usize; 2]>,
 }
 
 /// The figures of a frame's self-contact stage: per articulation and per touching part pair.
@@ -143,16 +146,21 @@ fn resolve_object(
         .par_iter_mut()
         .zip(articulations)
         .map(|(slot, articulation)| {
-            let err = |source| error(&articulation.name, source);
-            let setup = match slot {
-                Some(setup) if setup.matches(mesh, articulation) => {
-                    setup.set_rest(&rest, topology).map_err(err)?;
-                    setup
-                }
-                _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest).map_err(err)?),
+            let planned = (|| {
+                let setup = match slot {
+                    Some(setup) if setup.matches(mesh, articulation) => {
+                        setup.set_rest(&rest, topology)?;
+                        setup
+                    }
+                    _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest)?),
+                };
+                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params)
+            })();
+            let mut plan = match planned {
+                Ok(plan) => plan,
+                Err(e) if articulation.automatic => inactive_plan(n, articulation, e.to_string()),
+                Err(e) => return Err(error(&articulation.name, e)),
             };
-            let mut plan =
-                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params).map_err(err)?;
             plan.stats.object = index;
             Ok(plan)
         })
@@ -174,7 +182,10 @@ fn resolve_object(
         s.bulge_height = height;
         s.applied_bulge_height = params.bulge * height;
         s.volume_exact = exact;
-        if let Some(setup) = setup {
+        if s.error.is_some() {
+            // Left inactive: nothing cut, nothing to count.
+            cuts.push((Vec::new(), Vec::new()));
+        } else if let Some(setup) = setup {
             let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
             let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
             let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
@@ -186,18 +197,30 @@ fn resolve_object(
         }
         stats.push(s);
     }
-    let (positions, part_pairs) = match &params.self_contact_parts {
+    let (positions, part_pairs, self_intersecting_faces) = match &params.self_contact_parts {
         Some(parts) => {
-            let (positions, part_moved, part_pairs) =
-                resolve_part_contacts(&mut cache.parts, index, name, &after, &rest, params, parts)?;
-            for (m, p) in moved.iter_mut().zip(part_moved) {
+            let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &rest, params, parts)?;
+            for (m, p) in moved.iter_mut().zip(r.moved) {
                 *m |= p;
             }
-            (positions, part_pairs)
+            (r.positions, r.pairs, Some(r.self_intersecting_faces))
         }
-        None => (after.positions, Vec::new()),
+        None => (after.positions, Vec::new(), None),
     };
-    Ok((SelfContactResult { positions, contact, moved, cuts }, (stats, part_pairs)))
+    let result = SelfContactResult { positions, contact, moved, cuts, self_intersecting_faces };
+    Ok((result, (stats, part_pairs)))
+}
+
+/// The plan of an automatic articulation that failed at this frame: no displacement, the reason
+/// in its figures.
+fn inactive_plan(n: usize, articulation: &crate::params::Articulation, reason: String) -> ArticulationPlan {
+    ArticulationPlan {
+        displacement: crate::deform::AffineDisplacement::none(n),
+        extent: f64::NAN,
+        labels: Vec::new(),
+        contact: vec![false; n],
+        stats: ArticulationStats { name: articulation.name.clone(), error: Some(reason), ..ArticulationStats::default() },
+    }
 }
 
 /// Makes the figures of the objects with articulations relative to the frame's input, not to the
@@ -220,5 +243,6 @@ pub(super) fn relative_to_input(
         stats.max_displacement =
             object.mesh.positions.iter().zip(positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
         stats.deformed |= r.as_ref().is_some_and(|r| r.moved.iter().any(|&m| m));
+        stats.self_intersecting_faces = r.as_ref().and_then(|r| r.self_intersecting_faces);
     }
 }

@@ -53,6 +53,11 @@ pub struct ObjectStats {
     /// object's.
     #[serde(default)]
     pub domain_reaches_cut: bool,
+    /// For a skinned object with self-contact parts: its faces that intersect another of its
+    /// faces beyond the rest pose's own intersections, in the input and after the self-contact
+    /// stage ([`crate::skinning::RestIntersections`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub self_intersecting_faces: Option<[usize; 2]>,
 }
 
 /// Figures of one region pair for one frame (one entry per pair of overlapping regions of a

@@ -234,6 +234,40 @@ impl PartContactSetup {
     }
 }
 
+/// The self-intersections of a rest pose, to count those of a posed mesh beyond them (the
+/// asset's own are not the animation's).
+#[derive(Clone, Debug)]
+pub struct RestIntersections {
+    /// Face pairs `[f, g]` (f < g) intersecting away from what they share in the rest pose.
+    pairs: Vec<[u32; 2]>,
+}
+
+impl RestIntersections {
+    pub fn new(rest: &TriMesh) -> Result<Self, SpatialError> {
+        let tree = TriangleBvh::new(rest)?;
+        let pairs = tree
+            .intersections_with(&tree)
+            .into_iter()
+            .filter(|&[f, g]| {
+                f < g
+                    && crate::spatial::triangles_intersect_away_from_shared(
+                        &rest.corners(f as usize),
+                        &rest.corners(g as usize),
+                    )
+            })
+            .collect();
+        Ok(Self { pairs })
+    }
+
+    /// Faces of `mesh` (the rest pose's connectivity) that intersect another face away from
+    /// what they share, in a pair that does not intersect in the rest pose; sorted.
+    pub fn faces_beyond(&self, mesh: &TriMesh) -> Result<Vec<u32>, SpatialError> {
+        crate::spatial::self_intersecting_faces(mesh, 0..mesh.num_triangles() as u32, |f, g| {
+            self.pairs.binary_search(&[f.min(g), f.max(g)]).is_err()
+        })
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
