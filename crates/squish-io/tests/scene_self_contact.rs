@@ -362,8 +362,11 @@ fn auto_errors_name_the_key_and_the_fix() {
     let e = shot.error("self_contact = \"auto\"\nrigid = true", "");
     assert!(e.contains("rigid") && e.contains("self_contact"), "{e}");
     let path = shot.path("ball.toml");
-    std::fs::write(&path, "frames = { start = 1, end = 2 }\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\nself_contact = \"auto\"\n")
-        .unwrap();
+    std::fs::write(
+        &path,
+        "frames = { start = 1, end = 2 }\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\nself_contact = \"auto\"\n",
+    )
+    .unwrap();
     let e = Scene::load(&path).err().unwrap().to_string();
     assert!(e.contains("skinned glTF"), "{e}");
 }

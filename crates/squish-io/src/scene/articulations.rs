@@ -138,7 +138,12 @@ pub(crate) fn load_articulations(
                 return Err(located(k, "name", format!("articulation \"{name}\" gives neither joints nor masks")));
             }
         };
-        articulations.push(ArticulationAssets { regions: Arc::new(regions), joints, params: entry_params, automatic: false });
+        articulations.push(ArticulationAssets {
+            regions: Arc::new(regions),
+            joints,
+            params: entry_params,
+            automatic: false,
+        });
     }
     let mut names: Vec<String> = object.self_contact.iter().map(|e| e.name.clone()).collect();
     let mut parts = None;

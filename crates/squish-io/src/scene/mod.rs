@@ -252,9 +252,7 @@ impl Scene {
                 ),
             };
             let located_auto = |message: String| match src {
-                Some(src) => {
-                    src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact")], message)
-                }
+                Some(src) => src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact")], message),
                 None => IoError::format(path, format!("[[objects]] \"{}\": self_contact: {message}", object.name)),
             };
             let self_contact =

@@ -2,9 +2,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Articulation, SkinParts};
 use super::ParamError;
 use super::value::DirectionFieldMethod;
+use super::{Articulation, SkinParts};
 
 crate::choice! {
     /// How an object is divided into working regions 𝒲 (§4, §4.5, §7.5).

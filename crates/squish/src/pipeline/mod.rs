@@ -40,8 +40,8 @@ mod contacts;
 mod deformations;
 mod edits;
 mod error;
-mod regions;
 mod part_contact;
+mod regions;
 mod results;
 mod self_contact;
 mod setup;
@@ -184,7 +184,8 @@ impl Deformer {
         }
         // Self-contact reads the downstream parameters before the pairs: never an edit.
         self.edits = None;
-        let (resolved, (articulations, part_pairs)) = self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
+        let (resolved, (articulations, part_pairs)) =
+            self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
         let meshes: Vec<Option<TriMesh>> = resolved
             .iter()
             .zip(&frame.objects)

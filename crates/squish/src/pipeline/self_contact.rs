@@ -219,7 +219,11 @@ fn inactive_plan(n: usize, articulation: &crate::params::Articulation, reason: S
         extent: f64::NAN,
         labels: Vec::new(),
         contact: vec![false; n],
-        stats: ArticulationStats { name: articulation.name.clone(), error: Some(reason), ..ArticulationStats::default() },
+        stats: ArticulationStats {
+            name: articulation.name.clone(),
+            error: Some(reason),
+            ..ArticulationStats::default()
+        },
     }
 }
 

@@ -94,7 +94,8 @@ pub fn parts_from_skin(
     }
     let mut target: Vec<usize> = (0..joint_count.max(1)).collect();
     for &j in &order {
-        if counts[j] > 0 && counts[j] < min_faces
+        if counts[j] > 0
+            && counts[j] < min_faces
             && let Some(p) = parents[j]
         {
             counts[p] += counts[j];
@@ -131,7 +132,7 @@ pub fn parts_from_skin(
     }
     adjacent.sort_unstable();
     adjacent.dedup();
-    SkinParts { face_parts, names: part_names, parent_child: adjacent, ..SkinParts::default() }
+    SkinParts { face_parts, names: part_names, parent_child: adjacent }
 }
 
 /// One part pair touching at a frame.
