@@ -389,4 +389,32 @@ mod tests {
         assert_ne!(one[0], posed.positions);
         assert_eq!(one, run(2));
     }
+
+    #[test]
+    fn an_automatic_articulation_that_fails_is_reported_not_fatal() {
+        let s = Siblings::new();
+        let posed = s.pose(0.8, std::f64::consts::FRAC_PI_2);
+        let n = s.count as u32;
+        // The two capsules as the two sides: they do not overlap, so there is no shared region.
+        let articulation = crate::params::Articulation {
+            name: "apart".into(),
+            regions: [(0..n).collect(), (n..2 * n).collect()],
+            joints: Some([DVec3::NEG_Z, DVec3::ZERO, DVec3::Z]),
+            automatic: true,
+            ..Default::default()
+        };
+        let mut params = s.params(&s.rest);
+        params.self_contact = vec![articulation.clone()];
+        let result = s.run(&mut Deformer::new(), &posed, &params);
+        let stats = &result.stats.articulations;
+        assert_eq!(stats.len(), 1);
+        assert!(stats[0].error.as_deref().is_some_and(|e| e.contains("shared region")), "{stats:?}");
+        // The part contact still ran.
+        assert_eq!(result.stats.part_pairs[0].faces_after, 0);
+        // Asked for explicitly, the same articulation fails the frame.
+        params.self_contact[0].automatic = false;
+        let frame =
+            Frame { objects: vec![FrameObject { name: "siblings", mesh: &posed, params: &params }], pairs: vec![] };
+        assert!(Deformer::new().deform(&frame).is_err());
+    }
 }
