@@ -155,6 +155,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         for articulation in &run.summary.articulations {
             eprintln!("  {}", articulation.line());
         }
+        for object in &run.summary.self_contact {
+            eprintln!("  {}", object.line());
+        }
         return Err(error);
     }
     if let Some(error) = run.interrupted_error() {
@@ -164,6 +167,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let warnings = print_shot_warnings(&run.outcome);
     for articulation in &run.summary.articulations {
         say!("  {}", articulation.line());
+    }
+    for object in &run.summary.self_contact {
+        say!("  {}", object.line());
     }
     for tight in &run.summary.tight_regions {
         say!("  {}", tight.line());

@@ -94,6 +94,128 @@ pub fn articulation_figures(record: &FrameRecord) -> Vec<ArticulationQuality> {
         .collect()
 }
 
+/// Figures of one touching part pair of a skinned object (`self_contact = "auto"`) at one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PartPairQuality {
+    /// The object's name and the two parts' names.
+    pub object: String,
+    pub parts: [String; 2],
+    /// Faces of the two parts intersecting the other part (beyond the rest pose's), before and
+    /// after this pair's resolution.
+    pub faces_before: usize,
+    pub faces_after: usize,
+    pub in_contact: bool,
+    pub contact_area: f64,
+    /// Why the pair was left unresolved, if it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    pub time_ms: f64,
+}
+
+/// The part pairs' figures of a computed frame.
+pub fn part_pair_figures(record: &FrameRecord) -> Vec<PartPairQuality> {
+    let object = |k: usize| record.objects.get(k).map_or_else(|| format!("#{k}"), |o| o.name.clone());
+    record
+        .stats
+        .part_pairs
+        .iter()
+        .map(|p| PartPairQuality {
+            object: object(p.object),
+            parts: p.parts.clone(),
+            faces_before: p.faces_before,
+            faces_after: p.faces_after,
+            in_contact: p.in_contact,
+            contact_area: p.contact_area,
+            error: p.error.clone(),
+            time_ms: p.time.as_secs_f64() * 1e3,
+        })
+        .collect()
+}
+
+/// An object with self-contact parts over a shot: its faces intersecting beyond the rest pose's,
+/// in the input and after the self-contact stage.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SelfContactSummary {
+    pub object: String,
+    pub frames: usize,
+    /// Summed over the frames.
+    pub faces_input: usize,
+    pub faces_output: usize,
+    /// Frames where the output has more than the input.
+    pub frames_worse: usize,
+    /// The frame with the most left, if any are left.
+    pub worst_output: Option<Extreme>,
+    /// Part pairs resolved (summed over the frames), the largest number in one frame, and the
+    /// pairs left unresolved.
+    pub part_pairs: usize,
+    pub max_part_pairs: usize,
+    pub part_pairs_failed: usize,
+}
+
+impl SelfContactSummary {
+    /// One entry per object with figures, in order of first appearance.
+    pub fn of(records: &[FrameRecord]) -> Vec<Self> {
+        let mut out: Vec<Self> = Vec::new();
+        for r in records {
+            for o in &r.stats.objects {
+                let Some([input, output]) = o.self_intersecting_faces else { continue };
+                let s = entry(
+                    &mut out,
+                    |s| s.object == o.name,
+                    || Self {
+                        object: o.name.clone(),
+                        frames: 0,
+                        faces_input: 0,
+                        faces_output: 0,
+                        frames_worse: 0,
+                        worst_output: None,
+                        part_pairs: 0,
+                        max_part_pairs: 0,
+                        part_pairs_failed: 0,
+                    },
+                );
+                s.frames += 1;
+                s.faces_input += input;
+                s.faces_output += output;
+                s.frames_worse += usize::from(output > input);
+                if output > 0 {
+                    keep_max(&mut s.worst_output, output as f64, r.frame, || o.name.clone());
+                }
+            }
+            let figures = part_pair_figures(r);
+            for s in &mut out {
+                let mine: Vec<&PartPairQuality> = figures.iter().filter(|p| p.object == s.object).collect();
+                s.part_pairs += mine.len();
+                s.max_part_pairs = s.max_part_pairs.max(mine.len());
+                s.part_pairs_failed += mine.iter().filter(|p| p.error.is_some()).count();
+            }
+        }
+        out
+    }
+
+    /// One line for people.
+    pub fn line(&self) -> String {
+        let reduction =
+            if self.faces_input > 0 { 100.0 * (1.0 - self.faces_output as f64 / self.faces_input as f64) } else { 0.0 };
+        let mut line = format!(
+            "{}: self-intersecting faces beyond the rest pose's {} → {} over {} frames ({reduction:.1}% fewer, {} frame{} worse than the input); {} touching part pairs (at most {} in a frame, {} unresolved)",
+            self.object,
+            self.faces_input,
+            self.faces_output,
+            self.frames,
+            self.frames_worse,
+            if self.frames_worse == 1 { "" } else { "s" },
+            self.part_pairs,
+            self.max_part_pairs,
+            self.part_pairs_failed
+        );
+        if let Some(w) = &self.worst_output {
+            let _ = write!(line, "; most left: {} at frame {}", w.value, w.frame);
+        }
+        line
+    }
+}
+
 /// The element of `list` that `matches`, appended from `make` if there is none (keeps the order of
 /// first appearance).
 fn entry<T>(list: &mut Vec<T>, matches: impl Fn(&T) -> bool, make: impl FnOnce() -> T) -> &mut T {
@@ -249,6 +371,9 @@ pub struct ShotSummary {
     /// Per articulation with self-contact: totals over the shot.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub articulations: Vec<ArticulationSummary>,
+    /// Per skinned object with self-contact parts: totals over the shot.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub self_contact: Vec<SelfContactSummary>,
     /// Objects whose working regions were too tight on some frames.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub tight_regions: Vec<TightRegionSummary>,
@@ -340,6 +465,7 @@ impl ShotSummary {
             frames_per_second: 0.0,
             threads: outcome.threads,
             articulations: ArticulationSummary::of(&outcome.records),
+            self_contact: SelfContactSummary::of(&outcome.records),
             tight_regions: TightRegionSummary::of(&outcome.records),
         };
         for r in &outcome.records {
@@ -445,6 +571,12 @@ pub struct FrameEntry<'a> {
     pairs: &'a [PairQuality],
     #[serde(skip_serializing_if = "Vec::is_empty")]
     articulations: Vec<ArticulationQuality>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    part_pairs: Vec<PartPairQuality>,
+    /// Per object with self-contact parts: faces intersecting beyond the rest pose's, in the
+    /// input and after the self-contact stage.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    self_intersecting_faces: Vec<(String, [usize; 2])>,
     stats: FrameReport,
 }
 
@@ -461,6 +593,13 @@ impl<'a> FrameEntry<'a> {
             objects: &record.objects,
             pairs: &record.pairs,
             articulations: articulation_figures(record),
+            part_pairs: part_pair_figures(record),
+            self_intersecting_faces: record
+                .stats
+                .objects
+                .iter()
+                .filter_map(|o| o.self_intersecting_faces.map(|f| (o.name.clone(), f)))
+                .collect(),
             stats: FrameReport::from(&record.stats),
         }
     }

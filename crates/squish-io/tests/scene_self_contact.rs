@@ -334,3 +334,39 @@ fn the_documented_example_parses() {
     assert_eq!((elbow.stiffness, elbow.min_weight), ([1.0, 2.0], 0.1));
     assert_eq!(params(&head.self_contact[0]).direction, Some(DVec3::new(0.0, -1.0, 0.0)));
 }
+
+#[test]
+fn auto_gives_the_parts_and_articulations_of_the_skeleton() {
+    let shot = Shot::new();
+    let scene = shot.load("self_contact = \"auto\"", "").unwrap();
+    assert!(scene.description().objects[0].self_contact.auto);
+    let frame = scene.evaluate(25.0).unwrap();
+    let params = &frame.objects[0].params;
+    let parts = params.self_contact_parts.as_ref().expect("parts");
+    assert_eq!(parts.face_parts.len(), frame.objects[0].mesh.num_triangles());
+    assert!(parts.names.len() >= 2, "{:?}", parts.names);
+    // Consecutive parts along the chain are parent and child: left to the articulations.
+    assert!(!parts.parent_child.is_empty());
+    assert!(params.self_contact.iter().all(|a| a.automatic && a.joints.is_some()));
+    assert!(params.rest_positions.is_some());
+    // Written back as it reads.
+    let json = scene.to_json().unwrap();
+    assert!(json.contains("\"self_contact\": \"auto\"") || json.contains("\"self_contact\":\"auto\""), "{json}");
+}
+
+#[test]
+fn auto_errors_name_the_key_and_the_fix() {
+    let shot = Shot::new();
+    let e = shot.error("self_contact = \"automatic\"", "");
+    assert!(e.contains("self_contact") && e.contains("\"auto\""), "{e}");
+    let e = shot.error("self_contact = \"auto\"\nrigid = true", "");
+    assert!(e.contains("rigid") && e.contains("self_contact"), "{e}");
+    let path = shot.path("ball.toml");
+    std::fs::write(
+        &path,
+        "frames = { start = 1, end = 2 }\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\nself_contact = \"auto\"\n",
+    )
+    .unwrap();
+    let e = Scene::load(&path).err().unwrap().to_string();
+    assert!(e.contains("skinned glTF"), "{e}");
+}

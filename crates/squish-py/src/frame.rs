@@ -247,7 +247,13 @@ impl Frame {
                 "give the joints' positions or a direction [x, y, z]",
             )));
         }
-        target.params.self_contact.push(Articulation { name, regions: [regions.0, regions.1], joints, params });
+        target.params.self_contact.push(Articulation {
+            name,
+            regions: [regions.0, regions.1],
+            joints,
+            params,
+            automatic: false,
+        });
         Ok(())
     }
 

@@ -162,6 +162,7 @@ pub fn bent_arm(degrees: f64, segments: u32) -> ProceduralScene {
         regions: [side(false), side(true)],
         joints: Some([DVec3::new(0.0, 0.0, -3.0), DVec3::ZERO, rotation * DVec3::new(0.0, 0.0, 3.0)]),
         params: ArticulationParams::default(),
+        automatic: false,
     };
     let params = ObjectParams {
         anisotropy: true,

@@ -15,8 +15,9 @@
 use std::sync::Arc;
 
 use glam::{DMat4, DVec3};
-use squish::params::{ArticulationParams, did_you_mean};
-use squish::skinning::regions_from_skin_weights;
+use squish::mesh::{Topology, TriMesh};
+use squish::params::{Articulation, ArticulationParams, SkinParts, did_you_mean};
+use squish::skinning::{ArticulationSetup, parts_from_skin, regions_from_skin_weights};
 
 use super::source::SourceAssets;
 use super::tracks::ParamTracks;
@@ -57,14 +58,26 @@ pub(crate) struct ArticulationAssets {
     pub(crate) joints: Option<JointPoints>,
     /// Its parameters over the shot.
     pub(crate) params: ParamTracks<ArticulationParams>,
+    /// Found by `self_contact = "auto"` (see [`Articulation::automatic`]).
+    pub(crate) automatic: bool,
 }
 
-/// The self-contact assets of an object: its articulations, and its bind pose when the mesh is a
-/// glTF node (`None` otherwise: the frame's own mesh serves as the rest pose).
+/// The self-contact assets of an object: its articulations, its parts with `self_contact =
+/// "auto"`, and its bind pose when the mesh is a glTF node (`None` otherwise: the frame's own
+/// mesh serves as the rest pose).
 pub(crate) struct ObjectArticulations {
     pub(crate) articulations: Vec<ArticulationAssets>,
+    /// Names of the articulations, in order (the entries' or the automatic ones').
+    pub(crate) names: Vec<String>,
+    pub(crate) parts: Option<Arc<SkinParts>>,
     pub(crate) rest_positions: Option<Arc<[DVec3]>>,
 }
+
+/// With `self_contact = "auto"`: a part keeps its own faces when it has at least this fraction
+/// of the mesh's faces (and [`MIN_PART_FACES`]); smaller ones join their parent joint's part.
+pub const MIN_PART_FRACTION: f64 = 0.01;
+/// The least number of faces of a part of its own.
+pub const MIN_PART_FACES: usize = 16;
 
 /// Loads the articulations of `object`. `located(entry, key, message)` places a message at a key
 /// of an entry in the scene file; `load_mask` reads a per-vertex mask in the object's numbering.
@@ -73,6 +86,7 @@ pub(crate) fn load_articulations(
     source: &SourceAssets,
     vertex_count: usize,
     located: impl Fn(usize, &'static str, String) -> IoError,
+    located_auto: impl Fn(String) -> IoError,
     load_mask: impl Fn(&VertexData) -> Result<Vec<f64>, IoError>,
 ) -> Result<ObjectArticulations, IoError> {
     let mut articulations = Vec::with_capacity(object.self_contact.len());
@@ -81,7 +95,7 @@ pub(crate) fn load_articulations(
         _ => None,
     };
     let rest_positions = match gltf {
-        Some(g) if !object.self_contact.is_empty() => {
+        Some(g) if !object.self_contact.is_none() => {
             let mesh = g.scene.nodes[g.node].mesh.and_then(|m| g.scene.meshes.get(m));
             mesh.filter(|m| m.positions.len() == vertex_count).map(|m| Arc::from(m.positions.as_slice()))
         }
@@ -124,9 +138,129 @@ pub(crate) fn load_articulations(
                 return Err(located(k, "name", format!("articulation \"{name}\" gives neither joints nor masks")));
             }
         };
-        articulations.push(ArticulationAssets { regions: Arc::new(regions), joints, params: entry_params });
+        articulations.push(ArticulationAssets {
+            regions: Arc::new(regions),
+            joints,
+            params: entry_params,
+            automatic: false,
+        });
     }
-    Ok(ObjectArticulations { articulations, rest_positions })
+    let mut names: Vec<String> = object.self_contact.iter().map(|e| e.name.clone()).collect();
+    let mut parts = None;
+    if object.self_contact.auto {
+        let Some(g) = gltf else {
+            return Err(located_auto(format!(
+                "object \"{}\": self_contact = \"auto\" needs a skinned glTF mesh (its skeleton gives the parts); give [[objects.self_contact]] entries with masks instead",
+                object.name
+            )));
+        };
+        let auto = auto_self_contact(object, g, vertex_count).map_err(located_auto)?;
+        names.extend(auto.names);
+        articulations.extend(auto.articulations);
+        parts = Some(Arc::new(auto.parts));
+    }
+    Ok(ObjectArticulations { articulations, names, parts, rest_positions })
+}
+
+/// What `self_contact = "auto"` finds on a skinned glTF mesh.
+struct AutoSelfContact {
+    parts: SkinParts,
+    articulations: Vec<ArticulationAssets>,
+    names: Vec<String>,
+}
+
+/// The parts of the object's skin and an articulation for every joint and its parent whose two
+/// sides give a valid pair of overlapping regions on the bind pose (each side with skin of its
+/// own next to a shared region); the parent/child part pairs are left to them.
+fn auto_self_contact(
+    object: &ObjectSpec,
+    g: &super::source::GltfAssets,
+    vertex_count: usize,
+) -> Result<AutoSelfContact, String> {
+    let scene = &g.scene;
+    let node = &scene.nodes[g.node];
+    let file = scene.path.display();
+    let mesh = node.mesh.and_then(|m| scene.meshes.get(m));
+    let (Some(mesh), Some(skin)) = (mesh, node.skin.and_then(|s| scene.skins.get(s))) else {
+        return Err(format!(
+            "object \"{}\": self_contact = \"auto\": the node \"{}\" of {file} has no skinned mesh; give [[objects.self_contact]] entries instead",
+            object.name, node.name
+        ));
+    };
+    let Some(weights) = mesh.skin_weights.as_ref().filter(|w| w.len() == vertex_count) else {
+        return Err(format!(
+            "object \"{}\": self_contact = \"auto\": the mesh of \"{}\" in {file} has no skin weights for its {vertex_count} vertices",
+            object.name, node.name
+        ));
+    };
+    let rest = TriMesh { positions: mesh.positions.clone(), triangles: mesh.triangles.clone() };
+    let joints = &skin.skin.joints;
+    let names: Vec<String> =
+        joints.iter().map(|&n| scene.nodes.get(n).map_or_else(String::new, |n| n.name.clone())).collect();
+    let parents: Vec<Option<usize>> = joints
+        .iter()
+        .map(|&n| scene.nodes.get(n).and_then(|node| node.parent).and_then(|p| joints.iter().position(|&j| j == p)))
+        .collect();
+    let min_faces = MIN_PART_FACES.max((MIN_PART_FRACTION * rest.num_triangles() as f64).ceil() as usize);
+    let mut parts = parts_from_skin(&rest, weights, &parents, &names, min_faces);
+    let topology = Topology::new(&rest);
+    let params = ArticulationParams::default();
+    let mut articulations = Vec::new();
+    let mut articulation_names = Vec::new();
+    let mut covered = Vec::new();
+    let part_of_joint = |j: usize| parts.names.iter().position(|n| *n == names[j]);
+    for child in 0..joints.len() {
+        let Some(parent) = parents[child] else { continue };
+        let (Some(a), Some(b)) = (part_of_joint(parent), part_of_joint(child)) else { continue };
+        let Ok(regions) = regions_from_skin_weights(weights, &parents, parent, child, params.min_weight) else {
+            continue;
+        };
+        let candidate = Articulation { regions, params: params.clone(), ..Articulation::default() };
+        if ArticulationSetup::new(&rest, &topology, &candidate, &rest).is_err() {
+            continue;
+        }
+        let Some(points) = joint_points(g, parent, child, &parents) else { continue };
+        let tracks = ParamTracks::<ArticulationParams>::parse(&super::tracks::RawParams::new(), &[], |_, _| Ok(None))
+            .map_err(|e| format!("{}: {}", e.key, e.message))?;
+        articulation_names.push(format!("{} / {}", names[parent], names[child]));
+        articulations.push(ArticulationAssets {
+            regions: Arc::new(candidate.regions),
+            joints: Some(points),
+            params: tracks,
+            automatic: true,
+        });
+        covered.push([a.min(b) as u32, a.max(b) as u32]);
+    }
+    covered.sort_unstable();
+    covered.dedup();
+    // Parent/child part pairs without an articulation stay left alone too (their seam is a fold).
+    parts.parent_child.extend(covered);
+    parts.parent_child.sort_unstable();
+    parts.parent_child.dedup();
+    Ok(AutoSelfContact { parts, articulations, names: articulation_names })
+}
+
+/// The direction points of the articulation `[parent, child]` (skin joint ids): the child's
+/// first child joint, or the parent bone continued beyond the child (see the module doc).
+fn joint_points(
+    g: &super::source::GltfAssets,
+    parent: usize,
+    child: usize,
+    parents: &[Option<usize>],
+) -> Option<JointPoints> {
+    let scene = &g.scene;
+    let skin = scene.nodes[g.node].skin.and_then(|s| scene.skins.get(s))?;
+    let joints = &skin.skin.joints;
+    match (0..joints.len()).find(|&c| parents[c] == Some(child)) {
+        Some(end) => Some(JointPoints::Nodes([joints[parent], joints[child], joints[end]])),
+        None => {
+            let rest = scene.skeleton.rest_world_transforms();
+            let (a, b) = (joints[parent], joints[child]);
+            let (rest_a, rest_b) = (rest.get(a)?, rest.get(b)?);
+            let (pa, pb) = (rest_a.w_axis.truncate(), rest_b.w_axis.truncate());
+            Some(JointPoints::Extended { nodes: [a, b], end_local: rest_b.inverse().transform_point3(pb + (pb - pa)) })
+        }
+    }
 }
 
 /// The regions and direction joints of `joints = [A, B]` on a glTF source.
@@ -224,21 +358,8 @@ fn skin_regions(
     let min_weight = entry_params.at(0.0).map_err(|e| located(k, "min_weight", e.to_string()))?.min_weight;
     let regions = regions_from_skin_weights(weights, &parents, parent, child, min_weight)
         .map_err(|e| located(k, "joints", format!("articulation \"{name}\": {e}")))?;
-    let points = match children_of(child).first() {
-        Some(&end) => JointPoints::Nodes([joints[parent], joints[child], joints[end]]),
-        None => {
-            let rest = scene.skeleton.rest_world_transforms();
-            let (a, b) = (joints[parent], joints[child]);
-            let (Some(rest_a), Some(rest_b)) = (rest.get(a), rest.get(b)) else {
-                return Err(located(
-                    k,
-                    "joints",
-                    format!("articulation \"{name}\": the joints' nodes are missing in {file}"),
-                ));
-            };
-            let (pa, pb) = (rest_a.w_axis.truncate(), rest_b.w_axis.truncate());
-            JointPoints::Extended { nodes: [a, b], end_local: rest_b.inverse().transform_point3(pb + (pb - pa)) }
-        }
+    let Some(points) = joint_points(g, parent, child, &parents) else {
+        return Err(located(k, "joints", format!("articulation \"{name}\": the joints' nodes are missing in {file}")));
     };
     Ok((regions, points))
 }

@@ -91,7 +91,8 @@ impl Scene {
             };
             let place = |p: DVec3| map.as_ref().map_or(p, |m| m(p));
             let mut params = assets.params.at(frame).map_err(|e| err(name, e.to_string()))?;
-            params.self_contact = self.articulations_at(spec, assets, frame, &place).map_err(|m| err(name, m))?;
+            params.self_contact = self.articulations_at(assets, frame, &place).map_err(|m| err(name, m))?;
+            params.self_contact_parts = assets.parts.as_deref().cloned();
             params.rest_positions = assets.rest_positions.as_deref().map(<[DVec3]>::to_vec);
             objects.push(ObjectFrame { name: name.clone(), mesh, params });
         }
@@ -112,12 +113,11 @@ impl Scene {
     /// frame. Errors are messages for the caller to place.
     fn articulations_at(
         &self,
-        spec: &super::ObjectSpec,
         assets: &super::ObjectAssets,
         frame: f64,
         place: &impl Fn(DVec3) -> DVec3,
     ) -> Result<Vec<Articulation>, String> {
-        if spec.self_contact.is_empty() {
+        if assets.articulations.is_empty() {
             return Ok(Vec::new());
         }
         // Node world transforms, computed once for all of the object's joint directions.
@@ -127,9 +127,8 @@ impl Scene {
             }
             _ => None,
         };
-        let mut out = Vec::with_capacity(spec.self_contact.len());
-        for (entry, loaded) in spec.self_contact.iter().zip(&assets.articulations) {
-            let name = &entry.name;
+        let mut out = Vec::with_capacity(assets.articulations.len());
+        for (name, loaded) in assets.articulation_names.iter().zip(&assets.articulations) {
             let params = loaded.params.at(frame).map_err(|e| format!("articulation \"{name}\": {e}"))?;
             let joints = match (params.direction, loaded.joints, &world) {
                 (Some(_), _, _) => None,
@@ -145,7 +144,13 @@ impl Scene {
                     ));
                 }
             };
-            out.push(Articulation { name: name.clone(), regions: (*loaded.regions).clone(), joints, params });
+            out.push(Articulation {
+                name: name.clone(),
+                regions: (*loaded.regions).clone(),
+                joints,
+                params,
+                automatic: loaded.automatic,
+            });
         }
         Ok(out)
     }

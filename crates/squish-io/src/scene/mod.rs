@@ -79,8 +79,12 @@ struct ObjectAssets {
     numbering: VertexNumbering,
     /// Its parameters over the shot, per-vertex ones loaded.
     params: ParamTracks<ObjectParams>,
-    /// `[[objects.self_contact]]`, in order.
+    /// `[[objects.self_contact]]`, in order, then the automatic ones (`self_contact = "auto"`).
     articulations: Vec<ArticulationAssets>,
+    /// Their names, in the same order.
+    articulation_names: Vec<String>,
+    /// The parts of a skinned mesh with `self_contact = "auto"`.
+    parts: Option<Arc<squish::params::SkinParts>>,
     /// The bind pose of a glTF mesh with articulations.
     rest_positions: Option<Arc<[glam::DVec3]>>,
 }
@@ -115,7 +119,7 @@ impl SceneDescription {
                     *value = toml::Value::try_from(&data).unwrap_or_else(|_| value.clone());
                 }
             }
-            for entry in &mut object.self_contact {
+            for entry in object.self_contact.iter_mut() {
                 for mask in entry.masks.iter_mut().flatten() {
                     if let Some(file) = mask.file_mut() {
                         resolve(file);
@@ -247,14 +251,21 @@ impl Scene {
                     format!("[[objects]] \"{}\" self_contact #{}: {key}: {message}", object.name, k + 1),
                 ),
             };
-            let self_contact = load_articulations(object, &source, numbering.count, located_entry, |mask| {
-                load_data(mask, "self_contact", "a self_contact mask")
-            })?;
+            let located_auto = |message: String| match src {
+                Some(src) => src.error_at_key(&[Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact")], message),
+                None => IoError::format(path, format!("[[objects]] \"{}\": self_contact: {message}", object.name)),
+            };
+            let self_contact =
+                load_articulations(object, &source, numbering.count, located_entry, located_auto, |mask| {
+                    load_data(mask, "self_contact", "a self_contact mask")
+                })?;
             assets.push(ObjectAssets {
                 source,
                 numbering,
                 params,
                 articulations: self_contact.articulations,
+                articulation_names: self_contact.names,
+                parts: self_contact.parts,
                 rest_positions: self_contact.rest_positions,
             });
         }
@@ -367,7 +378,7 @@ impl Scene {
         let mut description = self.description.clone();
         for object in &mut description.objects {
             fill::<ObjectParams>(&mut object.params);
-            for entry in &mut object.self_contact {
+            for entry in object.self_contact.iter_mut() {
                 fill::<squish::ArticulationParams>(&mut entry.params);
             }
         }

@@ -218,9 +218,11 @@ pub struct ObjectSpec {
     #[serde(default)]
     pub transform: Transform,
     /// Articulations whose two sides may fold onto each other (`[[objects.self_contact]]`,
-    /// thesis ch. 6), resolved before the pairs. Default none.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub self_contact: Vec<SelfContactSpec>,
+    /// thesis ch. 6), resolved before the pairs; or `self_contact = "auto"` on a skinned glTF
+    /// mesh: the articulations of its skeleton and the contacts between its parts (issue 27).
+    /// Default none.
+    #[serde(default, skip_serializing_if = "SelfContactList::is_none")]
+    pub self_contact: SelfContactList,
     /// Every other key: the object's parameters, as written.
     #[serde(flatten)]
     pub params: RawParams,
@@ -249,6 +251,75 @@ pub struct SelfContactSpec {
     /// Every other key: the articulation's parameters, as written.
     #[serde(flatten)]
     pub params: RawParams,
+}
+
+/// The `self_contact` key of an object: `"auto"`, or a list of `[[objects.self_contact]]`
+/// entries (dereferences to the entries; none with `"auto"`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SelfContactList {
+    /// `self_contact = "auto"`: articulations from the skeleton and contacts between parts.
+    pub auto: bool,
+    pub entries: Vec<SelfContactSpec>,
+}
+
+impl SelfContactList {
+    /// Neither `"auto"` nor any entry.
+    pub fn is_none(&self) -> bool {
+        !self.auto && self.entries.is_empty()
+    }
+}
+
+impl std::ops::Deref for SelfContactList {
+    type Target = Vec<SelfContactSpec>;
+    fn deref(&self) -> &Self::Target {
+        &self.entries
+    }
+}
+
+impl std::ops::DerefMut for SelfContactList {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.entries
+    }
+}
+
+impl From<Vec<SelfContactSpec>> for SelfContactList {
+    fn from(entries: Vec<SelfContactSpec>) -> Self {
+        Self { auto: false, entries }
+    }
+}
+
+impl Serialize for SelfContactList {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.auto { s.serialize_str("auto") } else { self.entries.serialize(s) }
+    }
+}
+
+impl<'de> Deserialize<'de> for SelfContactList {
+    /// `"auto"` or an array of tables. A visitor rather than an untagged form: the entries are
+    /// read by toml's own deserializer, so that an error names its key.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = SelfContactList;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"auto\" or [[objects.self_contact]] entries")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<SelfContactList, E> {
+                if v == "auto" {
+                    Ok(SelfContactList { auto: true, entries: Vec::new() })
+                } else {
+                    Err(E::custom(format!(
+                        "self_contact = \"{v}\" is not a choice; write self_contact = \"auto\" (a skinned glTF mesh) or [[objects.self_contact]] entries"
+                    )))
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<SelfContactList, A::Error> {
+                let entries = Vec::<SelfContactSpec>::deserialize(serde::de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(SelfContactList { auto: false, entries })
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 impl SelfContactSpec {

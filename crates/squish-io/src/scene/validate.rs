@@ -93,6 +93,15 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
         let params: ObjectParams = check_params(&object.params, ObjectSpec::TABLE_KEYS, shot(), err)?;
         rigid.push(params.rigid);
         validate_object(object, shot(), err)?;
+        if object.self_contact.auto && params.rigid {
+            return Err(err(
+                "self_contact",
+                format!(
+                    "object \"{}\" is rigid, so it never deforms and self_contact = \"auto\" would be ignored; set rigid = false or remove self_contact",
+                    object.name
+                ),
+            ));
+        }
         validate_self_contact(object, params.rigid, shot, |k, key, m| {
             let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)];
             src.error_at_key(&path, m)

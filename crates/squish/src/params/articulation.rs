@@ -86,4 +86,39 @@ pub struct Articulation {
     /// end of the child bone; needed when [`ArticulationParams::direction`] is `None` (`joints`).
     pub joints: Option<[DVec3; 3]>,
     pub params: ArticulationParams,
+    /// Found by `self_contact = "auto"` rather than asked for: a frame where it fails leaves it
+    /// inactive (zero displacement) and reports why ([`crate::skinning::ArticulationStats::error`])
+    /// instead of failing the frame.
+    pub automatic: bool,
+}
+
+/// The parts of a skinned mesh between which self-contact is resolved beyond the articulations
+/// (issue 27; see [`crate::skinning::parts_from_skin`]): one label per face.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkinParts {
+    /// Per face: its part, `0..names.len()`.
+    pub face_parts: Vec<u32>,
+    /// Per part: its name (its joint's) for messages and reports.
+    pub names: Vec<String>,
+    /// Part pairs `[a, b]` (a < b, sorted) of a parent and a child joint: their folds are left
+    /// to the articulations (ch. 6, the crease cut), never resolved as a contact of two parts.
+    pub parent_child: Vec<[u32; 2]>,
+}
+
+impl SkinParts {
+    /// Parts painted as one label per face (no parent/child pair).
+    pub fn from_face_labels(face_parts: Vec<u32>) -> Self {
+        let count = face_parts.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
+        Self { face_parts, names: (0..count).map(|k| format!("part {k}")).collect(), parent_child: Vec::new() }
+    }
+
+    /// True if the pair of parts a, b is left to the articulations.
+    pub fn is_left_to_articulations(&self, a: u32, b: u32) -> bool {
+        self.parent_child.binary_search(&[a.min(b), a.max(b)]).is_ok()
+    }
+
+    /// The name of part `k`.
+    pub fn name(&self, k: u32) -> &str {
+        self.names.get(k as usize).map_or("?", String::as_str)
+    }
 }

@@ -34,6 +34,7 @@ mod value;
 
 pub use articulation::Articulation;
 pub use articulation::ArticulationParams;
+pub use articulation::SkinParts;
 pub use object::{MIN_PROFILE_ABSCISSA, ObjectParams, RegionChoice};
 pub use pair::{ContactMethod, MappingMethod, PairParams};
 pub use squish_derive::Params;

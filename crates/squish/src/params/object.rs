@@ -2,9 +2,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::Articulation;
 use super::ParamError;
 use super::value::DirectionFieldMethod;
+use super::{Articulation, SkinParts};
 
 crate::choice! {
     /// How an object is divided into working regions 𝒲 (§4, §4.5, §7.5).
@@ -193,6 +193,10 @@ pub struct ObjectParams {
     /// ch. 6), resolved before the contacts with other objects.
     #[param(skip)]
     pub self_contact: Vec<Articulation>,
+    /// The parts of a skinned mesh whose touching pairs are pushed apart (self-contact beyond
+    /// one articulation, issue 27), after the articulations. `None`: no part contact.
+    #[param(skip)]
+    pub self_contact_parts: Option<SkinParts>,
     /// The rest (bind) pose, one position per vertex, on which the articulations' partition of
     /// unity β is computed (§6.1.1). `None`: the frame's own mesh.
     #[param(skip)]
@@ -226,6 +230,7 @@ impl Default for ObjectParams {
             region_mask: None,
             uvs: None,
             self_contact: Vec::new(),
+            self_contact_parts: None,
             rest_positions: None,
         }
     }

@@ -153,7 +153,7 @@ impl FrameKey {
         let objects = self.objects.len() == frame.objects.len()
             && self.objects.iter().zip(&frame.objects).all(|(k, o)| {
                 k.name == o.name
-                    && o.params.self_contact.is_empty()
+                    && !super::self_contact::has_self_contact(o.params)
                     && k.triangles == o.mesh.triangles
                     && same_points::<3, DVec3>(&k.positions, &o.mesh.positions)
                     && same_values(&k.upstream, &upstream_values(o.params))

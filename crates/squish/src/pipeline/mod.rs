@@ -40,6 +40,7 @@ mod contacts;
 mod deformations;
 mod edits;
 mod error;
+mod part_contact;
 mod regions;
 mod results;
 mod self_contact;
@@ -53,6 +54,7 @@ use glam::DVec3;
 
 pub use edits::{DOWNSTREAM_KEYS, is_downstream};
 pub use error::PipelineError;
+pub use part_contact::{MARGIN_RINGS, PartPairStats};
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
 pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
@@ -176,13 +178,14 @@ impl Deformer {
             let pairs = frame.pairs.iter().filter(|p| p.params.enabled).copied().collect();
             return self.deform(&Frame { objects: frame.objects.clone(), pairs });
         }
-        if frame.objects.iter().all(|o| o.params.self_contact.is_empty()) {
+        if !frame.objects.iter().any(|o| self_contact::has_self_contact(o.params)) {
             self.self_contact.clear();
             return self.deform_pairs(frame, start, self.keep_edits);
         }
         // Self-contact reads the downstream parameters before the pairs: never an edit.
         self.edits = None;
-        let (resolved, articulations) = self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
+        let (resolved, (articulations, part_pairs)) =
+            self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
         let meshes: Vec<Option<TriMesh>> = resolved
             .iter()
             .zip(&frame.objects)
@@ -199,6 +202,7 @@ impl Deformer {
         let mut result = self.deform_pairs(&Frame { objects, pairs: frame.pairs.clone() }, start, false)?;
         self_contact::relative_to_input(&mut result.stats.objects, frame, &result.positions, &resolved);
         result.stats.articulations = articulations;
+        result.stats.part_pairs = part_pairs;
         result.self_contact = resolved;
         result.stats.total = start.elapsed();
         Ok(result)
@@ -285,6 +289,7 @@ impl Deformer {
                 pairs,
                 regions: objects.regions,
                 articulations: Vec::new(),
+                part_pairs: Vec::new(),
                 edit: false,
                 warnings,
             },
@@ -320,6 +325,7 @@ impl Deformer {
                 pairs,
                 regions: objects.regions,
                 articulations: Vec::new(),
+                part_pairs: Vec::new(),
                 edit: true,
                 warnings,
             },

@@ -16,6 +16,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::part_contact::{PartContactCache, PartPairStats, resolve_part_contacts};
 use super::{Frame, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
@@ -30,6 +31,8 @@ pub(super) struct SelfContactCache {
     triangles: Vec<[u32; 3]>,
     topology: Option<Topology>,
     setups: Vec<Option<ArticulationSetup>>,
+    /// The contacts between its parts (issue 27).
+    parts: PartContactCache,
 }
 
 /// The self-contact result of one object at one frame.
@@ -44,39 +47,51 @@ pub struct SelfContactResult {
     pub moved: Vec<bool>,
     /// Per articulation: ℛ's vertices (object ids) and their crease-cut label (true = 𝒲̄₁).
     pub cuts: Vec<(Vec<u32>, Vec<bool>)>,
+    /// With self-contact parts: the faces intersecting beyond the rest pose's, in the input and
+    /// after this stage (see [`ObjectStats::self_intersecting_faces`]).
+    pub self_intersecting_faces: Option<[usize; 2]>,
 }
 
-/// Runs the articulations of every object that has some. Returns, per object, its result
-/// (`None` for objects without articulations) and the articulations' figures.
+/// The figures of a frame's self-contact stage: per articulation and per touching part pair.
+pub(super) type SelfContactStats = (Vec<ArticulationStats>, Vec<PartPairStats>);
+
+/// True if the object has self-contact to resolve: articulations or parts.
+pub(super) fn has_self_contact(params: &ObjectParams) -> bool {
+    !params.rigid && (!params.self_contact.is_empty() || params.self_contact_parts.is_some())
+}
+
+/// Runs the articulations, then the part contacts, of every object that has some. Returns, per
+/// object, its result (`None` for objects without self-contact) and the figures.
 pub(super) fn resolve_self_contacts(
     caches: &mut Vec<SelfContactCache>,
     frame: &Frame,
-) -> Result<(Vec<Option<SelfContactResult>>, Vec<ArticulationStats>), PipelineError> {
+) -> Result<(Vec<Option<SelfContactResult>>, SelfContactStats), PipelineError> {
     let count = frame.objects.len();
     caches.resize_with(count, SelfContactCache::default);
     caches.truncate(count);
-    let results: Vec<Option<(SelfContactResult, Vec<ArticulationStats>)>> = caches
+    let results: Vec<Option<(SelfContactResult, SelfContactStats)>> = caches
         .par_iter_mut()
         .zip(&frame.objects)
         .enumerate()
         .map(|(i, (cache, object))| {
-            if object.params.self_contact.is_empty() || object.params.rigid {
+            if !has_self_contact(object.params) {
                 return Ok(None);
             }
             resolve_object(i, cache, object.name, object.mesh, object.params).map(Some)
         })
         .collect::<Result<_, _>>()?;
-    let mut stats = Vec::new();
+    let (mut articulations, mut part_pairs) = (Vec::new(), Vec::new());
     let results = results
         .into_iter()
         .map(|r| {
-            r.map(|(result, s)| {
-                stats.extend(s);
+            r.map(|(result, (a, p))| {
+                articulations.extend(a);
+                part_pairs.extend(p);
                 result
             })
         })
         .collect();
-    Ok((results, stats))
+    Ok((results, (articulations, part_pairs)))
 }
 
 fn resolve_object(
@@ -85,7 +100,7 @@ fn resolve_object(
     name: &str,
     mesh: &TriMesh,
     params: &ObjectParams,
-) -> Result<(SelfContactResult, Vec<ArticulationStats>), PipelineError> {
+) -> Result<(SelfContactResult, SelfContactStats), PipelineError> {
     let n = mesh.num_vertices();
     let error = |articulation: &str, source| PipelineError::SelfContact {
         object: name.to_string(),
@@ -95,7 +110,12 @@ fn resolve_object(
     if cache.topology.is_none() || cache.triangles != mesh.triangles {
         let topology =
             mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
-        *cache = SelfContactCache { triangles: mesh.triangles.clone(), topology: Some(topology), setups: Vec::new() };
+        *cache = SelfContactCache {
+            triangles: mesh.triangles.clone(),
+            topology: Some(topology),
+            setups: Vec::new(),
+            parts: PartContactCache::default(),
+        };
     }
     let Some(topology) = cache.topology.as_ref() else {
         return Err(PipelineError::InvalidRegion { object: name.to_string(), reason: "no topology".into() });
@@ -126,16 +146,21 @@ fn resolve_object(
         .par_iter_mut()
         .zip(articulations)
         .map(|(slot, articulation)| {
-            let err = |source| error(&articulation.name, source);
-            let setup = match slot {
-                Some(setup) if setup.matches(mesh, articulation) => {
-                    setup.set_rest(&rest, topology).map_err(err)?;
-                    setup
-                }
-                _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest).map_err(err)?),
+            let planned = (|| {
+                let setup = match slot {
+                    Some(setup) if setup.matches(mesh, articulation) => {
+                        setup.set_rest(&rest, topology)?;
+                        setup
+                    }
+                    _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest)?),
+                };
+                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params)
+            })();
+            let mut plan = match planned {
+                Ok(plan) => plan,
+                Err(e) if articulation.automatic => inactive_plan(n, articulation, e.to_string()),
+                Err(e) => return Err(error(&articulation.name, e)),
             };
-            let mut plan =
-                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params).map_err(err)?;
             plan.stats.object = index;
             Ok(plan)
         })
@@ -157,7 +182,10 @@ fn resolve_object(
         s.bulge_height = height;
         s.applied_bulge_height = params.bulge * height;
         s.volume_exact = exact;
-        if let Some(setup) = setup {
+        if s.error.is_some() {
+            // Left inactive: nothing cut, nothing to count.
+            cuts.push((Vec::new(), Vec::new()));
+        } else if let Some(setup) = setup {
             let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
             let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
             let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
@@ -169,7 +197,34 @@ fn resolve_object(
         }
         stats.push(s);
     }
-    Ok((SelfContactResult { positions: after.positions, contact, moved, cuts }, stats))
+    let (positions, part_pairs, self_intersecting_faces) = match &params.self_contact_parts {
+        Some(parts) => {
+            let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &rest, params, parts)?;
+            for (m, p) in moved.iter_mut().zip(r.moved) {
+                *m |= p;
+            }
+            (r.positions, r.pairs, Some(r.self_intersecting_faces))
+        }
+        None => (after.positions, Vec::new(), None),
+    };
+    let result = SelfContactResult { positions, contact, moved, cuts, self_intersecting_faces };
+    Ok((result, (stats, part_pairs)))
+}
+
+/// The plan of an automatic articulation that failed at this frame: no displacement, the reason
+/// in its figures.
+fn inactive_plan(n: usize, articulation: &crate::params::Articulation, reason: String) -> ArticulationPlan {
+    ArticulationPlan {
+        displacement: crate::deform::AffineDisplacement::none(n),
+        extent: f64::NAN,
+        labels: Vec::new(),
+        contact: vec![false; n],
+        stats: ArticulationStats {
+            name: articulation.name.clone(),
+            error: Some(reason),
+            ..ArticulationStats::default()
+        },
+    }
 }
 
 /// Makes the figures of the objects with articulations relative to the frame's input, not to the
@@ -192,5 +247,6 @@ pub(super) fn relative_to_input(
         stats.max_displacement =
             object.mesh.positions.iter().zip(positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
         stats.deformed |= r.as_ref().is_some_and(|r| r.moved.iter().any(|&m| m));
+        stats.self_intersecting_faces = r.as_ref().and_then(|r| r.self_intersecting_faces);
     }
 }

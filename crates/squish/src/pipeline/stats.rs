@@ -53,6 +53,11 @@ pub struct ObjectStats {
     /// object's.
     #[serde(default)]
     pub domain_reaches_cut: bool,
+    /// For a skinned object with self-contact parts: its faces that intersect another of its
+    /// faces beyond the rest pose's own intersections, in the input and after the self-contact
+    /// stage ([`crate::skinning::RestIntersections`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub self_intersecting_faces: Option<[usize; 2]>,
 }
 
 /// Figures of one region pair for one frame (one entry per pair of overlapping regions of a
@@ -146,6 +151,9 @@ pub struct FrameStats {
     /// Every articulation with self-contact (ch. 6), object by object.
     #[serde(default)]
     pub articulations: Vec<crate::skinning::ArticulationStats>,
+    /// Every touching pair of parts of a skinned object (issue 27), object by object.
+    #[serde(default)]
+    pub part_pairs: Vec<super::PartPairStats>,
     /// True if the frame was an edit of the previous one (only parameters of §5.4–5.5 changed,
     /// see [`super::DOWNSTREAM_KEYS`]): it reused that frame's contact stage and fields of
     /// §5.1–5.3, so its times and work counters are the edit's; every other figure is a full

@@ -139,6 +139,10 @@ pub struct ArticulationStats {
     pub contact_time: Duration,
     pub deformation_time: Duration,
     pub total_time: Duration,
+    /// Why an automatic articulation was left inactive at this frame (see
+    /// [`Articulation::automatic`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// One region 𝒲_l with its connectivity-only caches.

@@ -74,6 +74,7 @@ impl BentCapsule {
             regions: [first, second],
             joints: Some(Self::joints(angle)),
             params: ArticulationParams::default(),
+            automatic: false,
         }
     }
 }

@@ -1,0 +1,343 @@
+//! The parts of a skinned mesh and the pairs of parts that touch at a frame (self-contact beyond
+//! one articulation, issue 27).
+//!
+//! **Parts** ([`parts_from_skin`]). Each vertex's *dominant joint* is the joint of its largest
+//! weight (ties: the smallest joint id); each face takes the joint most of its three vertices
+//! have (a three-way tie: its first vertex's). The faces of one joint form its part; a part of
+//! fewer than `min_faces` faces joins its parent joint's part, children before parents, so a
+//! chain of small joints (fingers, toes) ends up in the first joint large enough. Parts are
+//! numbered in the order of their joints and named after them. Parts may also be painted: one
+//! label per face ([`SkinParts::from_face_labels`]).
+//!
+//! **Touching pairs** ([`PartContactSetup::touching`]). At a frame, two faces of different parts
+//! touch when they intersect (exact closed-triangle test over one triangle tree of the posed
+//! mesh), except
+//! - faces sharing a vertex — by *position in the rest pose*, so that faces across a UV or
+//!   normal seam (duplicated vertices) count as neighbours: they always touch there;
+//! - face pairs that already intersect in the rest pose (the asset's own self-intersections,
+//!   computed once): the character is not to be repaired, only its animation;
+//! - pairs of parts listed as left to the articulations (a parent and child whose fold the
+//!   crease cut of ch. 6 handles).
+//!
+//! The touching pairs are grouped by part pair, sorted by part pair and face pair: the result
+//! does not depend on the thread count.
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use super::SkinWeights;
+use crate::mesh::TriMesh;
+use crate::params::SkinParts;
+use crate::spatial::{SpatialError, TriangleBvh};
+
+/// The dominant joint of every vertex (see the module doc); `None` for an unskinned vertex.
+pub fn dominant_joints(weights: &SkinWeights) -> Vec<Option<u32>> {
+    weights
+        .joints()
+        .iter()
+        .zip(weights.weights())
+        .map(|(joints, w)| {
+            let mut best: Option<(f64, u32)> = None;
+            for (&j, &wj) in joints.iter().zip(w) {
+                if wj <= 0.0 {
+                    continue;
+                }
+                best = match best {
+                    Some((bw, bj)) if bw > wj || (bw == wj && bj < j) => Some((bw, bj)),
+                    _ => Some((wj, j)),
+                };
+            }
+            best.map(|(_, j)| j)
+        })
+        .collect()
+}
+
+/// The parts of a skinned mesh (see the module doc). `parents[j]` is joint j's parent within the
+/// skin, `names[j]` its name; `min_faces` the smallest part kept on its own. Unskinned faces
+/// (no vertex with a weight) join the root of the first joint.
+pub fn parts_from_skin(
+    mesh: &TriMesh,
+    weights: &SkinWeights,
+    parents: &[Option<usize>],
+    names: &[String],
+    min_faces: usize,
+) -> SkinParts {
+    let dominant = dominant_joints(weights);
+    let joint_count = parents.len();
+    let face_joint: Vec<usize> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let js: Vec<Option<u32>> = t.iter().map(|&v| dominant.get(v as usize).copied().flatten()).collect();
+            let pick = if js[1] == js[2] { js[1].or(js[0]) } else { js[0].or(js[1]).or(js[2]) };
+            pick.map_or(0, |j| (j as usize).min(joint_count.saturating_sub(1)))
+        })
+        .collect();
+    // Joint of each joint's part after merging: children (deeper) first.
+    let depth = |mut j: usize| {
+        let mut d = 0;
+        while let Some(p) = parents.get(j).copied().flatten() {
+            d += 1;
+            j = p;
+            if d > joint_count {
+                break;
+            }
+        }
+        d
+    };
+    let mut order: Vec<usize> = (0..joint_count).collect();
+    order.sort_by_key(|&j| (std::cmp::Reverse(depth(j)), j));
+    let mut counts = vec![0usize; joint_count.max(1)];
+    for &j in &face_joint {
+        counts[j] += 1;
+    }
+    let mut target: Vec<usize> = (0..joint_count.max(1)).collect();
+    for &j in &order {
+        if counts[j] > 0
+            && counts[j] < min_faces
+            && let Some(p) = parents[j]
+        {
+            counts[p] += counts[j];
+            counts[j] = 0;
+            target[j] = p;
+        }
+    }
+    let resolve = |mut j: usize| {
+        while target[j] != j {
+            j = target[j];
+        }
+        j
+    };
+    let kept: Vec<usize> = (0..joint_count.max(1)).filter(|&j| counts[j] > 0 && target[j] == j).collect();
+    let mut index = vec![u32::MAX; joint_count.max(1)];
+    for (k, &j) in kept.iter().enumerate() {
+        index[j] = k as u32;
+    }
+    let face_parts = face_joint.iter().map(|&j| index[resolve(j)]).collect();
+    let part_names = kept.iter().map(|&j| names.get(j).cloned().unwrap_or_else(|| format!("joint {j}"))).collect();
+    let part_joints: Vec<usize> = kept.clone();
+    // Parent/child parts: the part of a kept joint's nearest kept ancestor.
+    let mut adjacent = Vec::new();
+    for (k, &j) in part_joints.iter().enumerate() {
+        let mut p = parents[j];
+        while let Some(q) = p {
+            if index[q] != u32::MAX && target[q] == q {
+                let (a, b) = (index[q].min(k as u32), index[q].max(k as u32));
+                adjacent.push([a, b]);
+                break;
+            }
+            p = parents[q];
+        }
+    }
+    adjacent.sort_unstable();
+    adjacent.dedup();
+    SkinParts { face_parts, names: part_names, parent_child: adjacent }
+}
+
+/// One part pair touching at a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TouchingPair {
+    /// The two parts, `parts[0] < parts[1]`.
+    pub parts: [u32; 2],
+    /// The intersecting face pairs `[face of parts[0], face of parts[1]]`, sorted.
+    pub faces: Vec<[u32; 2]>,
+}
+
+/// What the part contacts of an object keep between frames: the rest pose's vertex welding and
+/// self-intersections, and a triangle tree refitted per frame.
+#[derive(Debug)]
+pub struct PartContactSetup {
+    triangles: Vec<[u32; 3]>,
+    rest: Vec<DVec3>,
+    /// Per vertex: the smallest vertex id at the same rest position.
+    position_id: Vec<u32>,
+    /// Face pairs `[f, g]` (f < g) of different parts that intersect in the rest pose, sorted.
+    rest_pairs: Vec<[u32; 2]>,
+    tree: TriangleBvh,
+}
+
+impl PartContactSetup {
+    /// Builds the caches for `parts` on a mesh of this connectivity at rest pose `rest`.
+    pub fn new(rest: &TriMesh, parts: &SkinParts) -> Result<Self, SpatialError> {
+        let mut first: BTreeMap<[u64; 3], u32> = BTreeMap::new();
+        let position_id = rest
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(v, p)| *first.entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).or_insert(v as u32))
+            .collect();
+        let tree = TriangleBvh::new(rest)?;
+        let mut setup = Self {
+            triangles: rest.triangles.clone(),
+            rest: rest.positions.clone(),
+            position_id,
+            rest_pairs: Vec::new(),
+            tree,
+        };
+        setup.rest_pairs = setup.candidate_pairs(parts);
+        Ok(setup)
+    }
+
+    /// True if built for this connectivity and rest pose.
+    pub fn matches(&self, rest: &TriMesh) -> bool {
+        self.triangles == rest.triangles && self.rest == rest.positions
+    }
+
+    /// Face pairs of the rest pose excluded at every frame.
+    pub fn rest_pairs(&self) -> &[[u32; 2]] {
+        &self.rest_pairs
+    }
+
+    /// True if faces f and g share a vertex by rest position.
+    pub fn adjacent(&self, f: u32, g: u32) -> bool {
+        let (a, b) = (&self.triangles[f as usize], &self.triangles[g as usize]);
+        a.iter().any(|&u| b.iter().any(|&w| self.position_id[u as usize] == self.position_id[w as usize]))
+    }
+
+    /// Intersecting face pairs of the tree's current positions between different parts, not
+    /// adjacent, not left to the articulations; sorted `[f, g]`, f < g.
+    fn candidate_pairs(&self, parts: &SkinParts) -> Vec<[u32; 2]> {
+        let part = |f: u32| parts.face_parts.get(f as usize).copied().unwrap_or(u32::MAX);
+        let mut pairs: Vec<[u32; 2]> = self
+            .tree
+            .intersections_with(&self.tree)
+            .into_iter()
+            .filter(|&[f, g]| {
+                let (pf, pg) = (part(f), part(g));
+                f < g && pf != pg && !parts.is_left_to_articulations(pf, pg) && !self.adjacent(f, g)
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs
+    }
+
+    /// The part pairs touching in `mesh` (this connectivity, any pose), beyond the rest pose's
+    /// own intersections, sorted (see the module doc).
+    pub fn touching(&mut self, mesh: &TriMesh, parts: &SkinParts) -> Result<Vec<TouchingPair>, SpatialError> {
+        self.tree.refit(&mesh.positions)?;
+        let mut grouped: BTreeMap<[u32; 2], Vec<[u32; 2]>> = BTreeMap::new();
+        for [f, g] in self.candidate_pairs(parts) {
+            if self.rest_pairs.binary_search(&[f, g]).is_ok() {
+                continue;
+            }
+            let (pf, pg) = (parts.face_parts[f as usize], parts.face_parts[g as usize]);
+            let (key, pair) = if pf < pg { ([pf, pg], [f, g]) } else { ([pg, pf], [g, f]) };
+            grouped.entry(key).or_default().push(pair);
+        }
+        Ok(grouped
+            .into_iter()
+            .map(|(parts, mut faces)| {
+                faces.sort_unstable();
+                TouchingPair { parts, faces }
+            })
+            .collect())
+    }
+}
+
+/// The self-intersections of a rest pose, to count those of a posed mesh beyond them (the
+/// asset's own are not the animation's).
+#[derive(Clone, Debug)]
+pub struct RestIntersections {
+    /// Face pairs `[f, g]` (f < g) intersecting away from what they share in the rest pose.
+    pairs: Vec<[u32; 2]>,
+}
+
+impl RestIntersections {
+    pub fn new(rest: &TriMesh) -> Result<Self, SpatialError> {
+        let tree = TriangleBvh::new(rest)?;
+        let pairs = tree
+            .intersections_with(&tree)
+            .into_iter()
+            .filter(|&[f, g]| {
+                f < g
+                    && crate::spatial::triangles_intersect_away_from_shared(
+                        &rest.corners(f as usize),
+                        &rest.corners(g as usize),
+                    )
+            })
+            .collect();
+        Ok(Self { pairs })
+    }
+
+    /// Faces of `mesh` (the rest pose's connectivity) that intersect another face away from
+    /// what they share, in a pair that does not intersect in the rest pose; sorted.
+    pub fn faces_beyond(&self, mesh: &TriMesh) -> Result<Vec<u32>, SpatialError> {
+        crate::spatial::self_intersecting_faces(mesh, 0..mesh.num_triangles() as u32, |f, g| {
+            self.pairs.binary_search(&[f.min(g), f.max(g)]).is_err()
+        })
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes;
+
+    /// Two capsules of one mesh: the first (joint 1) along z at x = 0, the second (joint 2) at
+    /// x = `offset`; joint 0 is their common parent with no vertex of its own.
+    fn two_capsules(offset: f64) -> (TriMesh, SkinWeights) {
+        let a = shapes::capsule(0.5, 3.0, 16, 6, 8);
+        let mut b = a.clone();
+        for p in &mut b.positions {
+            p.x += offset;
+        }
+        let n = a.num_vertices() as u32;
+        let mut mesh = a.clone();
+        mesh.positions.extend(&b.positions);
+        mesh.triangles.extend(b.triangles.iter().map(|t| t.map(|v| v + n)));
+        let joints = (0..2 * n).map(|v| if v < n { [1, 0, 0, 0] } else { [2, 0, 0, 0] }).collect();
+        let weights = vec![[1.0, 0.0, 0.0, 0.0]; 2 * n as usize];
+        (mesh, SkinWeights::new(joints, weights).unwrap())
+    }
+
+    fn names(k: usize) -> Vec<String> {
+        (0..k).map(|j| format!("j{j}")).collect()
+    }
+
+    #[test]
+    fn sibling_capsules_are_two_parts_with_a_common_parent() {
+        let (mesh, weights) = two_capsules(3.0);
+        let parts = parts_from_skin(&mesh, &weights, &[None, Some(0), Some(0)], &names(3), 10);
+        assert_eq!(parts.names, vec!["j1".to_string(), "j2".to_string()]);
+        let half = mesh.num_triangles() / 2;
+        assert!(parts.face_parts[..half].iter().all(|&p| p == 0));
+        assert!(parts.face_parts[half..].iter().all(|&p| p == 1));
+        // Siblings: neither is the other's parent.
+        assert!(parts.parent_child.is_empty());
+    }
+
+    #[test]
+    fn small_parts_join_their_parent() {
+        let (mesh, weights) = two_capsules(3.0);
+        let half = mesh.num_triangles() / 2;
+        // Joint 2 is a child of joint 1; with a minimum above its size it joins joint 1.
+        let parts = parts_from_skin(&mesh, &weights, &[None, Some(0), Some(1)], &names(3), half + 1);
+        assert!(parts.face_parts.iter().all(|&p| p == 0), "one part left");
+        let parts = parts_from_skin(&mesh, &weights, &[None, Some(0), Some(1)], &names(3), half);
+        assert_eq!(parts.parent_child, vec![[0, 1]]);
+    }
+
+    #[test]
+    fn crossing_capsules_touch_and_rest_intersections_are_ignored() {
+        let (rest, weights) = two_capsules(3.0);
+        let parts = parts_from_skin(&rest, &weights, &[None, Some(0), Some(0)], &names(3), 10);
+        let mut setup = PartContactSetup::new(&rest, &parts).unwrap();
+        assert!(setup.rest_pairs().is_empty());
+        assert!(setup.touching(&rest, &parts).unwrap().is_empty());
+        let (posed, _) = two_capsules(0.8);
+        let touching = setup.touching(&posed, &parts).unwrap();
+        assert_eq!(touching.len(), 1);
+        assert_eq!(touching[0].parts, [0, 1]);
+        assert!(!touching[0].faces.is_empty());
+        // The same overlap already in the rest pose is the asset's own.
+        let mut setup = PartContactSetup::new(&posed, &parts).unwrap();
+        assert!(!setup.rest_pairs().is_empty());
+        assert!(setup.touching(&posed, &parts).unwrap().is_empty());
+        // Left to an articulation: not reported.
+        let parts = SkinParts { parent_child: vec![[0, 1]], ..parts };
+        let mut setup = PartContactSetup::new(&rest, &parts).unwrap();
+        assert!(setup.touching(&posed, &parts).unwrap().is_empty());
+    }
+}
