@@ -197,6 +197,12 @@ pub struct ObjectParams {
     /// one articulation, issue 27), after the articulations. `None`: no part contact.
     #[param(skip)]
     pub self_contact_parts: Option<SkinParts>,
+    /// Per object vertex: true where a cut region's border is *not* a border for the contact
+    /// stage (the seam between the two sides of one self-contact, which an intersection of a
+    /// fold reaches by nature; ch. 6). The deformation keeps every border vertex fixed. `None`:
+    /// every cut border is a border. Set by the part contacts, not a user key.
+    #[param(skip)]
+    pub contact_open_border: Option<Vec<bool>>,
     /// The rest (bind) pose, one position per vertex, on which the articulations' partition of
     /// unity β is computed (§6.1.1). `None`: the frame's own mesh.
     #[param(skip)]
@@ -231,6 +237,7 @@ impl Default for ObjectParams {
             uvs: None,
             self_contact: Vec::new(),
             self_contact_parts: None,
+            contact_open_border: None,
             rest_positions: None,
         }
     }

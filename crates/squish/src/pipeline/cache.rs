@@ -88,7 +88,7 @@ impl ObjectCache {
         let side = match region.sub.as_deref() {
             None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
             Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
-                .with_border((sub.border_count > 0).then_some(sub.border.as_slice())),
+                .with_border(sub.contact_border()),
         };
         Some(side.with_name(name).with_stiffness(crate::contact::Stiffness::of(object.params)).with_uvs(uvs))
     }
@@ -243,8 +243,32 @@ pub(super) struct SubRegion {
     /// Per region vertex: on the cut border.
     pub border: Vec<bool>,
     pub border_count: usize,
+    /// Per region vertex: the border for the contact stage when it differs from `border` (see
+    /// [`crate::params::ObjectParams::contact_open_border`]).
+    pub contact_border: Option<Vec<bool>>,
     /// Vertex normals of this frame, from all parent faces.
     pub normals: Vec<DVec3>,
+}
+
+impl SubRegion {
+    /// The border the contact stage sees (`None`: no border).
+    pub fn contact_border(&self) -> Option<&[bool]> {
+        match &self.contact_border {
+            Some(border) => border.iter().any(|&b| b).then_some(border.as_slice()),
+            None => (self.border_count > 0).then_some(self.border.as_slice()),
+        }
+    }
+
+    /// Removes the vertices `open` (per parent vertex) from the contact stage's border.
+    pub fn open_contact_border(&mut self, open: Option<&[bool]>) {
+        self.contact_border = open.map(|open| {
+            self.border
+                .iter()
+                .zip(&self.sub.parent_vertex)
+                .map(|(&b, &v)| b && !open.get(v as usize).copied().unwrap_or(false))
+                .collect()
+        });
+    }
 }
 
 /// One working region of an object and its caches.
@@ -286,7 +310,7 @@ impl RegionCache {
         Ok(Self {
             components: components.of_faces(&faces),
             faces: Some(faces),
-            sub: Some(Box::new(SubRegion { sub, topology: sub_topology, bvh, border, border_count, normals })),
+            sub: Some(Box::new(SubRegion { sub, topology: sub_topology, bvh, border, border_count, contact_border: None, normals })),
             solver: None,
             rebuilt: true,
         })

@@ -146,7 +146,9 @@ fn deform_one(
         |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
     let (mesh, topology, border) = match region.sub.as_deref() {
         None => (object.mesh, topology, None),
-        Some(sub) => (&sub.sub.mesh, &sub.topology, (sub.border_count > 0).then_some(sub.border.as_slice())),
+        // The contact stage's border: an open seam (ObjectParams::contact_open_border) may move
+        // like the region's inside; the part contacts restore the object's volume over it.
+        Some(sub) => (&sub.sub.mesh, &sub.topology, sub.contact_border()),
     };
     // A region processed whole reuses the object's normals of the contact stage (the same
     // `vertex_normals` of the same mesh); a cut region's own are its sub-mesh's.

@@ -133,6 +133,71 @@ fn pair_labels(mesh: &TriMesh, parts: &SkinParts, [a, b]: [u32; 2], rings: usize
         .collect()
 }
 
+/// Per vertex: on the seam between the two working regions of `labels` (1 and 2): a vertex of
+/// one region sharing a face with a vertex of the other, or with a vertex of neither (label 0)
+/// that itself shares faces with both. That side is not a border for the contact stage.
+fn seam_between(mesh: &TriMesh, labels: &[f64]) -> Vec<bool> {
+    let n = mesh.num_vertices();
+    let mut touches = vec![[false; 3]; n];
+    for t in &mesh.triangles {
+        for &v in t {
+            for &w in t {
+                touches[v as usize][labels[w as usize] as usize % 3] = true;
+            }
+        }
+    }
+    let strip: Vec<bool> = (0..n).map(|v| labels[v] == 0.0 && touches[v][1] && touches[v][2]).collect();
+    let mut open = vec![false; n];
+    for t in &mesh.triangles {
+        for &v in t {
+            let k = labels[v as usize] as usize;
+            if k == 0 {
+                continue;
+            }
+            if t.iter().any(|&w| strip[w as usize] || (labels[w as usize] != 0.0 && labels[w as usize] as usize != k)) {
+                open[v as usize] = true;
+            }
+        }
+    }
+    open
+}
+
+/// `new` (the pair's result on `current`) with the object's volume brought back to `current`'s
+/// exactly: the regions' heights keep their own swept volumes, but their open seams move, and
+/// the faces of the strip between them with it. The moved vertices are offset along their unit
+/// normals by the height h of the smallest |h| that is a root of the object's volume cubic
+/// (App. C); `None` when neither direction has one.
+fn restore_volume(current: &TriMesh, new: Vec<DVec3>) -> Option<Vec<DVec3>> {
+    use crate::deform::{AffineDisplacement, VolumeCubic, solve_bulge_height};
+    let moved: Vec<bool> = current.positions.iter().zip(&new).map(|(p, q)| p != q).collect();
+    if !moved.iter().any(|&m| m) {
+        return Some(new);
+    }
+    let normals = crate::mesh::vertex_normals(&TriMesh { positions: new.clone(), triangles: current.triangles.clone() });
+    let constant: Vec<DVec3> = current.positions.iter().zip(&new).map(|(p, q)| *q - *p).collect();
+    let reference = crate::mesh::vertex_centroid(&current.positions);
+    let scale = constant.iter().map(|d| d.length()).fold(0.0, f64::max);
+    let solve = |sign: f64| {
+        let linear = normals.iter().zip(&moved).map(|(n, &m)| if m { sign * *n } else { DVec3::ZERO }).collect();
+        let displacement = AffineDisplacement { linear, constant: constant.clone(), moved: moved.clone() };
+        let cubic = VolumeCubic::new(current, &displacement, reference).ok()?;
+        let solution = solve_bulge_height(&cubic, scale);
+        solution.exact.then_some(sign * solution.height)
+    };
+    let height = match (solve(1.0), solve(-1.0)) {
+        (Some(a), Some(b)) => if a.abs() <= b.abs() { a } else { b },
+        (Some(h), None) | (None, Some(h)) => h,
+        (None, None) => return None,
+    };
+    Some(
+        new.iter()
+            .zip(&normals)
+            .zip(&moved)
+            .map(|((q, n), &m)| if m { *q + height * *n } else { *q })
+            .collect(),
+    )
+}
+
 /// Faces of parts `pair.parts` intersecting a face of the other part, not a rest-pose pair.
 fn crossing_faces(
     mesh: &TriMesh,
@@ -198,6 +263,14 @@ pub(super) fn resolve_part_contacts(
         return Err(PipelineError::invalid_region(name, "no part contact setup".into()));
     };
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
+    let rest_intersections = &cache.rest_intersections;
+    let beyond = |m: &TriMesh| -> Result<usize, PipelineError> {
+        match rest_intersections {
+            Some(r) => Ok(r.faces_beyond(m).map_err(spatial)?.len()),
+            None => Ok(0),
+        }
+    };
+    let mut faces_now = if touching.is_empty() { 0 } else { beyond(mesh)? };
     let mut positions = mesh.positions.clone();
     let mut moved = vec![false; n];
     let mut stats = Vec::with_capacity(touching.len());
@@ -227,17 +300,44 @@ pub(super) fn resolve_part_contacts(
             let mut region_params = params.clone().with_region_mask(entry.labels.clone());
             region_params.self_contact = Vec::new();
             region_params.self_contact_parts = None;
+            region_params.contact_open_border = Some(seam_between(mesh, &entry.labels));
             let frame = Frame {
                 objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
                 pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
             };
-            match entry.deformer.deform(&frame) {
+            let outcome = entry.deformer.deform(&frame).map_err(|e| e.to_string()).and_then(|result| {
+                // A bulge taller than its extent: the extent was clamped to a sliver of the
+                // region (its seam too close), so the volume went into a spike.
+                match result.stats.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
+                    Some(r) => Err(format!(
+                        "region {}: a bulge of height {:.3e} over an extent of {:.3e}; a wider margin is needed",
+                        r.region, r.applied_bulge_height, r.extent
+                    )),
+                    None => Ok(result),
+                }
+            });
+            match outcome {
                 Ok(result) => {
                     s.error = None;
                     s.in_contact = result.stats.pairs.iter().any(|p| p.in_contact);
                     s.contact_area = result.stats.pairs.iter().map(|p| p.contact_area).sum();
                     if let Some(new) = result.positions.into_iter().next() {
-                        for (v, (p, q)) in positions.iter_mut().zip(&new).enumerate() {
+                        let Some(new) = restore_volume(&current, new) else {
+                            s.error = Some("the object's volume cannot be restored over the seam".into());
+                            break;
+                        };
+                        // Never worse than this pair's input: a result that leaves the object
+                        // more self-intersecting faces is undone.
+                        let candidate = TriMesh { positions: new, triangles: mesh.triangles.clone() };
+                        let faces = beyond(&candidate)?;
+                        if faces > faces_now {
+                            s.error = Some(format!(
+                                "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
+                            ));
+                            break;
+                        }
+                        faces_now = faces;
+                        for (v, (p, q)) in positions.iter_mut().zip(&candidate.positions).enumerate() {
                             if p != q {
                                 moved[v] = true;
                                 *p = *q;
@@ -247,7 +347,7 @@ pub(super) fn resolve_part_contacts(
                     break;
                 }
                 // Too tight: the next, wider margin.
-                Err(e) => s.error = Some(e.to_string()),
+                Err(e) => s.error = Some(e),
             }
         }
         let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
@@ -255,12 +355,6 @@ pub(super) fn resolve_part_contacts(
         s.time = start.elapsed();
         stats.push(s);
     }
-    let beyond = |m: &TriMesh| -> Result<usize, PipelineError> {
-        match &cache.rest_intersections {
-            Some(r) => Ok(r.faces_beyond(m).map_err(spatial)?.len()),
-            None => Ok(0),
-        }
-    };
     let result = TriMesh { positions, triangles: mesh.triangles.clone() };
     let self_intersecting_faces = [beyond(input)?, beyond(&result)?];
     Ok(PartContactResult { positions: result.positions, moved, pairs: stats, self_intersecting_faces })

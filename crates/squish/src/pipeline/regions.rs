@@ -371,7 +371,12 @@ pub(super) fn update_working_regions(
             }
             let ObjectCache { regions, topology, components, .. } = cache;
             update_regions(regions, selection, object.mesh, topology, components)
-                .map_err(|reason| PipelineError::invalid_region(object.name, reason))
+                .map_err(|reason| PipelineError::invalid_region(object.name, reason))?;
+            let open = object.params.contact_open_border.as_deref();
+            for sub in regions.iter_mut().filter_map(|r| r.sub.as_deref_mut()) {
+                sub.open_contact_border(open);
+            }
+            Ok(())
         },
     )
 }
