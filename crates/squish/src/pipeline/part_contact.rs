@@ -8,11 +8,28 @@
 //! **disjoint working regions of the same mesh** (`region = "mask"` with a self-pair, see
 //! `regions`): the faces of each part grown by [`MARGIN_RINGS`] rings of faces into its
 //! neighbours (not into the other part), so the deformation has room beyond the part's seam,
-//! then cut apart so that the two regions share no vertex. The contact definition of ch. 4 with
-//! the automatic direction runs between them, then ch. 5 on each side with the object's
-//! parameters (profile, bulge, stiffness). Each region's border is fixed and its bulge height
-//! solves its swept volume to zero (App. C, as for every cut working region), so the object's
-//! volume is preserved exactly.
+//! then cut apart so that the two regions share no vertex. When every margin fails, the regions
+//! are **grown from the intersection** instead ([`GROWN_RINGS`]): each side from the vertices of
+//! its own intersecting faces, every vertex to the nearer side by edge rings (ties to neither),
+//! which removes the parts' seams from the picture. The contact definition of ch. 4 with the
+//! automatic direction runs between them, then ch. 5 on each side with the object's parameters
+//! (profile, bulge, stiffness).
+//!
+//! **The seam between the two regions is open** (as the shared side of an articulation, ch. 6):
+//! an intersection that runs across the seam between two parts (an arm entering the torso at the
+//! armpit) reaches it by nature, so the vertices of either region next to the other region (or
+//! next to the strip of vertices between them) are not a border for the contact stage nor fixed
+//! for the deformation ([`crate::params::ObjectParams::contact_open_border`]); the far borders,
+//! where a region is cut from the rest of the mesh, stay fixed borders. Each region's bulge
+//! height solves its own swept volume to zero (App. C); the open seam moves the faces of the
+//! strip between the regions too, so the object's volume is then restored exactly by offsetting
+//! the pair's moved vertices along their normals by the root of smallest |h| of the whole
+//! object's volume cubic.
+//!
+//! **Acceptance.** A pair's result is rejected (the next margin is tried) when a region's bulge
+//! is taller than its extent (the extent clamped to a sliver by a border: the volume goes into a
+//! spike), and undone when it leaves the object more self-intersecting faces beyond the rest
+//! pose's than its input had: no pair makes a frame worse than its input.
 //!
 //! **Several pairs** are resolved one after the other in the order of their part ids, each on
 //! the result of the previous ones (each preserves the volume of its input, so the sequence
@@ -23,11 +40,12 @@
 //! **Continuity.** When a pair starts to touch its intersection is small and the method's
 //! displacement is proportional to the depth, so it starts from zero; a pair that stops
 //! touching is not run (zero displacement). Every pair keeps its own nested [`Deformer`] (its
-//! connectivity-only caches) in a map ordered by part ids.
+//! connectivity-only caches) per margin in a map ordered by part ids; a grown region's deformer
+//! is rebuilt when its labels change.
 //!
-//! **Failures** of a pair (an intersection reaching its region's border: parts too small for
-//! the contact) leave that pair unresolved and are reported in its [`PartPairStats::error`],
-//! never dropped silently; the other pairs and the frame go on.
+//! **Failures** of a pair (an intersection reaching its region's far border: parts too small
+//! for the contact; a rejected or undone result) leave that pair unresolved and are reported in
+//! its [`PartPairStats::error`], never dropped silently; the other pairs and the frame go on.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -44,6 +62,9 @@ use crate::skinning::{PartContactSetup, RestIntersections, TouchingPair};
 /// the wider ones tried in turn when a contact reaches a region's border (the intersection is
 /// not closed inside the region).
 pub const MARGIN_RINGS: [usize; 3] = [2, 6, 18];
+
+/// Rings of the regions grown from the intersection, tried when the parts' regions fail.
+pub const GROWN_RINGS: [usize; 2] = [8, 24];
 
 /// Figures of one touching part pair at one frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -64,6 +85,10 @@ pub struct PartPairStats {
     /// Faces of the two working regions, and the margin they were grown by (the last tried).
     pub region_faces: [usize; 2],
     pub margin_rings: usize,
+    /// True if the regions were grown from the intersection (see the module doc), not from the
+    /// parts.
+    #[serde(default)]
+    pub grown_from_intersection: bool,
     /// Why the pair was left unresolved, if it was.
     pub error: Option<String>,
     pub time: Duration,
@@ -82,7 +107,7 @@ pub(super) struct PartContactCache {
     setup: Option<PartContactSetup>,
     rest_intersections: Option<RestIntersections>,
     parts: Option<SkinParts>,
-    deformers: BTreeMap<([u32; 2], usize), PairDeformer>,
+    deformers: BTreeMap<([u32; 2], bool, usize), PairDeformer>,
 }
 
 impl std::fmt::Debug for PartContactCache {
@@ -128,6 +153,57 @@ fn pair_labels(mesh: &TriMesh, parts: &SkinParts, [a, b]: [u32; 2], rings: usize
             (false, true, _, _) => 2.0,
             (false, false, true, false) => 1.0,
             (false, false, false, true) => 2.0,
+            _ => 0.0,
+        })
+        .collect()
+}
+
+/// The vertex labels of the two working regions of a touching pair grown from its intersection
+/// (1 and 2, 0 elsewhere): side 1 starts from the vertices of the faces of `faces[·][0]`, side 2
+/// from those of `faces[·][1]`; a breadth-first search over the mesh's edges gives each vertex
+/// the side of the nearer start, up to `rings` edges away. Vertices as near to both (or starts
+/// of both) get 0 and stop the search: the seam between the sides.
+fn intersection_labels(mesh: &TriMesh, faces: &[[u32; 2]], rings: usize) -> Vec<f64> {
+    let n = mesh.num_vertices();
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for t in &mesh.triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
+    }
+    // Per vertex: which sides reach it first (bit 0: side 1, bit 1: side 2); 0 = not reached.
+    let mut reached = vec![0u8; n];
+    let mut layer: BTreeMap<u32, u8> = BTreeMap::new();
+    for pair in faces {
+        for (side, &f) in pair.iter().enumerate() {
+            for &v in &mesh.triangles[f as usize] {
+                *layer.entry(v).or_insert(0) |= 1 << side;
+            }
+        }
+    }
+    for _ in 0..=rings {
+        for (&v, &sides) in &layer {
+            reached[v as usize] = sides;
+        }
+        let mut next: BTreeMap<u32, u8> = BTreeMap::new();
+        for (&v, &sides) in &layer {
+            if sides == 3 {
+                continue;
+            }
+            for &w in &neighbours[v as usize] {
+                if reached[w as usize] == 0 {
+                    *next.entry(w).or_insert(0) |= sides;
+                }
+            }
+        }
+        layer = next;
+    }
+    reached
+        .iter()
+        .map(|&sides| match sides {
+            1 => 1.0,
+            2 => 2.0,
             _ => 0.0,
         })
         .collect()
@@ -286,9 +362,16 @@ pub(super) fn resolve_part_contacts(
         };
         let Some(setup) = cache.setup.as_ref() else { break };
         s.faces_before = crossing_faces(&current, parts, setup, pair.parts).map_err(spatial)?;
-        for rings in MARGIN_RINGS {
-            let entry = cache.deformers.entry((pair.parts, rings)).or_insert_with(|| {
-                let labels = pair_labels(mesh, parts, pair.parts, rings);
+        let tries = MARGIN_RINGS.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
+        for (grown, rings) in tries {
+            let labels =
+                if grown { intersection_labels(mesh, &pair.faces, rings) } else { pair_labels(mesh, parts, pair.parts, rings) };
+            // Grown regions follow the intersection: a new deformer when they change.
+            let key = (pair.parts, grown, rings);
+            if cache.deformers.get(&key).is_some_and(|d| d.labels != labels) {
+                cache.deformers.remove(&key);
+            }
+            let entry = cache.deformers.entry(key).or_insert_with(|| {
                 let faces_of = |k: f64| -> usize {
                     mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
                 };
@@ -297,6 +380,7 @@ pub(super) fn resolve_part_contacts(
             });
             s.region_faces = entry.region_faces;
             s.margin_rings = rings;
+            s.grown_from_intersection = grown;
             let mut region_params = params.clone().with_region_mask(entry.labels.clone());
             region_params.self_contact = Vec::new();
             region_params.self_contact_parts = None;
@@ -438,6 +522,59 @@ mod tests {
         let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
         assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
         assert!(result.stats.objects[0].deformed);
+    }
+
+    #[test]
+    fn restoring_the_volume_brings_it_back_exactly() {
+        let capsule = shapes::capsule(0.5, 3.0, 24, 8, 12);
+        let v0 = signed_volume(&capsule);
+        // A dent that loses volume, as a contact pushing one side in.
+        let new: Vec<DVec3> = capsule
+            .positions
+            .iter()
+            .map(|p| if p.x > 0.3 && p.z.abs() < 0.5 { *p - DVec3::new(0.1, 0.0, 0.0) } else { *p })
+            .collect();
+        let dented = TriMesh { positions: new.clone(), triangles: capsule.triangles.clone() };
+        assert!((signed_volume(&dented) - v0).abs() > 1e-4);
+        let restored = restore_volume(&capsule, new.clone()).unwrap();
+        let v1 = signed_volume(&TriMesh { positions: restored.clone(), triangles: capsule.triangles.clone() });
+        assert!(((v1 - v0) / v0).abs() <= 1e-12, "{v0} → {v1}");
+        // Only the dented vertices move, and by less than the dent.
+        for ((p, q), r) in capsule.positions.iter().zip(&new).zip(&restored) {
+            if p == q {
+                assert_eq!(q, r);
+            } else {
+                assert!((*r - *q).length() < 0.1);
+            }
+        }
+    }
+
+    #[test]
+    fn regions_grown_from_the_intersection_are_disjoint_and_open_between_them() {
+        let s = Siblings::new();
+        let posed = s.pose(0.8, std::f64::consts::FRAC_PI_2);
+        let mut setup = PartContactSetup::new(&s.rest, &s.parts).unwrap();
+        let touching = setup.touching(&posed, &s.parts).unwrap();
+        let labels = intersection_labels(&posed, &touching[0].faces, 4);
+        // Every seed face of a side lies wholly in its region.
+        for [f, g] in &touching[0].faces {
+            assert!(posed.triangles[*f as usize].iter().all(|&v| labels[v as usize] == 1.0));
+            assert!(posed.triangles[*g as usize].iter().all(|&v| labels[v as usize] == 2.0));
+        }
+        // The capsules are separate components: no seam between the sides, so nothing is open.
+        assert!(!seam_between(&posed, &labels).iter().any(|&o| o));
+        // On one capsule split in two halves by label, the vertices next to the other half are.
+        let n = s.count;
+        let mid = s.rest.positions[..n].iter().map(|p| p.z).sum::<f64>() / n as f64;
+        let halves: Vec<f64> =
+            (0..2 * n).map(|v| if v >= n { 0.0 } else if s.rest.positions[v].z < mid { 1.0 } else { 2.0 }).collect();
+        let open = seam_between(&s.rest, &halves);
+        assert!(open.iter().any(|&o| o));
+        for (v, &o) in open.iter().enumerate() {
+            if o {
+                assert!(halves[v] != 0.0 && (s.rest.positions[v].z - mid).abs() < 0.5, "{v}");
+            }
+        }
     }
 
     #[test]
