@@ -99,24 +99,18 @@ pub struct PreviewFrame {
 }
 
 impl PreviewFrame {
-    /// The pictures' data of a computed frame. Objects with self-contact articulations also
-    /// get their self-intersecting input faces marked as overlaps (drawn red on the input).
+    /// The pictures' data of a computed frame. Objects with self-contact (articulations or
+    /// parts) also get their self-intersecting input faces marked as overlaps (drawn red on the
+    /// input): those beyond the rest pose's own, as report.json counts them.
     pub fn new(shot: &ShotFrame, result: &FrameResult) -> Self {
-        let mut intersection: Vec<Vec<bool>> =
-            shot.objects.iter().map(|o| vec![false; o.mesh.num_vertices()]).collect();
-        for (object, flags) in shot.objects.iter().zip(&mut intersection) {
-            if object.params.self_contact.is_empty() {
-                continue;
-            }
-            // A picture is not worth failing a frame over: an unusable mesh shows no overlap.
-            if let Ok(found) = squish::spatial::self_intersections(&object.mesh) {
-                for &f in &found.faces {
-                    for &v in &object.mesh.triangles[f as usize] {
-                        flags[v as usize] = true;
-                    }
-                }
-            }
-        }
+        let mut intersection: Vec<Vec<bool>> = shot
+            .objects
+            .iter()
+            .map(|o| match input_self_intersections(o) {
+                Some(faces) => face_vertex_flags(&o.mesh, &faces),
+                None => vec![false; o.mesh.num_vertices()],
+            })
+            .collect();
         for (pair, contact) in shot.pairs.iter().zip(&result.contacts) {
             let Some(contact) = contact else { continue };
             for (side, &object) in pair.objects.iter().enumerate() {
@@ -151,6 +145,39 @@ impl PreviewFrame {
             intersection,
         }
     }
+}
+
+/// The faces of an object's input that pass through another of its faces, for an object with
+/// self-contact: beyond the self-intersections of its rest pose when it has one (the asset's
+/// own are not the animation's), else all. `None` without self-contact. A picture is not worth
+/// failing a frame over: a mesh the test cannot read shows no overlap.
+pub fn input_self_intersections(object: &ShotObject) -> Option<Vec<u32>> {
+    let params = &object.params;
+    if params.rigid || (params.self_contact.is_empty() && params.self_contact_parts.is_none()) {
+        return None;
+    }
+    let mesh = &object.mesh;
+    let faces = match &params.rest_positions {
+        Some(rest) if rest.len() == mesh.num_vertices() => {
+            let rest = TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() };
+            squish::skinning::RestIntersections::new(&rest).and_then(|r| r.faces_beyond(mesh))
+        }
+        _ => squish::spatial::self_intersections(mesh).map(|found| found.faces),
+    };
+    Some(faces.unwrap_or_default())
+}
+
+/// Per vertex of `mesh`: a corner of one of `faces`.
+pub fn face_vertex_flags(mesh: &TriMesh, faces: &[u32]) -> Vec<bool> {
+    let mut flags = vec![false; mesh.num_vertices()];
+    for &f in faces {
+        if let Some(t) = mesh.triangles.get(f as usize) {
+            for &v in t {
+                flags[v as usize] = true;
+            }
+        }
+    }
+    flags
 }
 
 /// Per-vertex flags of the contacts between objects and of the self-contacts (ch. 6), or'ed.

@@ -279,3 +279,58 @@ fn the_rigged_cylinder_example_folds_into_contact_and_is_resolved() {
     let (input, output) = whole.iter().fold((0, 0), |(i, o), (b, a)| (i + b, o + a));
     assert!(input > 1000 && output * 5 < input, "{input} → {output}");
 }
+
+/// The pixels of a PNG (RGBA rows) and its width.
+fn read_png(path: &Path) -> (Vec<u8>, u32) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    pixels.truncate(info.buffer_size());
+    (pixels, info.width)
+}
+
+/// Red pixels (the intersection label, shaded) in the columns `x0..x1` and rows `y0..y1`.
+fn red_pixels(pixels: &[u8], width: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> usize {
+    (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| 4 * (y * width + x) as usize))
+        .filter(|&o| {
+            let [r, g, b] = [pixels[o], pixels[o + 1], pixels[o + 2]].map(u32::from);
+            r >= 90 && r > 2 * g && r > 2 * b
+        })
+        .count()
+}
+
+/// `--preview` of a skinned object with self-contact draws the input's self-intersecting faces
+/// in red and the output's none: the bending cylinder with `self_contact = "auto"`, straight at
+/// frame 1 (no overlap: the input picture's only red is its legend swatch) and folded by 150° at
+/// frame 25 (the inside of the elbow passes through itself, resolved in the output).
+#[test]
+fn previews_draw_the_input_self_intersections_in_red() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bending_cylinder(dir.path());
+    let scene = dir.path().join("arm.toml");
+    std::fs::write(
+        &scene,
+        "frames = { start = 1, end = 25, fps = 24 }\n\n[[objects]]\nname = \"arm\"\nmesh = \"arm.glb\"\nself_contact = \"auto\"\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run(&scene, &out, &["--frames", "1:25", "--preview=1,25"]);
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let counts = |frame: usize| report["per_frame"][frame - 1]["self_intersecting_faces"][0][1].clone();
+    assert_eq!(counts(1), serde_json::json!([0, 0]));
+    let folded = counts(25);
+    assert!(folded[0].as_u64().unwrap() > 0 && folded[1] == 0, "{folded}");
+    // The compare picture: input | output above, their sections below (640 × 480 each, 4 apart).
+    let (straight, width) = read_png(&out.join("preview/0001_compare.png"));
+    let (bent, _) = read_png(&out.join("preview/0025_compare.png"));
+    let (input, output) = ((0, 640), (644, 1284));
+    let legend_only = red_pixels(&straight, width, input, (0, 480));
+    let marked = red_pixels(&bent, width, input, (0, 480));
+    assert!(marked > legend_only + 200, "red pixels of the folded input {marked}, of the straight one {legend_only}");
+    assert_eq!(red_pixels(&straight, width, output, (0, 480)), 0);
+    assert_eq!(red_pixels(&bent, width, output, (0, 480)), 0, "the output shows no overlap");
+    assert_eq!(red_pixels(&bent, width, output, (484, 964)), 0, "nor does its section");
+}
