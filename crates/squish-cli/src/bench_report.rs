@@ -327,7 +327,8 @@ impl SelfContactReport {
         let by_touching_pairs = counts
             .into_iter()
             .map(|touching_pairs| {
-                let group: Vec<&SelfContactFrame> = frames.iter().filter(|f| f.touching_pairs == touching_pairs).collect();
+                let group: Vec<&SelfContactFrame> =
+                    frames.iter().filter(|f| f.touching_pairs == touching_pairs).collect();
                 let median = |value: fn(&SelfContactFrame) -> f64| {
                     median_value(&group.iter().map(|f| value(f)).collect::<Vec<f64>>())
                 };

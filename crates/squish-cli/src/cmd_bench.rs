@@ -237,7 +237,8 @@ fn cesium_man_walk(data: &Path) -> Result<BenchScene, String> {
         "frames = {{ start = 1, end = 48, fps = 24 }}\n\n[[objects]]\nname = \"cesium_man\"\n\
          mesh = {{ file = \"{file}\", repeat = true }}\nself_contact = \"auto\"\n"
     );
-    let scene = squish_io::scene::Scene::from_toml(&text, &data.join("cesium_man_walk.toml")).map_err(|e| e.to_string())?;
+    let scene =
+        squish_io::scene::Scene::from_toml(&text, &data.join("cesium_man_walk.toml")).map_err(|e| e.to_string())?;
     let poses = (1..=48)
         .map(|frame| {
             let spec = scene.evaluate(f64::from(frame)).map_err(|e| e.to_string())?;
@@ -246,7 +247,11 @@ fn cesium_man_walk(data: &Path) -> Result<BenchScene, String> {
                 .into_iter()
                 .map(|o| squish_scenes::procedural::SceneObject { name: o.name, mesh: o.mesh, params: o.params })
                 .collect();
-            Ok(squish_scenes::procedural::ProceduralScene { name: "cesium-man-walk".into(), objects, pairs: Vec::new() })
+            Ok(squish_scenes::procedural::ProceduralScene {
+                name: "cesium-man-walk".into(),
+                objects,
+                pairs: Vec::new(),
+            })
         })
         .collect::<Result<Vec<_>, String>>()?;
     BenchScene::from_poses("cesium-man-walk", poses).ok_or_else(|| "no frame".to_string())
@@ -395,7 +400,7 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
         }
         report.single = Some(RunReport::new(&single.figures(1), median));
         drop(single);
-        if has_self_contact(scene) {
+        if scene.rest.objects.iter().any(|o| crate::shot::has_self_contact(&o.params)) {
             if !scene.poses.is_empty() {
                 report.self_contact = Some(pool(1)?.install(|| measure_self_contact(scene))?);
             }
@@ -422,11 +427,6 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
     report
 }
 
-/// True if an object of the scene has self-contact (articulations or parts).
-fn has_self_contact(scene: &BenchScene) -> bool {
-    scene.rest.objects.iter().any(|o| !o.params.self_contact.is_empty() || o.params.self_contact_parts.is_some())
-}
-
 /// Every pose of a scene given frame by frame, on one deformer after a warm-up frame (the last
 /// pose), in the caller's pool: per frame its time and its self-contact figures.
 fn measure_self_contact(scene: &BenchScene) -> Result<SelfContactReport, String> {
@@ -437,7 +437,11 @@ fn measure_self_contact(scene: &BenchScene) -> Result<SelfContactReport, String>
     for (frame, pose) in scene.poses.iter().enumerate() {
         let result = deformer.deform(&pose.frame()).map_err(|e| format!("self-contact frame {frame}: {e}"))?;
         let stats = &result.stats;
-        let faces = stats.objects.iter().filter_map(|o| o.self_intersecting_faces).fold([0, 0], |s, f| [s[0] + f[0], s[1] + f[1]]);
+        let faces = stats
+            .objects
+            .iter()
+            .filter_map(|o| o.self_intersecting_faces)
+            .fold([0, 0], |s, f| [s[0] + f[0], s[1] + f[1]]);
         frames.push(SelfContactFrame {
             frame,
             touching_pairs: stats.part_pairs.len(),

@@ -152,12 +152,11 @@ impl PreviewFrame {
 /// own are not the animation's), else all. `None` without self-contact. A picture is not worth
 /// failing a frame over: a mesh the test cannot read shows no overlap.
 pub fn input_self_intersections(object: &ShotObject) -> Option<Vec<u32>> {
-    let params = &object.params;
-    if params.rigid || (params.self_contact.is_empty() && params.self_contact_parts.is_none()) {
+    if !has_self_contact(&object.params) {
         return None;
     }
     let mesh = &object.mesh;
-    let faces = match &params.rest_positions {
+    let faces = match &object.params.rest_positions {
         Some(rest) if rest.len() == mesh.num_vertices() => {
             let rest = TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() };
             squish::skinning::RestIntersections::new(&rest).and_then(|r| r.faces_beyond(mesh))
@@ -165,6 +164,12 @@ pub fn input_self_intersections(object: &ShotObject) -> Option<Vec<u32>> {
         _ => squish::spatial::self_intersections(mesh).map(|found| found.faces),
     };
     Some(faces.unwrap_or_default())
+}
+
+/// True if the object has self-contact to resolve: articulations or parts, and not rigid (as
+/// the deformer decides).
+pub fn has_self_contact(params: &ObjectParams) -> bool {
+    !params.rigid && (!params.self_contact.is_empty() || params.self_contact_parts.is_some())
 }
 
 /// Per vertex of `mesh`: a corner of one of `faces`.

@@ -414,9 +414,10 @@ impl GltfScene {
         use squish::animation::{ChannelValues, Interpolation};
         let mut out = self.clone();
         let rest = self.skeleton.rest_pose();
-        let anim = out.animations.get_mut(animation).ok_or_else(|| {
-            IoError::element(&self.path, format!("animation {animation}"), "no such animation")
-        })?;
+        let anim = out
+            .animations
+            .get_mut(animation)
+            .ok_or_else(|| IoError::element(&self.path, format!("animation {animation}"), "no such animation"))?;
         let element = format!("animation {animation} '{}'", anim.name);
         for channel in &mut anim.clip.channels {
             let ChannelValues::Rotation(sampler) = &channel.values else { continue };

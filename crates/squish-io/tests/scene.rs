@@ -486,7 +486,8 @@ fn gltf_amplitude_scales_the_joint_rotations() {
     })
     .write_glb(shot.dir.path(), "arm");
     let file = shot.path("arm.glb");
-    let pose = |extra: &str, frame: f64| gltf_scene(&shot, &file, extra).evaluate(frame).unwrap().objects.remove(0).mesh;
+    let pose =
+        |extra: &str, frame: f64| gltf_scene(&shot, &file, extra).evaluate(frame).unwrap().objects.remove(0).mesh;
     let distance = |a: &TriMesh, b: &TriMesh| {
         a.positions.iter().zip(&b.positions).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max)
     };
@@ -497,7 +498,10 @@ fn gltf_amplitude_scales_the_joint_rotations() {
     assert!(distance(&pose(", amplitude = 0", 25.0), &pose("", 1.0)) < 1e-12);
     assert_eq!(pose(", amplitude = 1", 19.0), pose("", 19.0));
     let toml = |extra: &str| {
-        format!("frames = {{ start = 1, end = 4 }}\n[[objects]]\nname = \"arm\"\nmesh = {{ file = \"{}\"{extra} }}\n", file.display())
+        format!(
+            "frames = {{ start = 1, end = 4 }}\n[[objects]]\nname = \"arm\"\nmesh = {{ file = \"{}\"{extra} }}\n",
+            file.display()
+        )
     };
     let err = shot.load(&toml(", amplitude = -1")).unwrap_err().to_string();
     assert!(err.contains("amplitude -1 must be a finite number ≥ 0"), "{err}");
