@@ -278,6 +278,16 @@ fn the_rigged_cylinder_example_folds_into_contact_and_is_resolved() {
     assert!(whole.iter().all(|(before, after)| after <= before), "{whole:?}");
     let (input, output) = whole.iter().fold((0, 0), |(i, o), (b, a)| (i + b, o + a));
     assert!(input > 1000 && output * 5 < input, "{input} → {output}");
+
+    // Frame 101 (two joints folded at once) keeps faces through each other: the preview's output
+    // draws them in red too (above its legend, whose last row is their swatch).
+    let left = dir.path().join("left");
+    run(&scene, &left, &["--frames", "101:101", "--preview=101"]);
+    let counts = counts(&left);
+    assert!(counts[0].1 > 0, "{counts:?}");
+    let (pixels, width) = read_png(&left.join("preview/0101_compare.png"));
+    let red = red_pixels(&pixels, width, (644, 1284), (0, 430));
+    assert!(red > 100, "{red} red pixels on the output of a frame that still self-intersects");
 }
 
 /// The pixels of a PNG (RGBA rows) and its width.
@@ -303,7 +313,7 @@ fn red_pixels(pixels: &[u8], width: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u
 }
 
 /// `--preview` of a skinned object with self-contact draws the input's self-intersecting faces
-/// in red and the output's none: the bending cylinder with `self_contact = "auto"`, straight at
+/// in red and, when the output has none left, no red on the output: the bending cylinder with `self_contact = "auto"`, straight at
 /// frame 1 (no overlap: the input picture's only red is its legend swatch) and folded by 150° at
 /// frame 25 (the inside of the elbow passes through itself, resolved in the output).
 #[test]
