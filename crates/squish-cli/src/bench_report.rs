@@ -275,6 +275,74 @@ pub struct SceneReport {
     pub rounds: Option<RoundsReport>,
     /// The time of an edit of a parameter of §5.4–5.5 against the full frame (single thread).
     pub edit: Option<EditReport>,
+    /// A skinned character with self-contact parts: every frame of its animation, and the
+    /// frame time by number of touching part pairs (single thread).
+    pub self_contact: Option<SelfContactReport>,
+}
+
+/// Every frame of a skinned character's animation on one deformer (after a warm-up frame),
+/// single thread: how the time grows with the number of touching part pairs.
+#[derive(Clone, Debug, Serialize)]
+pub struct SelfContactReport {
+    pub frames: Vec<SelfContactFrame>,
+    /// Per number of touching part pairs (ascending): its frames and their median times.
+    pub by_touching_pairs: Vec<SelfContactGroup>,
+}
+
+/// One frame of a [`SelfContactReport`].
+#[derive(Clone, Debug, Serialize)]
+pub struct SelfContactFrame {
+    /// The frame's index in the animation (0-based).
+    pub frame: usize,
+    /// Part pairs touching beyond the rest pose's intersections, and of those, pushed apart.
+    pub touching_pairs: usize,
+    pub pairs_in_contact: usize,
+    /// Articulations that were active (not left out for an error).
+    pub articulations: usize,
+    pub ms: f64,
+    /// The part-pair stage: the sum of the pairs' times.
+    pub part_pairs_ms: f64,
+    /// The articulations: the sum of their times (the rest of the frame is mostly the
+    /// counting of the faces intersecting beyond the rest pose's).
+    pub articulations_ms: f64,
+    /// Faces intersecting beyond the rest pose's, before and after.
+    pub faces: [usize; 2],
+}
+
+/// The frames of a [`SelfContactReport`] with the same number of touching part pairs.
+#[derive(Clone, Debug, Serialize)]
+pub struct SelfContactGroup {
+    pub touching_pairs: usize,
+    pub frames: usize,
+    pub median_ms: f64,
+    pub median_part_pairs_ms: f64,
+    pub median_articulations_ms: f64,
+}
+
+impl SelfContactReport {
+    pub fn new(frames: Vec<SelfContactFrame>) -> Self {
+        let mut counts: Vec<usize> = frames.iter().map(|f| f.touching_pairs).collect();
+        counts.sort_unstable();
+        counts.dedup();
+        let by_touching_pairs = counts
+            .into_iter()
+            .map(|touching_pairs| {
+                let group: Vec<&SelfContactFrame> =
+                    frames.iter().filter(|f| f.touching_pairs == touching_pairs).collect();
+                let median = |value: fn(&SelfContactFrame) -> f64| {
+                    median_value(&group.iter().map(|f| value(f)).collect::<Vec<f64>>())
+                };
+                SelfContactGroup {
+                    touching_pairs,
+                    frames: group.len(),
+                    median_ms: median(|f| f.ms),
+                    median_part_pairs_ms: median(|f| f.part_pairs_ms),
+                    median_articulations_ms: median(|f| f.articulations_ms),
+                }
+            })
+            .collect();
+        Self { frames, by_touching_pairs }
+    }
 }
 
 /// An edit of a parameter of §5.4–5.5 (`squish::pipeline::DOWNSTREAM_KEYS`) on every deformable
@@ -360,6 +428,7 @@ impl SceneReport {
             peak_memory_mb: None,
             rounds: None,
             edit: None,
+            self_contact: None,
         }
     }
 
@@ -635,6 +704,29 @@ pub fn print_table(report: &BenchReport) {
             edit.full_frame_keeping_ms,
             opt(edit.ratio_to_frame, 3),
         );
+    }
+    for scene in &report.scenes {
+        let Some(growth) = &scene.self_contact else { continue };
+        println!();
+        println!(
+            "{}: {} frames of the animation, 1 thread, medians by touching part pairs per frame (part stage = the pairs' own time)",
+            scene.name,
+            growth.frames.len()
+        );
+        println!(
+            "{:>14} {:>7} {:>9} {:>14} {:>16}",
+            "touching pairs", "frames", "frame ms", "part stage ms", "articulations ms"
+        );
+        for group in &growth.by_touching_pairs {
+            println!(
+                "{:>14} {:>7} {:>9.1} {:>14.1} {:>16.1}",
+                group.touching_pairs,
+                group.frames,
+                group.median_ms,
+                group.median_part_pairs_ms,
+                group.median_articulations_ms
+            );
+        }
     }
     if let Some(speedup) = report.automatic_region_speedup {
         println!();

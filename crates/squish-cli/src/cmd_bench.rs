@@ -2,7 +2,9 @@
 //! thesis' performance tables (ch. 7 §5, tables 7.1–7.3) and compares with the C++ prototype.
 //!
 //! For every scene of [`squish_scenes::bench`] (two of them read `bunny_29834.obj` and
-//! `hand_7993.obj` from the data directory and are skipped with a note when it is absent):
+//! `hand_7993.obj` from the data directory and are skipped with a note when it is absent), and
+//! `cesium-man-walk`: the glTF sample CesiumMan's walk (`rigged/CesiumMan.glb`, 48 frames at 24
+//! fps, looped) with `self_contact = "auto"`, posed through a scene file as `squish run` poses it:
 //! - one [`Deformer`] runs a warm-up frame (it builds the caches: topology, trees, symbolic
 //!   analyses) and then `--frames` frames of the animation, reused as an animation would, inside a
 //!   local rayon pool of one thread, then again (fresh deformer) in a pool of `--threads`;
@@ -17,7 +19,11 @@
 //! - an edit (see [`measure_edit`]): the time of a frame that changes a parameter of §5.4–5.5
 //!   only (`bulge` 1 → 1.2 on every deformable object), which a deformer that keeps its last
 //!   frame for edits computes from that frame's contacts and fields, against the full frame;
-//! - the peak resident memory of the scene (see [`memory`]).
+//! - the peak resident memory of the scene (see [`memory`]);
+//! - for a scene given frame by frame whose objects have self-contact parts (CesiumMan), every
+//!   frame of its animation on one deformer, single thread: frame time, touching part pairs and
+//!   the part stage's time, grouped by the number of touching pairs ([`measure_self_contact`]).
+//!   Such scenes have no edit (the deformer never edits a frame with self-contact).
 //!
 //! Then a shot of `--shot-frames` frames of one scene is processed with frames in parallel (one
 //! deformer per worker, contiguous chunks) with all threads and with one thread: frames per second.
@@ -42,7 +48,7 @@ use squish_scenes::timing::time_laplacian_factorization;
 
 use crate::bench_report::{
     BenchReport, EditReport, FactorizationReport, MachineReport, ObjectReport, RunFigures, RunReport, SceneReport,
-    ShotReport, ThesisReport, print_table,
+    SelfContactFrame, SelfContactReport, ShotReport, ThesisReport, print_table,
 };
 use crate::error::CliError;
 
@@ -217,8 +223,44 @@ impl SceneEntry {
     }
 }
 
-/// Every scene in table order; three read their mesh from `data/meshes`.
+/// CesiumMan's walk with `self_contact = "auto"`, its 48 frames (2 s at 24 fps) posed as
+/// `squish run` poses them (the scene file's own evaluation), or why it cannot be built.
+fn cesium_man_walk(data: &Path) -> Result<BenchScene, String> {
+    let glb = data.join("rigged").join("CesiumMan.glb");
+    if !glb.is_file() {
+        return Err(format!("{} not found (set --data or SQUISH_DATA)", glb.display()));
+    }
+    // Absolute: the scene file's folder (relative paths start there) is only a name here.
+    let glb = std::path::absolute(&glb).map_err(|e| format!("{}: {e}", glb.display()))?;
+    let file = glb.display().to_string().replace('\\', "/").replace('"', "\\\"");
+    let text = format!(
+        "frames = {{ start = 1, end = 48, fps = 24 }}\n\n[[objects]]\nname = \"cesium_man\"\n\
+         mesh = {{ file = \"{file}\", repeat = true }}\nself_contact = \"auto\"\n"
+    );
+    let scene =
+        squish_io::scene::Scene::from_toml(&text, &data.join("cesium_man_walk.toml")).map_err(|e| e.to_string())?;
+    let poses = (1..=48)
+        .map(|frame| {
+            let spec = scene.evaluate(f64::from(frame)).map_err(|e| e.to_string())?;
+            let objects = spec
+                .objects
+                .into_iter()
+                .map(|o| squish_scenes::procedural::SceneObject { name: o.name, mesh: o.mesh, params: o.params })
+                .collect();
+            Ok(squish_scenes::procedural::ProceduralScene {
+                name: "cesium-man-walk".into(),
+                objects,
+                pairs: Vec::new(),
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    BenchScene::from_poses("cesium-man-walk", poses).ok_or_else(|| "no frame".to_string())
+}
+
+/// Every scene in table order; three read their mesh from `data/meshes`, one a glTF from
+/// `data/rigged`.
 fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
+    let data_dir = data.to_path_buf();
     let mesh = |file: &str| -> Result<squish::TriMesh, String> {
         let path = data.join("meshes").join(file);
         if !path.is_file() {
@@ -253,6 +295,7 @@ fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
         SceneEntry::procedural("stress-100k", None, b::stress_100k, size),
         SceneEntry::procedural("press-100k", None, b::press_100k, size),
         SceneEntry::procedural("press-100k-automatic", None, b::press_100k_automatic, size),
+        SceneEntry { name: "cesium-man-walk", thesis: None, build: Box::new(move || cesium_man_walk(&data_dir)) },
     ]
 }
 
@@ -357,7 +400,13 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
         }
         report.single = Some(RunReport::new(&single.figures(1), median));
         drop(single);
-        report.edit = Some(pool(1)?.install(|| measure_edit(scene, median, settings.frames))?);
+        if scene.rest.objects.iter().any(|o| crate::shot::has_self_contact(&o.params)) {
+            if !scene.poses.is_empty() {
+                report.self_contact = Some(pool(1)?.install(|| measure_self_contact(scene))?);
+            }
+        } else {
+            report.edit = Some(pool(1)?.install(|| measure_edit(scene, median, settings.frames))?);
+        }
         let multi = pool(settings.threads)?.install(|| run_animation(scene, settings.frames))?;
         report.multi = Some(RunReport::new(&multi.figures(settings.threads), median_index(&multi.stats)));
         drop(multi);
@@ -376,6 +425,35 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
     report.peak_memory_mb = memory::peak_mb();
     report.finish(&scene.sides());
     report
+}
+
+/// Every pose of a scene given frame by frame, on one deformer after a warm-up frame (the last
+/// pose), in the caller's pool: per frame its time and its self-contact figures.
+fn measure_self_contact(scene: &BenchScene) -> Result<SelfContactReport, String> {
+    let mut deformer = Deformer::new();
+    let warm_up = scene.poses.last().ok_or("no poses")?;
+    deformer.deform(&warm_up.frame()).map_err(|e| format!("self-contact warm-up frame: {e}"))?;
+    let mut frames = Vec::with_capacity(scene.poses.len());
+    for (frame, pose) in scene.poses.iter().enumerate() {
+        let result = deformer.deform(&pose.frame()).map_err(|e| format!("self-contact frame {frame}: {e}"))?;
+        let stats = &result.stats;
+        let faces = stats
+            .objects
+            .iter()
+            .filter_map(|o| o.self_intersecting_faces)
+            .fold([0, 0], |s, f| [s[0] + f[0], s[1] + f[1]]);
+        frames.push(SelfContactFrame {
+            frame,
+            touching_pairs: stats.part_pairs.len(),
+            pairs_in_contact: stats.part_pairs.iter().filter(|p| p.in_contact).count(),
+            articulations: stats.articulations.iter().filter(|a| a.error.is_none()).count(),
+            ms: stats.total.as_secs_f64() * 1e3,
+            part_pairs_ms: stats.part_pairs.iter().map(|p| p.time.as_secs_f64() * 1e3).sum(),
+            articulations_ms: stats.articulations.iter().map(|a| a.total_time.as_secs_f64() * 1e3).sum(),
+            faces,
+        });
+    }
+    Ok(SelfContactReport::new(frames))
 }
 
 /// The edit of the bench: `bulge` 1 → 1.2 → 1 … on every deformable object of frame `frame` (of

@@ -16,7 +16,8 @@ use squish_render::{Label, rgba8};
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::{
-    InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems, write_text,
+    InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems,
+    write_text,
 };
 use crate::params::{PairSettings, contact_error, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
@@ -274,6 +275,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
             deformable: vec![None, None],
             u: vec![None, None],
             intersection: flags(1),
+            self_intersection_left: Vec::new(),
         };
         let any_gltf =
             inputs.iter().any(|i| matches!(i.format, squish_io::MeshFormat::Gltf | squish_io::MeshFormat::Glb));

@@ -307,6 +307,10 @@ pub fn render_frame(
         }
         (Side::Output, ColorMode::None) => Vec::new(),
     };
+    let mut entries = entries;
+    if side == Side::Output && p.self_intersection_left.iter().flatten().any(|&left| left) {
+        entries.push((Label::Intersection.color(), "still self-intersecting"));
+    }
     legend(&mut image, &entries);
     Ok(image)
 }
@@ -366,6 +370,15 @@ fn vertex_colors(p: &PreviewFrame, i: usize, side: Side, mode: ColorMode) -> Vec
                 }
             }
         },
+    }
+    if side == Side::Output
+        && let Some(left) = p.self_intersection_left.get(i)
+    {
+        for (c, &still) in colors.iter_mut().zip(left) {
+            if still {
+                *c = Label::Intersection.color();
+            }
+        }
     }
     colors
 }

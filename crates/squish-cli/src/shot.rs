@@ -96,27 +96,39 @@ pub struct PreviewFrame {
     pub u: Vec<Option<Vec<f64>>>,
     /// Per object: its intersection regions with the other objects (input meshes).
     pub intersection: Vec<Vec<bool>>,
+    /// Per object with self-contact: the output's faces that still pass through another of
+    /// its faces beyond the rest pose's (drawn red on the output); empty for the others.
+    pub self_intersection_left: Vec<Vec<bool>>,
 }
 
 impl PreviewFrame {
-    /// The pictures' data of a computed frame. Objects with self-contact articulations also
-    /// get their self-intersecting input faces marked as overlaps (drawn red on the input).
+    /// The pictures' data of a computed frame. Objects with self-contact (articulations or
+    /// parts) also get their self-intersecting input faces marked as overlaps (drawn red on the
+    /// input): those beyond the rest pose's own, as report.json counts them; and those that are
+    /// left on the output.
     pub fn new(shot: &ShotFrame, result: &FrameResult) -> Self {
-        let mut intersection: Vec<Vec<bool>> =
-            shot.objects.iter().map(|o| vec![false; o.mesh.num_vertices()]).collect();
-        for (object, flags) in shot.objects.iter().zip(&mut intersection) {
-            if object.params.self_contact.is_empty() {
-                continue;
-            }
-            // A picture is not worth failing a frame over: an unusable mesh shows no overlap.
-            if let Ok(found) = squish::spatial::self_intersections(&object.mesh) {
-                for &f in &found.faces {
-                    for &v in &object.mesh.triangles[f as usize] {
-                        flags[v as usize] = true;
-                    }
-                }
-            }
-        }
+        let outputs: Vec<TriMesh> = shot
+            .objects
+            .iter()
+            .zip(&result.positions)
+            .map(|(o, p)| TriMesh { positions: p.clone(), triangles: o.mesh.triangles.clone() })
+            .collect();
+        let mut intersection: Vec<Vec<bool>> = shot
+            .objects
+            .iter()
+            .map(|o| match self_intersections_beyond_rest(&o.mesh, &o.params) {
+                Some(faces) => face_vertex_flags(&o.mesh, &faces),
+                None => vec![false; o.mesh.num_vertices()],
+            })
+            .collect();
+        let self_intersection_left = shot
+            .objects
+            .iter()
+            .zip(&outputs)
+            .map(|(o, out)| {
+                self_intersections_beyond_rest(out, &o.params).map_or_else(Vec::new, |f| face_vertex_flags(out, &f))
+            })
+            .collect();
         for (pair, contact) in shot.pairs.iter().zip(&result.contacts) {
             let Some(contact) = contact else { continue };
             for (side, &object) in pair.objects.iter().enumerate() {
@@ -128,12 +140,7 @@ impl PreviewFrame {
         let deformations = &result.deformations;
         Self {
             inputs: shot.objects.iter().map(|o| o.mesh.clone()).collect(),
-            outputs: shot
-                .objects
-                .iter()
-                .zip(&result.positions)
-                .map(|(o, p)| TriMesh { positions: p.clone(), triangles: o.mesh.triangles.clone() })
-                .collect(),
+            outputs,
             contact: deformations
                 .iter()
                 .zip(&result.self_contact)
@@ -149,8 +156,46 @@ impl PreviewFrame {
                 .collect(),
             u: deformations.iter().map(|d| d.as_ref().map(|d| d.u.clone())).collect(),
             intersection,
+            self_intersection_left,
         }
     }
+}
+
+/// The faces of `mesh` (an object's input or output) that pass through another of its faces,
+/// for an object with self-contact: beyond the self-intersections of its rest pose when it has
+/// one (the asset's own are not the animation's), else all. `None` without self-contact. A
+/// picture is not worth failing a frame over: a mesh the test cannot read shows no overlap.
+pub fn self_intersections_beyond_rest(mesh: &TriMesh, params: &ObjectParams) -> Option<Vec<u32>> {
+    if !has_self_contact(params) {
+        return None;
+    }
+    let faces = match &params.rest_positions {
+        Some(rest) if rest.len() == mesh.num_vertices() => {
+            let rest = TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() };
+            squish::skinning::RestIntersections::new(&rest).and_then(|r| r.faces_beyond(mesh))
+        }
+        _ => squish::spatial::self_intersections(mesh).map(|found| found.faces),
+    };
+    Some(faces.unwrap_or_default())
+}
+
+/// True if the object has self-contact to resolve: articulations or parts, and not rigid (as
+/// the deformer decides).
+pub fn has_self_contact(params: &ObjectParams) -> bool {
+    !params.rigid && (!params.self_contact.is_empty() || params.self_contact_parts.is_some())
+}
+
+/// Per vertex of `mesh`: a corner of one of `faces`.
+pub fn face_vertex_flags(mesh: &TriMesh, faces: &[u32]) -> Vec<bool> {
+    let mut flags = vec![false; mesh.num_vertices()];
+    for &f in faces {
+        if let Some(t) = mesh.triangles.get(f as usize) {
+            for &v in t {
+                flags[v as usize] = true;
+            }
+        }
+    }
+    flags
 }
 
 /// Per-vertex flags of the contacts between objects and of the self-contacts (ch. 6), or'ed.

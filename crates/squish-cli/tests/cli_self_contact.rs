@@ -239,3 +239,108 @@ fn cesium_man_walks_with_automatic_self_contact() {
         }
     }
 }
+
+/// examples/rigged_cylinder.toml: the sample's clip turned 1.8 times as far (`amplitude`) folds
+/// its joints into contact. Frames 106–130 fold the last joint on its own: the input's skin
+/// passes through itself and the automatic self-contact leaves no face through another; over the
+/// whole example the output never has more such faces than the input, and far fewer in total.
+#[test]
+fn the_rigged_cylinder_example_folds_into_contact_and_is_resolved() {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/rigged_cylinder.toml");
+    if common::shared_data("rigged/RiggedCylinder4.glb").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let counts = |out: &Path| {
+        let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+        assert_eq!(report["run"]["status"], "complete");
+        assert!(report["summary"]["max_volume_change"]["value"].as_f64().unwrap() <= 1e-9, "{}", report["summary"]);
+        let frames = report["per_frame"].as_array().unwrap().clone();
+        frames
+            .iter()
+            .map(|f| {
+                let c = &f["self_intersecting_faces"][0][1];
+                (c[0].as_u64().unwrap(), c[1].as_u64().unwrap())
+            })
+            .collect::<Vec<_>>()
+    };
+    let fold = dir.path().join("fold");
+    run(&scene, &fold, &["--frames", "106:130"]);
+    let fold = counts(&fold);
+    assert_eq!(fold.len(), 25);
+    assert!(fold.iter().filter(|(before, _)| *before > 0).count() >= 20, "{fold:?}");
+    assert!(fold.iter().all(|&(_, after)| after == 0), "{fold:?}");
+
+    let whole = dir.path().join("whole");
+    run(&scene, &whole, &[]);
+    let whole = counts(&whole);
+    assert_eq!(whole.len(), 100);
+    assert!(whole.iter().all(|(before, after)| after <= before), "{whole:?}");
+    let (input, output) = whole.iter().fold((0, 0), |(i, o), (b, a)| (i + b, o + a));
+    assert!(input > 1000 && output * 5 < input, "{input} → {output}");
+
+    // Frame 101 (two joints folded at once) keeps faces through each other: the preview's output
+    // draws them in red too (above its legend, whose last row is their swatch).
+    let left = dir.path().join("left");
+    run(&scene, &left, &["--frames", "101:101", "--preview=101"]);
+    let counts = counts(&left);
+    assert!(counts[0].1 > 0, "{counts:?}");
+    let (pixels, width) = read_png(&left.join("preview/0101_compare.png"));
+    let red = red_pixels(&pixels, width, (644, 1284), (0, 430));
+    assert!(red > 100, "{red} red pixels on the output of a frame that still self-intersects");
+}
+
+/// The pixels of a PNG (RGBA rows) and its width.
+fn read_png(path: &Path) -> (Vec<u8>, u32) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    pixels.truncate(info.buffer_size());
+    (pixels, info.width)
+}
+
+/// Red pixels (the intersection label, shaded) in the columns `x0..x1` and rows `y0..y1`.
+fn red_pixels(pixels: &[u8], width: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> usize {
+    (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| 4 * (y * width + x) as usize))
+        .filter(|&o| {
+            let [r, g, b] = [pixels[o], pixels[o + 1], pixels[o + 2]].map(u32::from);
+            r >= 90 && r > 2 * g && r > 2 * b
+        })
+        .count()
+}
+
+/// `--preview` of a skinned object with self-contact draws the input's self-intersecting faces
+/// in red and, when the output has none left, no red on the output: the bending cylinder with `self_contact = "auto"`, straight at
+/// frame 1 (no overlap: the input picture's only red is its legend swatch) and folded by 150° at
+/// frame 25 (the inside of the elbow passes through itself, resolved in the output).
+#[test]
+fn previews_draw_the_input_self_intersections_in_red() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bending_cylinder(dir.path());
+    let scene = dir.path().join("arm.toml");
+    std::fs::write(
+        &scene,
+        "frames = { start = 1, end = 25, fps = 24 }\n\n[[objects]]\nname = \"arm\"\nmesh = \"arm.glb\"\nself_contact = \"auto\"\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run(&scene, &out, &["--frames", "1:25", "--preview=1,25"]);
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let counts = |frame: usize| report["per_frame"][frame - 1]["self_intersecting_faces"][0][1].clone();
+    assert_eq!(counts(1), serde_json::json!([0, 0]));
+    let folded = counts(25);
+    assert!(folded[0].as_u64().unwrap() > 0 && folded[1] == 0, "{folded}");
+    // The compare picture: input | output above, their sections below (640 × 480 each, 4 apart).
+    let (straight, width) = read_png(&out.join("preview/0001_compare.png"));
+    let (bent, _) = read_png(&out.join("preview/0025_compare.png"));
+    let (input, output) = ((0, 640), (644, 1284));
+    let legend_only = red_pixels(&straight, width, input, (0, 480));
+    let marked = red_pixels(&bent, width, input, (0, 480));
+    assert!(marked > legend_only + 200, "red pixels of the folded input {marked}, of the straight one {legend_only}");
+    assert_eq!(red_pixels(&straight, width, output, (0, 480)), 0);
+    assert_eq!(red_pixels(&bent, width, output, (0, 480)), 0, "the output shows no overlap");
+    assert_eq!(red_pixels(&bent, width, output, (484, 964)), 0, "nor does its section");
+}

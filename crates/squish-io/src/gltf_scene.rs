@@ -402,3 +402,50 @@ impl InstancePose {
             .collect()
     }
 }
+
+impl GltfScene {
+    /// A copy whose animation `animation` turns every joint `amplitude` times as far from its
+    /// rest rotation: each rotation key `q` of a node at rest rotation `r` becomes
+    /// `r · (r⁻¹ · q)^amplitude` (same axis, angle × amplitude). Translations, scales and morph
+    /// weights are kept. Between keys the clip still interpolates the (new) keys, so a clip
+    /// whose keys turn about one axis per joint is scaled exactly at every time. Cubic-spline
+    /// rotation channels are refused (their tangents have no such scaling).
+    pub fn with_amplified_rotations(&self, animation: usize, amplitude: f64) -> Result<GltfScene, IoError> {
+        use squish::animation::{ChannelValues, Interpolation};
+        let mut out = self.clone();
+        let rest = self.skeleton.rest_pose();
+        let anim = out
+            .animations
+            .get_mut(animation)
+            .ok_or_else(|| IoError::element(&self.path, format!("animation {animation}"), "no such animation"))?;
+        let element = format!("animation {animation} '{}'", anim.name);
+        for channel in &mut anim.clip.channels {
+            let ChannelValues::Rotation(sampler) = &channel.values else { continue };
+            if sampler.interpolation() == Interpolation::CubicSpline {
+                return Err(IoError::element(
+                    &self.path,
+                    element,
+                    format!(
+                        "node {}'s rotation is a cubic spline: `amplitude` only scales LINEAR or STEP rotation keys; remove `amplitude`",
+                        channel.node
+                    ),
+                ));
+            }
+            let r = rest.get(channel.node).map_or(glam::DQuat::IDENTITY, |t| t.to_trs().rotation);
+            let values = sampler
+                .values()
+                .iter()
+                .map(|&q| {
+                    let (axis, angle) = (r.inverse() * q).normalize().to_axis_angle();
+                    // The shorter way round, so that amplifying never takes the long way.
+                    let angle = if angle > std::f64::consts::PI { angle - std::f64::consts::TAU } else { angle };
+                    r * glam::DQuat::from_axis_angle(axis, angle * amplitude)
+                })
+                .collect();
+            let scaled = Sampler::new_rotation(sampler.times().to_vec(), values, sampler.interpolation())
+                .map_err(|source| IoError::Animation { path: self.path.clone(), element: element.clone(), source })?;
+            channel.values = ChannelValues::Rotation(scaled);
+        }
+        Ok(out)
+    }
+}

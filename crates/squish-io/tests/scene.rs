@@ -474,6 +474,42 @@ fn gltf_source_is_posed_per_frame() {
     }
 }
 
+/// `amplitude` scales every joint's turn from its rest rotation: on the bending cylinder (its
+/// elbow turns about z from 0 to 150° over 1 s, linearly), half the amplitude at 1 s is the pose of
+/// 0.5 s, 0 is the rest pose; it is refused where it means nothing.
+#[test]
+fn gltf_amplitude_scales_the_joint_rotations() {
+    let shot = Shot::new();
+    common::bending_cylinder(21, 12, |x| {
+        let w = ((x + 0.3) / 0.6).clamp(0.0, 1.0);
+        ([0.0, 1.0], [1.0 - w, w])
+    })
+    .write_glb(shot.dir.path(), "arm");
+    let file = shot.path("arm.glb");
+    let pose =
+        |extra: &str, frame: f64| gltf_scene(&shot, &file, extra).evaluate(frame).unwrap().objects.remove(0).mesh;
+    let distance = |a: &TriMesh, b: &TriMesh| {
+        a.positions.iter().zip(&b.positions).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max)
+    };
+    // Frame 1 is time 0, frame 25 time 1 s.
+    let half = pose(", amplitude = 0.5", 25.0);
+    assert!(distance(&half, &pose("", 13.0)) < 1e-9, "{}", distance(&half, &pose("", 13.0)));
+    assert!(distance(&half, &pose("", 25.0)) > 0.1);
+    assert!(distance(&pose(", amplitude = 0", 25.0), &pose("", 1.0)) < 1e-12);
+    assert_eq!(pose(", amplitude = 1", 19.0), pose("", 19.0));
+    let toml = |extra: &str| {
+        format!(
+            "frames = {{ start = 1, end = 4 }}\n[[objects]]\nname = \"arm\"\nmesh = {{ file = \"{}\"{extra} }}\n",
+            file.display()
+        )
+    };
+    let err = shot.load(&toml(", amplitude = -1")).unwrap_err().to_string();
+    assert!(err.contains("amplitude -1 must be a finite number ≥ 0"), "{err}");
+    shot.mesh("ball.obj", &shapes::uv_sphere(1.0, 8, 6));
+    let err = shot.load(&toml(", amplitude = 2").replace("arm.glb", "ball.obj")).unwrap_err().to_string();
+    assert!(err.contains("\"amplitude\" only applies to .glb / .gltf meshes"), "{err}");
+}
+
 #[test]
 fn gltf_names_are_checked() {
     let shot = Shot::new();

@@ -13,6 +13,11 @@
 //! mesh), so the rows compare equal work; `press-100k-automatic` shows the automatic working
 //! region instead. [`BenchSize::Quick`] shrinks every scene (≈ ¼ of the
 //! vertices) for smoke tests.
+//!
+//! A scene may instead be given frame by frame ([`BenchScene::from_poses`]): a skinned
+//! character's animation, posed by the caller from a file (CesiumMan's walk with
+//! `self_contact = "auto"` in `squish bench`); [`BenchScene::pose`] then gives the pose nearest
+//! to `t`.
 
 use glam::{DQuat, DVec3};
 
@@ -173,6 +178,9 @@ pub struct BenchScene {
     pub rest: ProceduralScene,
     /// Moving objects.
     pub motions: Vec<Motion>,
+    /// Poses given frame by frame, evenly over `t ∈ [0, 1]` (same objects and triangles in
+    /// each); when not empty they replace `rest` + `motions`.
+    pub poses: Vec<ProceduralScene>,
 }
 
 impl BenchScene {
@@ -180,6 +188,9 @@ impl BenchScene {
     /// at rest. Triangles are unchanged, so deformer caches carry over between poses.
     pub fn pose(&self, t: f64) -> ProceduralScene {
         let t = t.clamp(0.0, 1.0);
+        if let Some(last) = self.poses.len().checked_sub(1) {
+            return self.poses[(t * last as f64).round() as usize].clone();
+        }
         let mut scene = self.rest.clone();
         for motion in &self.motions {
             if let Some(object) = scene.objects.get_mut(motion.object) {
@@ -188,6 +199,13 @@ impl BenchScene {
             }
         }
         scene
+    }
+
+    /// A scene given by its poses, evenly over the animation (the first is also its rest);
+    /// `None` without poses.
+    pub fn from_poses(name: &'static str, poses: Vec<ProceduralScene>) -> Option<BenchScene> {
+        let rest = poses.first()?.clone();
+        Some(BenchScene { name, thesis: None, rest, motions: Vec::new(), poses })
     }
 
     /// The time of frame `frame` of an animation of `frames` frames (0 to 1 inclusive).
@@ -240,7 +258,7 @@ impl Builder {
     }
 
     fn finish(self, name: &'static str, thesis: Option<ThesisRow>) -> BenchScene {
-        BenchScene { name, thesis, rest: self.scene, motions: self.motions }
+        BenchScene { name, thesis, rest: self.scene, motions: self.motions, poses: Vec::new() }
     }
 }
 
@@ -541,6 +559,27 @@ pub fn procedural_scenes(size: BenchSize) -> Vec<BenchScene> {
 mod tests {
     use super::*;
     use squish::pipeline::Deformer;
+
+    /// A scene given by its poses plays them evenly over t: pose k of n at t = k / (n − 1), the
+    /// nearest one in between.
+    #[test]
+    fn a_scene_given_by_poses_plays_the_nearest_one() {
+        let poses: Vec<ProceduralScene> = (0..5)
+            .map(|k| {
+                let mut mesh = shapes::icosphere(1.0, 1);
+                mesh.map_positions(|p| p + DVec3::X * f64::from(k));
+                let object = SceneObject { name: "ball".into(), mesh, params: ObjectParams::default() };
+                ProceduralScene { name: format!("pose {k}"), objects: vec![object], pairs: Vec::new() }
+            })
+            .collect();
+        assert!(BenchScene::from_poses("none", Vec::new()).is_none());
+        let scene = BenchScene::from_poses("walk", poses).unwrap();
+        assert_eq!(scene.rest.name, "pose 0");
+        for (t, k) in [(0.0, 0), (0.25, 1), (0.3, 1), (0.4, 2), (1.0, 4), (7.0, 4), (-1.0, 0)] {
+            assert_eq!(scene.pose(t).name, format!("pose {k}"), "t = {t}");
+        }
+        assert_eq!(BenchScene::frame_time(2, 5), 0.5);
+    }
 
     #[test]
     fn poses_move_only_the_moving_objects_and_keep_the_connectivity() {

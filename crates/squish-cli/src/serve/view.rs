@@ -135,24 +135,26 @@ pub struct Intersecting {
 /// A mesh the test cannot read (a non-finite coordinate) shows no overlap rather than failing
 /// the frame's view.
 fn intersecting_vertices(meshes: &[&TriMesh]) -> Vec<Vec<u8>> {
-    let mut flags: Vec<Vec<u8>> = meshes.iter().map(|m| vec![0; m.num_vertices()]).collect();
+    let mut faces: Vec<Vec<u32>> = vec![Vec::new(); meshes.len()];
     let mut all = TriMesh::default();
     let mut owner = Vec::new();
     for (i, mesh) in meshes.iter().enumerate() {
         let offset = all.positions.len() as u32;
         all.positions.extend_from_slice(&mesh.positions);
         all.triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
-        owner.extend(mesh.triangles.iter().map(|&t| (i, t)));
+        owner.extend((0..mesh.num_triangles() as u32).map(|f| (i, f)));
     }
     if let Ok(found) = squish::spatial::self_intersections(&all) {
         for &f in &found.faces {
-            let (i, t) = owner[f as usize];
-            for v in t {
-                flags[i][v as usize] = 1;
-            }
+            let (i, own) = owner[f as usize];
+            faces[i].push(own);
         }
     }
-    flags
+    meshes
+        .iter()
+        .zip(&faces)
+        .map(|(mesh, faces)| crate::shot::face_vertex_flags(mesh, faces).into_iter().map(u8::from).collect())
+        .collect()
 }
 
 /// The profile curve of §5.4.1 for a unit amplitude and zero slope at the contact, with the

@@ -327,6 +327,16 @@ fn load_gltf(
             }
         },
     };
+    let scene = match animation {
+        Some(a) if g.amplitude != 1.0 => Arc::new(scene.with_amplified_rotations(a, g.amplitude)?),
+        None if g.amplitude != 1.0 => {
+            return Err(IoError::format(
+                &g.file,
+                format!("object \"{object}\": `amplitude` scales an animation, and the file has none; remove it"),
+            ));
+        }
+        _ => scene,
+    };
     let mesh_index = scene.nodes[node].mesh.unwrap_or_default();
     let gltf_mesh = &scene.meshes[mesh_index];
     let numbering = VertexNumbering {

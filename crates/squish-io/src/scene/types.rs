@@ -394,6 +394,9 @@ pub struct GltfSource {
     pub start_frame: Option<f64>,
     /// Loop the animation (time modulo its duration). Default false: hold the last pose.
     pub repeat: bool,
+    /// Every joint turns this many times as far from its rest rotation as the clip says
+    /// (`GltfScene::with_amplified_rotations`). Default 1: the clip as is.
+    pub amplitude: f64,
 }
 
 /// Welding of a mesh's vertices by position.
@@ -463,6 +466,7 @@ struct MeshTable {
     start_frame: Option<f64>,
     #[serde(default)]
     repeat: bool,
+    amplitude: Option<f64>,
 }
 
 /// True if `path` names a glTF file.
@@ -478,6 +482,12 @@ impl MeshSource {
             if sequence {
                 return Err("a glTF mesh cannot be a {frame} sequence; animate it inside the file".into());
             }
+            let amplitude = t.amplitude.unwrap_or(1.0);
+            if !(amplitude.is_finite() && amplitude >= 0.0) {
+                return Err(format!(
+                    "amplitude {amplitude} must be a finite number ≥ 0 (1 plays the animation as is, 2 turns every joint twice as far)"
+                ));
+            }
             return Ok(Self::Gltf(GltfSource {
                 file: t.file,
                 node: t.node,
@@ -485,6 +495,7 @@ impl MeshSource {
                 weld: t.weld.unwrap_or(Weld::Exact),
                 start_frame: t.start_frame,
                 repeat: t.repeat,
+                amplitude,
             }));
         }
         let gltf_only = [
@@ -492,6 +503,7 @@ impl MeshSource {
             ("animation", t.animation.is_some()),
             ("start_frame", t.start_frame.is_some()),
             ("repeat", t.repeat),
+            ("amplitude", t.amplitude.is_some()),
         ];
         if let Some((key, _)) = gltf_only.iter().find(|(_, set)| *set) {
             return Err(format!(
@@ -536,6 +548,7 @@ impl<'de> Deserialize<'de> for MeshSource {
                     weld: None,
                     start_frame: None,
                     repeat: false,
+                    amplitude: None,
                 };
                 MeshSource::from_table(table).map_err(E::custom)
             }
