@@ -43,6 +43,7 @@ mod error;
 mod regions;
 mod results;
 mod self_contact;
+mod separation;
 mod setup;
 mod stats;
 mod warnings;
@@ -267,11 +268,17 @@ impl Deformer {
             ));
         }
 
+        // The separation pass on the outputs (issue 29).
+        let timer = Instant::now();
+        let (_, unseparated) = separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?;
+        stages[Stage::Deformation] += timer.elapsed();
+
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        let mut warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        warnings.extend(unseparated);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
@@ -298,15 +305,20 @@ impl Deformer {
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
         let mut region_contacts = RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
         drop(caches);
-        let outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
+        let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
         region_contacts.give_back(&mut contacts);
+        let timer = Instant::now();
+        let (_, unseparated) =
+            separation::separate(frame, &self.caches, &state.region_pairs, &contacts, &mut outcomes)?;
         // The contact stage's times are the kept frame's: not this frame's work.
         let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
         let mut stages = StageTimes::default();
+        stages[Stage::Deformation] += timer.elapsed();
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let warnings =
+        let mut warnings =
             warnings::frame_warnings(&pairs, &contacts, &params, &state.contained, &objects.stats, &state.closed);
+        warnings.extend(unseparated);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
