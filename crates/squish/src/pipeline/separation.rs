@@ -21,9 +21,10 @@
 //!   `(1 − (r/R)²)²`, again keeping the largest: no spike, and a move that is a continuous
 //!   function of the geometry (0 where every distance is at least g).
 //!
-//! Inside/outside is the winding number of O for a closed whole object, and the side of the
-//! closest face's plane for an open or cut one (whose points farther than [`DEPTH_EDGES`] edge
-//! lengths behind it are left alone: they are not near the contact). Only vertices of deformed
+//! Inside/outside is the winding number of O for a closed whole object, and its generalized
+//! winding number above ¼ for an open or cut one ([`FastWinding`]: ½ behind a flat sheet, −½ in
+//! front); points farther than [`DEPTH_EDGES`] edge lengths inside an open surface are left alone
+//! (they are behind it, not near the contact). Only vertices of deformed
 //! regions move, never on a cut border (their faces outside would move out of the volume balance).
 //!
 //! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
@@ -48,7 +49,7 @@ use super::{Frame, PipelineError};
 use crate::contact::PairContact;
 use crate::deform::HeightChoice;
 use crate::mesh::{Aabb3, TriMesh, face_normal_unnormalized};
-use crate::spatial::TriangleBvh;
+use crate::spatial::{ClosestPoint, FastWinding, TriangleBvh};
 
 /// Most rounds of moves and height solves per frame.
 pub const MAX_ROUNDS: usize = 8;
@@ -124,26 +125,40 @@ struct Surface<'a> {
     vertices: Vec<u32>,
 }
 
+/// Generalized winding number above which a point is inside an open surface: behind a flat
+/// sheet it is ½, in front −½, inside a bowl near its bottom close to 1.
+const OPEN_INSIDE_WINDING: f64 = 0.25;
+/// Accuracy (β) of the far-field winding numbers of open surfaces.
+const WINDING_ACCURACY: f64 = 4.0;
+
 impl Surface<'_> {
     /// Signed distance of `q` (negative inside), the unit direction out of the surface at the
     /// closest point, and the closest point; `None` when `q` is farther than `reach` outside or
-    /// (open surfaces) deeper than `depth` behind.
-    fn signed_distance(&self, q: DVec3, reach: f64, depth: f64) -> Option<(f64, DVec3, crate::spatial::ClosestPoint)> {
+    /// (open surfaces, whose inside is `winding`'s) deeper than `depth` inside.
+    fn signed_distance(
+        &self,
+        winding: Option<&FastWinding>,
+        q: DVec3,
+        reach: f64,
+        depth: f64,
+    ) -> Option<(f64, DVec3, ClosestPoint)> {
         let inside_closed = self.closed && self.bvh.contains(q);
         let limit = if inside_closed { f64::INFINITY } else { reach.max(depth) };
         let cp = self.bvh.closest_point_within(q, limit)?;
-        let corners = self.bvh.face_corners(cp.face)?;
-        let face_normal = face_normal_unnormalized(corners[0], corners[1], corners[2]).normalize_or_zero();
-        let offset = q - cp.point;
-        let inside = if self.closed { inside_closed } else { offset.dot(face_normal) < 0.0 };
         let d = cp.distance;
+        let inside = match winding {
+            Some(winding) if !self.closed => winding.winding_number(q) > OPEN_INSIDE_WINDING,
+            _ => inside_closed,
+        };
         if (inside && !self.closed && d > depth) || (!inside && d > reach) {
             return None;
         }
+        let offset = q - cp.point;
         let out = if d > 0.0 && (offset / d).is_finite() {
             if inside { -offset / d } else { offset / d }
         } else {
-            face_normal
+            let corners = self.bvh.face_corners(cp.face)?;
+            face_normal_unnormalized(corners[0], corners[1], corners[2]).normalize_or_zero()
         };
         Some((if inside { -d } else { d }, out, cp))
     }
@@ -221,6 +236,7 @@ pub(super) fn separate(
             let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l]));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
+            let windings = [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
             let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
@@ -238,6 +254,7 @@ pub(super) fn separate(
                     continue;
                 }
                 let (own, other) = (&surfaces[l], &surfaces[1 - l]);
+                let (own_winding, other_winding) = (windings[l].as_ref(), windings[1 - l].as_ref());
                 let object = objects[l];
                 let share = shares[l];
                 // Own vertices near or inside the other side.
@@ -250,7 +267,7 @@ pub(super) fn separate(
                         if slots[object][v as usize].is_none() || !inside_box(&overlap, p) {
                             return None;
                         }
-                        let (d, out, _) = other.signed_distance(p, gap, depth)?;
+                        let (d, out, _) = other.signed_distance(other_winding, p, gap, depth)?;
                         (d < gap).then(|| (v, share * (gap - d) * out))
                     })
                     .collect();
@@ -267,7 +284,7 @@ pub(super) fn separate(
                         if !inside_box(&overlap, p) {
                             return None;
                         }
-                        let (d, out, cp) = own.signed_distance(p, gap, depth)?;
+                        let (d, out, cp) = own.signed_distance(own_winding, p, gap, depth)?;
                         let corners = own.mesh.triangles[cp.face as usize];
                         (d < gap).then(|| (corners, cp.bary, -share * (gap - d) * out))
                     })
@@ -287,6 +304,10 @@ pub(super) fn separate(
         }
         for m in moves.iter().flatten() {
             largest = largest.max(m.length());
+        }
+        if std::env::var_os("SQUISH_SEP_DEBUG").is_some() {
+            let counts: Vec<usize> = moves.iter().map(|m| m.iter().filter(|x| **x != DVec3::ZERO).count()).collect();
+            eprintln!("round {rounds}: largest {largest:.3e} stop {stop_below:.3e} moved {counts:?}");
         }
         if largest <= stop_below || largest == 0.0 {
             break;
