@@ -68,7 +68,7 @@ pub use params::DeformParams;
 pub use profile::{Profile, ProfileSample, ProfileSampler, ProfileShape, Wrinkles};
 pub use solver::RegionSolver;
 pub use transport::{MAX_CORRECTION, TransportField, transport_field};
-pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
+pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height, swept_volume_change};
 
 use crate::contact::ContactZone;
 use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
