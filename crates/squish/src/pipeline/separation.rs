@@ -12,20 +12,25 @@
 //! deformable side S of share s (its partner's relative stiffness k̄ of §4.3, the share of δ it
 //! moves, renormalized over the sides this pass can move), against the other side O's output surface:
 //! - every vertex v of S within the pairs' boxes at signed distance d < g of O (negative inside
-//!   O) wants `s·(g − d)·n`, n the unit direction out of O at its closest point;
-//! - every vertex w of O at signed distance d < g of S wants S's face at w's closest point moved
-//!   by `−s·(g − d)·n` (n out of S there), shared among the face's corners with barycentric
-//!   weights `b_i/Σb_j²` (so that the point under w moves by exactly that);
-//! - a vertex keeps the largest of the moves it is asked for (by length), and each move is
-//!   spread over the vertices within [`SPREAD_EDGES`] mean edge lengths with the weight
-//!   `(1 − (r/R)²)²`, again keeping the largest: no spike, and a move that is a continuous
-//!   function of the geometry (0 where every distance is at least g).
+//!   O) wants `s·(g − d)·n`, n the unit direction out of O at its closest point — and the same
+//!   for the closest point of every other face of O near v, at the signed distance d plus its
+//!   extra distance (so that the moves stay continuous as v crosses from one face's reach to
+//!   another's, or through the surface);
+//! - every vertex w of O at signed distance d < g of S wants S's face at w's closest point (and
+//!   likewise every face near w) moved by `−s·(g − d)·n` (n out of S there), shared among the
+//!   face's corners with barycentric weights `b_i/Σb_j²` (the point under w moves by that);
+//! - a vertex takes the mean of the moves it is asked for weighted by their length to the 4th
+//!   power (close to the longest, yet continuous: a maximum would switch direction where two
+//!   moves cross in length), and each move is spread over the vertices within [`SPREAD_EDGES`]
+//!   mean edge lengths with the weight `(1 − (r/R)²)²`, blended the same way: no spike, and a
+//!   move that is a continuous function of the geometry (0 where every distance is at least g).
 //!
-//! Inside/outside is the winding number of O for a closed whole object, and its generalized
-//! winding number above ¼ for an open or cut one ([`FastWinding`]: ½ behind a flat sheet, −½ in
+//! Inside/outside is the winding number of O's object when it is closed (whole or cut; not for
+//! two regions of one object), and the generalized winding number of O above ¼ otherwise ([`FastWinding`]: ½ behind a flat sheet, −½ in
 //! front); points farther than [`DEPTH_EDGES`] edge lengths inside an open surface are left alone
 //! (they are behind it, not near the contact). Only vertices of deformed
-//! regions move, never on a cut border (their faces outside would move out of the volume balance).
+//! regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
+//! cut border (their faces outside would move out of the volume balance).
 //!
 //! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
 //! affine displacement, and the bulge height is solved again with it
@@ -49,7 +54,7 @@ use super::{Frame, PipelineError};
 use crate::contact::PairContact;
 use crate::deform::HeightChoice;
 use crate::mesh::{Aabb3, TriMesh, face_normal_unnormalized};
-use crate::spatial::{ClosestPoint, FastWinding, TriangleBvh};
+use crate::spatial::{FastWinding, TriangleBvh, closest_point_on_triangle};
 
 /// Most rounds of moves and height solves per frame.
 pub const MAX_ROUNDS: usize = 8;
@@ -71,6 +76,9 @@ pub(super) struct PairSeparation {
 }
 
 /// Where each object vertex may be moved: its region and local index (`None`: not movable).
+/// Movable: in the parametrization domain 𝒫 or the contact set of a deformed region (what
+/// chapter 5 may move there; a region holding 𝒫 then gives the whole object's result), not on a
+/// cut border.
 fn movable_vertices(
     object_vertices: usize,
     cache: &ObjectCache,
@@ -78,14 +86,20 @@ fn movable_vertices(
 ) -> Vec<Option<(u32, u32)>> {
     let mut slot = vec![None; object_vertices];
     for (r, (region, outcome)) in cache.regions.iter().zip(outcomes).enumerate() {
-        if outcome.is_none() {
-            continue;
-        }
+        let Some(outcome) = outcome else { continue };
+        let d = &outcome.deformation;
+        let may_move = |local: usize| d.domain[local] || d.contact[local];
         match region.sub.as_deref() {
-            None => slot.iter_mut().enumerate().for_each(|(v, s)| *s = Some((r as u32, v as u32))),
+            None => {
+                for (v, s) in slot.iter_mut().enumerate() {
+                    if may_move(v) {
+                        *s = Some((r as u32, v as u32));
+                    }
+                }
+            }
             Some(sub) => {
                 for (local, (&parent, &border)) in sub.sub.parent_vertex.iter().zip(&sub.border).enumerate() {
-                    if !border {
+                    if !border && may_move(local) {
                         slot[parent as usize] = Some((r as u32, local as u32));
                     }
                 }
@@ -119,8 +133,11 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
 struct Surface<'a> {
     bvh: TriangleBvh,
     mesh: &'a TriMesh,
-    /// Inside/outside by winding number (a closed whole object) rather than by the closest face.
+    /// Inside/outside by the object's winding number (a closed object) rather than by the
+    /// generalized one of the surface.
     closed: bool,
+    /// The whole closed object's tree when the surface is a cut region of it (its inside).
+    whole: Option<TriangleBvh>,
     /// Vertices of the side (sorted).
     vertices: Vec<u32>,
 }
@@ -128,48 +145,89 @@ struct Surface<'a> {
 /// Generalized winding number above which a point is inside an open surface: behind a flat
 /// sheet it is ½, in front −½, inside a bowl near its bottom close to 1.
 const OPEN_INSIDE_WINDING: f64 = 0.25;
+/// Length, in gaps, below which the direction out of a surface leans to its face's normal.
+const NORMAL_BLEND: f64 = 0.25;
 /// Accuracy (β) of the far-field winding numbers of open surfaces.
 const WINDING_ACCURACY: f64 = 4.0;
 
+/// A point of a surface near a query: its face, its barycentric coordinates there, the query's
+/// signed distance to it (negative inside) and the unit direction out of the surface there.
+#[derive(Clone, Copy, Debug)]
+struct Near {
+    face: u32,
+    bary: [f64; 3],
+    distance: f64,
+    out: DVec3,
+}
+
 impl Surface<'_> {
-    /// Signed distance of `q` (negative inside), the unit direction out of the surface at the
-    /// closest point, and the closest point; `None` when `q` is farther than `reach` outside or
-    /// (open surfaces, whose inside is `winding`'s) deeper than `depth` inside.
-    fn signed_distance(
-        &self,
-        winding: Option<&FastWinding>,
-        q: DVec3,
-        reach: f64,
-        depth: f64,
-    ) -> Option<(f64, DVec3, ClosestPoint)> {
-        let inside_closed = self.closed && self.bvh.contains(q);
+    /// The points of the surface that `q` should clear: the closest point of every face within
+    /// `d₀ + reach − s₀` of `q` (d₀ its distance to the surface, s₀ = ±d₀ its signed distance,
+    /// negative inside), each at the signed distance `s₀ + (d_f − d₀)`. The closest face is at
+    /// s₀; a face at d_f enters with a zero move (`reach − s_f = 0`), so the moves are continuous
+    /// in `q`, across faces and through the surface; a point on the bisector of a fold weighs on
+    /// both faces. Empty when `q` is farther than `reach` outside or (open surfaces, whose inside
+    /// is `winding`'s) deeper than `depth` inside.
+    fn near(&self, winding: Option<&FastWinding>, q: DVec3, reach: f64, depth: f64, faces: &mut Vec<u32>) -> Vec<Near> {
+        let inside_closed = self.closed && self.whole.as_ref().unwrap_or(&self.bvh).contains(q);
         let limit = if inside_closed { f64::INFINITY } else { reach.max(depth) };
-        let cp = self.bvh.closest_point_within(q, limit)?;
-        let d = cp.distance;
+        let Some(cp) = self.bvh.closest_point_within(q, limit) else { return Vec::new() };
         let inside = match winding {
             Some(winding) if !self.closed => winding.winding_number(q) > OPEN_INSIDE_WINDING,
             _ => inside_closed,
         };
-        if (inside && !self.closed && d > depth) || (!inside && d > reach) {
-            return None;
+        let d0 = cp.distance;
+        if (inside && !self.closed && d0 > depth) || (!inside && d0 > reach) {
+            return Vec::new();
         }
-        let offset = q - cp.point;
-        let out = if d > 0.0 && (offset / d).is_finite() {
-            if inside { -offset / d } else { offset / d }
-        } else {
-            let corners = self.bvh.face_corners(cp.face)?;
-            face_normal_unnormalized(corners[0], corners[1], corners[2]).normalize_or_zero()
-        };
-        Some((if inside { -d } else { d }, out, cp))
+        let s0 = if inside { -d0 } else { d0 };
+        self.bvh.faces_within(q, d0 + reach - s0, faces);
+        faces
+            .iter()
+            .filter_map(|&face| {
+                let corners = self.bvh.face_corners(face)?;
+                let bary = closest_point_on_triangle(q, &corners);
+                let point = bary[0] * corners[0] + bary[1] * corners[1] + bary[2] * corners[2];
+                // Out of the surface: along the offset from the point (continuous across faces),
+                // tilted toward the face's normal within `reach·NORMAL_BLEND` of the surface,
+                // where the offset's direction is round-off.
+                let normal = face_normal_unnormalized(corners[0], corners[1], corners[2]).normalize_or_zero();
+                let offset = if inside { point - q } else { q - point };
+                let out = (offset + NORMAL_BLEND * reach * normal).normalize_or_zero();
+                let distance = s0 + ((q - point).length() - d0).max(0.0);
+                Some(Near { face, bary, distance, out })
+            })
+            .collect()
     }
 }
 
-/// Keeps in `slot` the longer of its move and `candidate`.
-fn keep_longest(slot: &mut DVec3, candidate: DVec3) {
-    if candidate.length_squared() > slot.length_squared() {
-        *slot = candidate;
+/// The moves asked of one vertex, blended by [`Blend::result`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Blend {
+    weight: f64,
+    sum: DVec3,
+}
+
+impl Blend {
+    /// Adds a move, weighted by its length to the power [`BLEND_POWER`].
+    fn add(&mut self, candidate: DVec3) {
+        let w = candidate.length_squared().powi(BLEND_POWER / 2);
+        if w > 0.0 && w.is_finite() {
+            self.weight += w;
+            self.sum += w * candidate;
+        }
+    }
+
+    /// The weighted mean of the moves (zero without any): close to the longest when one
+    /// dominates, and a continuous function of them all (a plain maximum would switch direction
+    /// when two moves of different directions cross in length).
+    fn result(&self) -> DVec3 {
+        if self.weight > 0.0 { self.sum / self.weight } else { DVec3::ZERO }
     }
 }
+
+/// Power of a move's length in its blending weight ([`Blend`]).
+const BLEND_POWER: i32 = 4;
 
 /// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
 /// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting.
@@ -223,7 +281,7 @@ pub(super) fn separate(
     let mut rounds = 0;
     let mut meshes = meshes_at(outcomes);
     while rounds < MAX_ROUNDS {
-        let mut moves: Vec<Vec<DVec3>> = slots.iter().map(|s| vec![DVec3::ZERO; s.len()]).collect();
+        let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
         let mut largest = 0.0f64;
         let mut stop_below = f64::INFINITY;
         for &k in &active {
@@ -233,7 +291,7 @@ pub(super) fn separate(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l]));
+            let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
@@ -247,7 +305,7 @@ pub(super) fn separate(
             }
             let shares = weights.map(|w| w / total);
             let depth = DEPTH_EDGES * edge_lengths[objects[0]].max(edge_lengths[objects[1]]);
-            let overlap = overlap_box(&surfaces[0].bvh.bounds(), &surfaces[1].bvh.bounds(), gap);
+            let overlap = overlap_box(&surfaces[0].bvh.bounds(), &surfaces[1].bvh.bounds(), gap.max(depth));
             let Some(overlap) = overlap else { continue };
             for l in 0..2 {
                 if shares[l] == 0.0 {
@@ -258,56 +316,57 @@ pub(super) fn separate(
                 let object = objects[l];
                 let share = shares[l];
                 // Own vertices near or inside the other side.
-                let near: Vec<Option<(u32, DVec3)>> = own
+                let near: Vec<Vec<DVec3>> = own
                     .vertices
                     .par_iter()
                     .with_min_len(256)
-                    .map(|&v| {
+                    .map_init(Vec::new, |faces, &v| {
                         let p = own.mesh.positions[v as usize];
                         if slots[object][v as usize].is_none() || !inside_box(&overlap, p) {
-                            return None;
+                            return Vec::new();
                         }
-                        let (d, out, _) = other.signed_distance(other_winding, p, gap, depth)?;
-                        (d < gap).then(|| (v, share * (gap - d) * out))
+                        let near = other.near(other_winding, p, gap, depth, faces);
+                        near.iter().filter(|n| n.distance < gap).map(|n| share * (gap - n.distance) * n.out).collect()
                     })
                     .collect();
-                for (v, m) in near.into_iter().flatten() {
-                    keep_longest(&mut moves[object][v as usize], m);
+                for (&v, moves) in own.vertices.iter().zip(near) {
+                    for m in moves {
+                        blends[object][v as usize].add(m);
+                    }
                 }
                 // The other side's vertices near or inside this side move this side's faces.
-                let poking: Vec<Option<([u32; 3], [f64; 3], DVec3)>> = other
+                let poking: Vec<Vec<([u32; 3], [f64; 3], DVec3)>> = other
                     .vertices
                     .par_iter()
                     .with_min_len(256)
-                    .map(|&w| {
+                    .map_init(Vec::new, |faces, &w| {
                         let p = other.mesh.positions[w as usize];
                         if !inside_box(&overlap, p) {
-                            return None;
+                            return Vec::new();
                         }
-                        let (d, out, cp) = own.signed_distance(own_winding, p, gap, depth)?;
-                        let corners = own.mesh.triangles[cp.face as usize];
-                        (d < gap).then(|| (corners, cp.bary, -share * (gap - d) * out))
+                        let near = own.near(own_winding, p, gap, depth, faces);
+                        near.iter()
+                            .filter(|n| n.distance < gap)
+                            .map(|n| (own.mesh.triangles[n.face as usize], n.bary, -share * (gap - n.distance) * n.out))
+                            .collect()
                     })
                     .collect();
-                for (corners, bary, m) in poking.into_iter().flatten() {
+                for (corners, bary, m) in poking.iter().flatten().copied() {
                     let norm: f64 = bary.iter().map(|b| b * b).sum();
                     if norm <= 0.0 {
                         continue;
                     }
                     for (&c, &b) in corners.iter().zip(&bary) {
                         if b > 0.0 && slots[object][c as usize].is_some() {
-                            keep_longest(&mut moves[object][c as usize], (b / norm) * m);
+                            blends[object][c as usize].add((b / norm) * m);
                         }
                     }
                 }
             }
         }
+        let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
         for m in moves.iter().flatten() {
             largest = largest.max(m.length());
-        }
-        if std::env::var_os("SQUISH_SEP_DEBUG").is_some() {
-            let counts: Vec<usize> = moves.iter().map(|m| m.iter().filter(|x| **x != DVec3::ZERO).count()).collect();
-            eprintln!("round {rounds}: largest {largest:.3e} stop {stop_below:.3e} moved {counts:?}");
         }
         if largest <= stop_below || largest == 0.0 {
             break;
@@ -331,7 +390,7 @@ pub(super) fn separate(
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l]));
+        let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.bvh.intersections_with(&sb.bvh);
         let distinct = |side: usize| {
@@ -360,20 +419,29 @@ pub(super) fn separate(
     Ok((report, warnings))
 }
 
-/// The surface of region `region` of an object at `mesh`'s positions.
-fn surface<'a>(mesh: &'a TriMesh, cache: Option<&ObjectCache>, region: usize) -> Option<Surface<'a>> {
+/// The surface of region `region` of an object at `mesh`'s positions, in the pair of `objects`.
+/// Its inside is its closed object's unless the pair is of one object's regions (every point of
+/// one region is on or in the object: its inside is then the region's own).
+fn surface<'a>(
+    mesh: &'a TriMesh,
+    cache: Option<&ObjectCache>,
+    region: usize,
+    objects: [usize; 2],
+) -> Option<Surface<'a>> {
     let cache = cache?;
+    let closed = cache.closed && objects[0] != objects[1];
     let region_cache = cache.regions.get(region)?;
-    let (bvh, vertices, closed) = match region_cache.faces.as_ref() {
-        None => (TriangleBvh::new(mesh).ok()?, (0..mesh.num_vertices() as u32).collect(), cache.closed),
+    let (bvh, vertices, whole) = match region_cache.faces.as_ref() {
+        None => (TriangleBvh::new(mesh).ok()?, (0..mesh.num_vertices() as u32).collect(), None),
         Some(faces) => {
             let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
             vertices.sort_unstable();
             vertices.dedup();
-            (TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?, vertices, false)
+            let whole = if closed { Some(TriangleBvh::new(mesh).ok()?) } else { None };
+            (TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?, vertices, whole)
         }
     };
-    Some(Surface { bvh, mesh, closed, vertices })
+    Some(Surface { bvh, mesh, closed, whole, vertices })
 }
 
 fn inside_box(b: &Aabb3, p: DVec3) -> bool {
@@ -388,7 +456,8 @@ fn overlap_box(a: &Aabb3, b: &Aabb3, margin: f64) -> Option<Aabb3> {
 }
 
 /// Each non-zero move spread over the movable vertices within `radius` (edge paths, Euclidean
-/// distance at `positions`) with the weight `(1 − (r/R)²)²`, keeping the longest per vertex.
+/// distance at `positions`) with the weight `(1 − (r/R)²)²`, blended per vertex with its own
+/// ([`Blend`]).
 fn spread_moves(
     cache: &ObjectCache,
     positions: &[DVec3],
@@ -396,16 +465,17 @@ fn spread_moves(
     slots: &[Option<(u32, u32)>],
     radius: f64,
 ) -> Vec<DVec3> {
-    let mut spread = moves.to_vec();
     if radius <= 0.0 {
-        return spread;
+        return moves.to_vec();
     }
+    let mut blends = vec![Blend::default(); moves.len()];
     let mut seen = vec![u32::MAX; moves.len()];
     let mut stack = Vec::new();
     for (source, m) in moves.iter().enumerate() {
         if *m == DVec3::ZERO {
             continue;
         }
+        blends[source].add(*m);
         let origin = positions[source];
         stack.clear();
         stack.push(source as u32);
@@ -420,13 +490,12 @@ fn spread_moves(
                 if r >= 1.0 {
                     continue;
                 }
-                let weight = (1.0 - r * r).powi(2);
-                keep_longest(&mut spread[w as usize], weight * *m);
+                blends[w as usize].add((1.0 - r * r).powi(2) * *m);
                 stack.push(w);
             }
         }
     }
-    spread
+    blends.iter().map(Blend::result).collect()
 }
 
 /// Applies object `i`'s whole correction to its deformed regions, each solving its bulge height
