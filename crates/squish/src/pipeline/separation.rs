@@ -201,6 +201,10 @@ impl Surface<'_> {
     }
 }
 
+/// A move asked of a face: its corners, the barycentric coordinates of the point that must move,
+/// and the move.
+type FaceMove = ([u32; 3], [f64; 3], DVec3);
+
 /// The moves asked of one vertex, blended by [`Blend::result`].
 #[derive(Clone, Copy, Debug, Default)]
 struct Blend {
@@ -335,7 +339,7 @@ pub(super) fn separate(
                     }
                 }
                 // The other side's vertices near or inside this side move this side's faces.
-                let poking: Vec<Vec<([u32; 3], [f64; 3], DVec3)>> = other
+                let poking: Vec<Vec<FaceMove>> = other
                     .vertices
                     .par_iter()
                     .with_min_len(256)
