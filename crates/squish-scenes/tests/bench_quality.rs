@@ -116,7 +116,7 @@ fn the_quick_bench_scenes_have_no_intersecting_faces_at_the_default_gap() {
 }
 
 #[test]
-#[ignore = "the thesis sizes: minutes in a debug build"]
+#[ignore = "the thesis sizes: about 20 s in a debug build"]
 fn bench_table() {
     check(&scenes(BenchSize::Full));
 }

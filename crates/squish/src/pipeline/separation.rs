@@ -1,4 +1,4 @@
-//! The separation pass (issue 29; docs/decisions.md, "Contact gap"): after chapter 5 has deformed
+//! The separation pass (issue 29; docs/decisions.md, "Separation pass"): after chapter 5 has deformed
 //! every region, the outputs of each region pair in contact are pushed apart until no triangle of
 //! one crosses a triangle of the other, with the volume of every region still preserved.
 //!
@@ -26,10 +26,10 @@
 //!   move that is a continuous function of the geometry (0 where every distance is at least g).
 //!
 //! Inside/outside is the winding number of O's object when it is closed (whole or cut; not for
-//! two regions of one object), and the generalized winding number of O above ¼ otherwise ([`FastWinding`]: ½ behind a flat sheet, −½ in
-//! front); points farther than [`DEPTH_EDGES`] edge lengths inside an open surface are left alone
-//! (they are behind it, not near the contact). Only vertices of deformed
-//! regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
+//! two regions of one object), and the generalized winding number of O above ¼ otherwise
+//! ([`FastWinding`]: ½ behind a flat sheet, −½ in front); points farther than [`DEPTH_EDGES`]
+//! edge lengths inside an open surface are left alone (they are behind it, not near the
+//! contact). Only vertices of deformed regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
 //! cut border (their faces outside would move out of the volume balance).
 //!
 //! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
@@ -40,8 +40,12 @@
 //! The faces still intersecting then are counted with the exact test and reported as a
 //! [`WarningKind::Unseparated`] frame warning, never silently.
 //!
-//! Deterministic: every loop runs in vertex or region-pair order, ties of closest points go to
-//! the smallest face id, and parallel maps collect in order.
+//! Deterministic: every loop runs in vertex or region-pair order, the faces near a point come
+//! sorted, and parallel maps collect in order. Continuous: every move is a continuous function
+//! of the outputs of chapter 5 (measured: the largest step of a vertex between frames of a
+//! sliding contact is unchanged, `tests/pipeline/gap.rs`), up to the stopping rule (a round
+//! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is counted in
+//! [`crate::stage::Stage::Deformation`]. It extends the thesis' §4.3–§5.4 (not in it).
 
 use glam::DVec3;
 use rayon::prelude::*;
