@@ -71,7 +71,7 @@ pub use profile::{Profile, ProfileSample, ProfileSampler, ProfileShape, Wrinkles
 pub use radial_brush::{BrushFields, LateralPoint, RadialBrushError, RadialSelection, radial_brush, radial_falloff};
 pub use solver::RegionSolver;
 pub use transport::{MAX_CORRECTION, TransportField, transport_field};
-pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height};
+pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height, swept_volume_change};
 
 use crate::contact::ContactZone;
 use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
@@ -169,8 +169,74 @@ pub struct RegionDeformation {
     pub slope: Vec<f64>,
     /// The bulge map η used (1 outside 𝒟).
     pub bulge_map: Vec<f64>,
+    /// The affine displacement the positions were built from (`p′ = p + applied·linear +
+    /// constant` on the moved vertices, see [`RegionPlan`]): what a correction re-solves the bulge
+    /// height with ([`RegionDeformation::correct`]).
+    pub displacement: AffineDisplacement,
     /// Figures and timings.
     pub stats: DeformStats,
+}
+
+/// How [`RegionDeformation::correct`] chooses the bulge height: the region's volume settings.
+#[derive(Clone, Copy, Debug)]
+pub struct HeightChoice {
+    /// Solve h_v for the volume (else keep the applied height).
+    pub preserve_volume: bool,
+    /// γ: the applied height is γ·h_v.
+    pub bulge: f64,
+    /// The length scale of the root search (φ_max).
+    pub extent: f64,
+}
+
+impl RegionDeformation {
+    /// Adds `correction` (per region vertex) to the fixed part of the displacement and chooses
+    /// the bulge height again (§5.4.2 with the correction as a fixed displacement, so the volume
+    /// stays preserved): the positions become `p + γ·h_v·linear + constant + correction`.
+    /// Vertices without a correction keep the bits they would have for the same height.
+    /// `self.displacement` is left as it was (the correction is not accumulated into it), so a
+    /// caller correcting again passes the whole correction.
+    pub fn correct(
+        &mut self,
+        mesh: &TriMesh,
+        topology: &Topology,
+        correction: &[DVec3],
+        choice: HeightChoice,
+    ) -> Result<(), DeformError> {
+        let n = mesh.num_vertices();
+        DeformError::check_len("correction", n, correction.len())?;
+        let mut displacement = self.displacement.clone();
+        for (v, c) in correction.iter().enumerate() {
+            if *c != DVec3::ZERO {
+                displacement.moved[v] = true;
+                displacement.constant[v] += *c;
+            }
+        }
+        let reference = vertex_centroid(&mesh.positions);
+        let cubic = VolumeCubic::swept(mesh, topology, &displacement, reference)?;
+        let old_applied = self.stats.applied_bulge_height;
+        let (bulge_height, applied) = if choice.preserve_volume {
+            let solution = solve_bulge_height(&cubic, choice.extent);
+            self.stats.volume_exact = solution.exact;
+            self.stats.volume_residual = solution.residual;
+            self.stats.fallbacks.volume_without_root = usize::from(!solution.exact);
+            (solution.height, choice.bulge * solution.height)
+        } else {
+            self.stats.volume_residual = cubic.eval(self.stats.bulge_height);
+            (self.stats.bulge_height, old_applied)
+        };
+        for v in 0..n {
+            if displacement.moved[v] {
+                let linear = displacement.linear[v];
+                self.positions[v] = mesh.positions[v] + applied * linear + displacement.constant[v];
+                self.heights[v] += (applied - old_applied) * linear.dot(self.directions[v]);
+            }
+        }
+        self.stats.bulge_height = bulge_height;
+        self.stats.applied_bulge_height = applied;
+        (self.stats.volume_before, self.stats.volume_after) =
+            volumes_about(&mesh.triangles, &mesh.positions, &self.positions, &displacement.moved, reference);
+        Ok(())
+    }
 }
 
 /// The signed volumes of `before` and `after` on the region's faces relative to `reference`, in
@@ -362,6 +428,7 @@ impl RegionPlan {
             amplitude: self.amplitude,
             slope: self.slope,
             bulge_map: self.bulge_map,
+            displacement: self.displacement,
             stats,
         }
     }

@@ -152,6 +152,23 @@ impl VolumeCubic {
     }
 }
 
+/// The signed volume swept by moving `mesh`'s vertices to `after` (see the module doc: the
+/// enclosed volume's change for a closed mesh, the volume an open one keeps), relative to its
+/// vertex centroid. `topology` is `mesh`'s.
+pub fn swept_volume_change(mesh: &TriMesh, topology: &Topology, after: &[DVec3]) -> Result<f64, DeformError> {
+    let n = mesh.num_vertices();
+    DeformError::check_len("positions after", n, after.len())?;
+    let mut displacement = AffineDisplacement::none(n);
+    for (v, (a, b)) in mesh.positions.iter().zip(after).enumerate() {
+        if a != b {
+            displacement.moved[v] = true;
+            displacement.constant[v] = *b - *a;
+        }
+    }
+    let reference = crate::mesh::vertex_centroid(&mesh.positions);
+    Ok(VolumeCubic::swept(mesh, topology, &displacement, reference)?.coefficients[0])
+}
+
 /// The bulge height found for a volume cubic.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HeightSolution {

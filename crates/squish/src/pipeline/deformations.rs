@@ -334,6 +334,7 @@ pub(super) fn combine(
         amplitude: vec![0.0; n],
         slope: vec![0.0; n],
         bulge_map: vec![1.0; n],
+        displacement: crate::deform::AffineDisplacement::none(n),
         stats: DeformStats::default(),
     };
     let mut first = true;
@@ -350,6 +351,9 @@ pub(super) fn combine(
         map.scatter(&d.amplitude, &mut out.amplitude);
         map.scatter(&d.slope, &mut out.slope);
         map.scatter(&d.bulge_map, &mut out.bulge_map);
+        map.scatter(&d.displacement.linear, &mut out.displacement.linear);
+        map.scatter(&d.displacement.constant, &mut out.displacement.constant);
+        map.scatter(&d.displacement.moved, &mut out.displacement.moved);
         let (s, t) = (&d.stats, &mut out.stats);
         if first {
             t.bulge_height = s.bulge_height;

@@ -19,7 +19,10 @@
 //! 4. `deformations` (ch. 5): every region of a non-rigid object with zones deformed with all of
 //!    them (regions in parallel; several zones are diffused into one direction field, §5.2.2, and
 //!    the anisotropic bulge map sums over them, Eq. 5.6);
-//! 5. `results`: the regions written back into each object's positions (vertices outside every
+//! 5. `separation` (issue 29): the outputs of every region pair with a contact gap pushed apart
+//!    until no triangle of one crosses the other, each region's bulge height solved again so
+//!    that its volume stays preserved;
+//! 6. `results`: the regions written back into each object's positions (vertices outside every
 //!    region are returned bit for bit), and the per-stage times and quality figures, per object,
 //!    per region and per region pair ([`FrameStats`]).
 //!
@@ -44,6 +47,7 @@ mod part_contact;
 mod regions;
 mod results;
 mod self_contact;
+mod separation;
 mod setup;
 mod stats;
 mod warnings;
@@ -147,6 +151,8 @@ pub struct Deformer {
     keep_edits: bool,
     /// What the last full frame left for edits.
     edits: Option<EditState>,
+    /// Whether to leave out the separation pass ([`Deformer::without_separation`]).
+    skip_separation: bool,
 }
 
 impl Deformer {
@@ -161,6 +167,13 @@ impl Deformer {
     /// frame by frame would pay for copies it never uses).
     pub fn keep_for_edits(mut self) -> Self {
         self.keep_edits = true;
+        self
+    }
+
+    /// Leaves out the separation pass (`separation`, issue 29): the outputs of chapter 5 as
+    /// they are, for comparisons (the thesis' method with the contact gap's targets only).
+    pub fn without_separation(mut self) -> Self {
+        self.skip_separation = true;
         self
     }
 
@@ -271,11 +284,21 @@ impl Deformer {
             ));
         }
 
+        // The separation pass on the outputs (issue 29).
+        let timer = Instant::now();
+        let unseparated = if self.skip_separation {
+            Vec::new()
+        } else {
+            separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?.1
+        };
+        stages[Stage::Deformation] += timer.elapsed();
+
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        let mut warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        warnings.extend(unseparated);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,
@@ -303,15 +326,23 @@ impl Deformer {
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
         let mut region_contacts = RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
         drop(caches);
-        let outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
+        let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
         region_contacts.give_back(&mut contacts);
+        let timer = Instant::now();
+        let unseparated = if self.skip_separation {
+            Vec::new()
+        } else {
+            separation::separate(frame, &self.caches, &state.region_pairs, &contacts, &mut outcomes)?.1
+        };
         // The contact stage's times are the kept frame's: not this frame's work.
         let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
         let mut stages = StageTimes::default();
+        stages[Stage::Deformation] += timer.elapsed();
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let warnings =
+        let mut warnings =
             warnings::frame_warnings(&pairs, &contacts, &params, &state.contained, &objects.stats, &state.closed);
+        warnings.extend(unseparated);
         Ok(FrameResult {
             positions: objects.positions,
             contacts,

@@ -13,7 +13,7 @@ use super::contacts::{RegionContacts, RegionPair};
 use super::deformations::{RegionOutcome, combine};
 use super::{Frame, ObjectStats, PairStats, RegionStats, RegionSummary};
 use crate::contact::{DirectionSource, PairContact};
-use crate::deform::{RegionDeformation, RegionSolver};
+use crate::deform::{RegionDeformation, RegionSolver, swept_volume_change};
 use crate::mesh::{signed_volume, signed_volume_of};
 use crate::stage::StageTimes;
 
@@ -152,7 +152,13 @@ pub(super) fn object_results(
         let combined = combine(input, &cache.regions, outcomes);
         match combined {
             Some(deformation) => {
-                stats.volume_after = signed_volume_of(&deformation.positions, &object.mesh.triangles);
+                stats.volume_after = if cache.closed {
+                    signed_volume_of(&deformation.positions, &object.mesh.triangles)
+                } else {
+                    // An open mesh keeps the volume its displacement sweeps (`deform::volume`).
+                    volume_before
+                        + swept_volume_change(object.mesh, &cache.topology, &deformation.positions).unwrap_or(f64::NAN)
+                };
                 stats.max_displacement =
                     input.iter().zip(&deformation.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
                 positions.push(deformation.positions.clone());

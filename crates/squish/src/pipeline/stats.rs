@@ -20,7 +20,10 @@ pub struct ObjectStats {
     pub rigid: bool,
     /// True if the object was deformed (it had a non-empty contact zone).
     pub deformed: bool,
-    /// Signed volume before and after (meaningful for closed meshes).
+    /// Signed volume before and after. For an open mesh, `volume_after` is `volume_before` plus
+    /// the signed volume swept by its displacement (`deform::swept_volume_change`), the volume
+    /// an open mesh keeps (its own signed volume also changes by the strips its moving boundary
+    /// sweeps, and depends on the origin).
     pub volume_before: f64,
     pub volume_after: f64,
     /// (after − before) / |before|.

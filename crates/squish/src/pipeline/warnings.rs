@@ -30,6 +30,8 @@ pub enum WarningKind {
     NoBulge,
     /// The output still penetrates deeper than [`RESIDUAL_PENETRATION_TOLERANCE`] of the input.
     ResidualPenetration,
+    /// Faces of a pair still intersect after the separation pass's rounds (`separation`).
+    Unseparated,
 }
 
 /// One shortfall of a frame.

@@ -1,0 +1,545 @@
+//! The separation pass (issue 29; docs/decisions.md, "Separation pass"): after chapter 5 has deformed
+//! every region, the outputs of each region pair in contact are pushed apart until no triangle of
+//! one crosses a triangle of the other, with the volume of every region still preserved.
+//!
+//! **Why.** The contact gap ([`crate::contact::gap`]) backs the zones' targets off the contact
+//! surface 𝒮 (§4.3), but only the zone's vertices go to targets: a triangle between them is a
+//! chord that still cuts a curved or finer partner, the partner's vertices poke through it, and the
+//! bulge of 𝒟 (§5.4, Eq. 5.5) grows, around the contact, into whatever is there. Nothing in
+//! chapters 4–5 sees the partner's output.
+//!
+//! **Rule.** Per region pair with a non-zero gap g (the pair's [`PairContact::gap`]) and per
+//! deformable side S of share s (its partner's relative stiffness k̄ of §4.3, the share of δ it
+//! moves, renormalized over the sides this pass can move), against the other side O's output surface:
+//! - every vertex v of S within the pairs' boxes at signed distance d < g of O (negative inside
+//!   O) wants `s·(g − d)·n`, n the unit direction out of O at its closest point — and the same
+//!   for the closest point of every other face of O near v, at the signed distance d plus its
+//!   extra distance (so that the moves stay continuous as v crosses from one face's reach to
+//!   another's, or through the surface);
+//! - every vertex w of O at signed distance d < g of S wants S's face at w's closest point (and
+//!   likewise every face near w) moved by `−s·(g − d)·n` (n out of S there), shared among the
+//!   face's corners with barycentric weights `b_i/Σb_j²` (the point under w moves by that);
+//! - a vertex takes the mean of the moves it is asked for weighted by their length to the 4th
+//!   power (close to the longest, yet continuous: a maximum would switch direction where two
+//!   moves cross in length), and each move is spread over the vertices within [`SPREAD_EDGES`]
+//!   mean edge lengths with the weight `(1 − (r/R)²)²`, blended the same way: no spike, and a
+//!   move that is a continuous function of the geometry (0 where every distance is at least g).
+//!
+//! Inside/outside is the winding number of O's object when it is closed (whole or cut; not for
+//! two regions of one object), and the generalized winding number of O above ¼ otherwise
+//! ([`FastWinding`]: ½ behind a flat sheet, −½ in front); points farther than [`DEPTH_EDGES`]
+//! edge lengths inside an open surface are left alone (they are behind it, not near the
+//! contact). Only vertices of deformed regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
+//! cut border (their faces outside would move out of the volume balance).
+//!
+//! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
+//! affine displacement, and the bulge height is solved again with it
+//! ([`crate::deform::RegionDeformation::correct`], §5.4.2, App. C): the volume (swept volume for
+//! an open region) stays exactly preserved. The new height moves 𝒟 a little, so the pass runs
+//! again on the new outputs, until no move exceeds [`STOP_FRACTION`]·g or after [`MAX_ROUNDS`].
+//! The faces still intersecting then are counted with the exact test and reported as a
+//! [`WarningKind::Unseparated`] frame warning, never silently.
+//!
+//! Deterministic: every loop runs in vertex or region-pair order, the faces near a point come
+//! sorted, and parallel maps collect in order. Continuous: every move is a continuous function
+//! of the outputs of chapter 5 (measured: the largest step of a vertex between frames of a
+//! sliding contact is unchanged, `tests/pipeline/gap.rs`), up to the stopping rule (a round
+//! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is counted in
+//! [`crate::stage::Stage::Deformation`]. It extends the thesis' §4.3–§5.4 (not in it).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::cache::ObjectCache;
+use super::contacts::RegionPair;
+use super::deformations::RegionOutcome;
+use super::warnings::{FrameWarning, WarningKind};
+use super::{Frame, PipelineError};
+use crate::contact::PairContact;
+use crate::deform::HeightChoice;
+use crate::mesh::{Aabb3, TriMesh, face_normal_unnormalized};
+use crate::spatial::{FastWinding, TriangleBvh, closest_point_on_triangle};
+
+/// Most rounds of moves and height solves per frame.
+pub const MAX_ROUNDS: usize = 8;
+/// The pass stops when no vertex is asked to move by more than this fraction of the gap.
+pub const STOP_FRACTION: f64 = 0.01;
+/// Radius of the spread of a move, in mean edge lengths of the moved object.
+pub const SPREAD_EDGES: f64 = 2.0;
+/// Depth, in mean edge lengths of the pair, beyond which a point behind an open surface is not
+/// considered inside it.
+pub const DEPTH_EDGES: f64 = 4.0;
+
+/// What the pass did on one region pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct PairSeparation {
+    /// Rounds of moves applied.
+    pub rounds: usize,
+    /// Faces of the two sides still intersecting the other after the pass (distinct faces summed).
+    pub remaining_faces: usize,
+}
+
+/// Where each object vertex may be moved: its region and local index (`None`: not movable).
+/// Movable: in the parametrization domain 𝒫 or the contact set of a deformed region (what
+/// chapter 5 may move there; a region holding 𝒫 then gives the whole object's result), not on a
+/// cut border.
+fn movable_vertices(
+    object_vertices: usize,
+    cache: &ObjectCache,
+    outcomes: &[Option<RegionOutcome>],
+) -> Vec<Option<(u32, u32)>> {
+    let mut slot = vec![None; object_vertices];
+    for (r, (region, outcome)) in cache.regions.iter().zip(outcomes).enumerate() {
+        let Some(outcome) = outcome else { continue };
+        let d = &outcome.deformation;
+        let may_move = |local: usize| d.domain[local] || d.contact[local];
+        match region.sub.as_deref() {
+            None => {
+                for (v, s) in slot.iter_mut().enumerate() {
+                    if may_move(v) {
+                        *s = Some((r as u32, v as u32));
+                    }
+                }
+            }
+            Some(sub) => {
+                for (local, (&parent, &border)) in sub.sub.parent_vertex.iter().zip(&sub.border).enumerate() {
+                    if !border && may_move(local) {
+                        slot[parent as usize] = Some((r as u32, local as u32));
+                    }
+                }
+            }
+        }
+    }
+    slot
+}
+
+/// The current positions of an object: its input with its deformed regions written in.
+fn object_positions(input: &[DVec3], cache: &ObjectCache, outcomes: &[Option<RegionOutcome>]) -> Vec<DVec3> {
+    let mut positions = input.to_vec();
+    for (region, outcome) in cache.regions.iter().zip(outcomes) {
+        let Some(outcome) = outcome else { continue };
+        match region.sub.as_deref() {
+            None => positions.clone_from(&outcome.deformation.positions),
+            Some(sub) => sub.sub.scatter(&outcome.deformation.positions, &mut positions),
+        }
+    }
+    positions
+}
+
+/// Mean edge length of an object at `positions`.
+fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
+    let edges = cache.topology.edges();
+    let total: f64 = edges.iter().map(|&[a, b]| (positions[a as usize] - positions[b as usize]).length()).sum();
+    if edges.is_empty() { 0.0 } else { total / edges.len() as f64 }
+}
+
+/// One side's surface for distance queries: its faces' tree at the current positions.
+struct Surface<'a> {
+    bvh: TriangleBvh,
+    mesh: &'a TriMesh,
+    /// Inside/outside by the object's winding number (a closed object) rather than by the
+    /// generalized one of the surface.
+    closed: bool,
+    /// The whole closed object's tree when the surface is a cut region of it (its inside).
+    whole: Option<TriangleBvh>,
+    /// Vertices of the side (sorted).
+    vertices: Vec<u32>,
+}
+
+/// Generalized winding number above which a point is inside an open surface: behind a flat
+/// sheet it is ½, in front −½, inside a bowl near its bottom close to 1.
+const OPEN_INSIDE_WINDING: f64 = 0.25;
+/// Length, in gaps, below which the direction out of a surface leans to its face's normal.
+const NORMAL_BLEND: f64 = 0.25;
+/// Accuracy (β) of the far-field winding numbers of open surfaces.
+const WINDING_ACCURACY: f64 = 4.0;
+
+/// A point of a surface near a query: its face, its barycentric coordinates there, the query's
+/// signed distance to it (negative inside) and the unit direction out of the surface there.
+#[derive(Clone, Copy, Debug)]
+struct Near {
+    face: u32,
+    bary: [f64; 3],
+    distance: f64,
+    out: DVec3,
+}
+
+impl Surface<'_> {
+    /// The points of the surface that `q` should clear: the closest point of every face within
+    /// `d₀ + reach − s₀` of `q` (d₀ its distance to the surface, s₀ = ±d₀ its signed distance,
+    /// negative inside), each at the signed distance `s₀ + (d_f − d₀)`. The closest face is at
+    /// s₀; a face at d_f enters with a zero move (`reach − s_f = 0`), so the moves are continuous
+    /// in `q`, across faces and through the surface; a point on the bisector of a fold weighs on
+    /// both faces. Empty when `q` is farther than `reach` outside or (open surfaces, whose inside
+    /// is `winding`'s) deeper than `depth` inside.
+    fn near(&self, winding: Option<&FastWinding>, q: DVec3, reach: f64, depth: f64, faces: &mut Vec<u32>) -> Vec<Near> {
+        let inside_closed = self.closed && self.whole.as_ref().unwrap_or(&self.bvh).contains(q);
+        let limit = if inside_closed { f64::INFINITY } else { reach.max(depth) };
+        let Some(cp) = self.bvh.closest_point_within(q, limit) else { return Vec::new() };
+        let inside = match winding {
+            Some(winding) if !self.closed => winding.winding_number(q) > OPEN_INSIDE_WINDING,
+            _ => inside_closed,
+        };
+        let d0 = cp.distance;
+        if (inside && !self.closed && d0 > depth) || (!inside && d0 > reach) {
+            return Vec::new();
+        }
+        let s0 = if inside { -d0 } else { d0 };
+        self.bvh.faces_within(q, d0 + reach - s0, faces);
+        faces
+            .iter()
+            .filter_map(|&face| {
+                let corners = self.bvh.face_corners(face)?;
+                let bary = closest_point_on_triangle(q, &corners);
+                let point = bary[0] * corners[0] + bary[1] * corners[1] + bary[2] * corners[2];
+                // Out of the surface: along the offset from the point (continuous across faces),
+                // tilted toward the face's normal within `reach·NORMAL_BLEND` of the surface,
+                // where the offset's direction is round-off.
+                let normal = face_normal_unnormalized(corners[0], corners[1], corners[2]).normalize_or_zero();
+                let offset = if inside { point - q } else { q - point };
+                let out = (offset + NORMAL_BLEND * reach * normal).normalize_or_zero();
+                let distance = s0 + ((q - point).length() - d0).max(0.0);
+                Some(Near { face, bary, distance, out })
+            })
+            .collect()
+    }
+}
+
+/// A move asked of a face: its corners, the barycentric coordinates of the point that must move,
+/// and the move.
+type FaceMove = ([u32; 3], [f64; 3], DVec3);
+
+/// The moves asked of one vertex, blended by [`Blend::result`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Blend {
+    weight: f64,
+    sum: DVec3,
+}
+
+impl Blend {
+    /// Adds a move, weighted by its length to the power [`BLEND_POWER`].
+    fn add(&mut self, candidate: DVec3) {
+        let w = candidate.length_squared().powi(BLEND_POWER / 2);
+        if w > 0.0 && w.is_finite() {
+            self.weight += w;
+            self.sum += w * candidate;
+        }
+    }
+
+    /// The weighted mean of the moves (zero without any): close to the longest when one
+    /// dominates, and a continuous function of them all (a plain maximum would switch direction
+    /// when two moves of different directions cross in length).
+    fn result(&self) -> DVec3 {
+        if self.weight > 0.0 { self.sum / self.weight } else { DVec3::ZERO }
+    }
+}
+
+/// Power of a move's length in its blending weight ([`Blend`]).
+const BLEND_POWER: i32 = 4;
+
+/// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
+/// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting.
+pub(super) fn separate(
+    frame: &Frame,
+    caches: &[Option<ObjectCache>],
+    region_pairs: &[RegionPair],
+    contacts: &[Option<PairContact>],
+    outcomes: &mut [Vec<Option<RegionOutcome>>],
+) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
+    let mut report = vec![PairSeparation::default(); region_pairs.len()];
+    // The region pairs the pass works on: a gap, two regions, and a side it may move.
+    let active: Vec<usize> = (0..region_pairs.len())
+        .filter(|&k| {
+            if !contacts[k].as_ref().is_some_and(|c| c.gap > 0.0) {
+                return false;
+            }
+            let Some(regions) = region_pairs[k].regions else { return false };
+            let objects = frame.pairs[region_pairs[k].pair].objects;
+            (0..2).any(|l| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some))
+        })
+        .collect();
+    if active.is_empty() {
+        return Ok((report, Vec::new()));
+    }
+    let count = frame.objects.len();
+    let slots: Vec<Vec<Option<(u32, u32)>>> = (0..count)
+        .map(|i| match caches[i].as_ref() {
+            Some(cache) => movable_vertices(frame.objects[i].mesh.num_vertices(), cache, &outcomes[i]),
+            None => Vec::new(),
+        })
+        .collect();
+    let edge_lengths: Vec<f64> = (0..count)
+        .map(|i| caches[i].as_ref().map_or(0.0, |c| mean_edge_length(c, &frame.objects[i].mesh.positions)))
+        .collect();
+    // The whole correction so far, per object vertex.
+    let mut corrections: Vec<Vec<DVec3>> =
+        (0..count).map(|i| vec![DVec3::ZERO; frame.objects[i].mesh.num_vertices()]).collect();
+    let meshes_at = |outcomes: &[Vec<Option<RegionOutcome>>]| -> Vec<TriMesh> {
+        (0..count)
+            .map(|i| {
+                let object = frame.objects[i].mesh;
+                let positions = match caches[i].as_ref() {
+                    Some(cache) => object_positions(&object.positions, cache, &outcomes[i]),
+                    None => object.positions.clone(),
+                };
+                TriMesh { positions, triangles: object.triangles.clone() }
+            })
+            .collect()
+    };
+    let mut rounds = 0;
+    let mut meshes = meshes_at(outcomes);
+    while rounds < MAX_ROUNDS {
+        let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
+        let mut largest = 0.0f64;
+        let mut stop_below = f64::INFINITY;
+        for &k in &active {
+            let rp = &region_pairs[k];
+            let Some(contact) = contacts[k].as_ref() else { continue };
+            let Some(regions) = rp.regions else { continue };
+            let objects = frame.pairs[rp.pair].objects;
+            let gap = contact.gap;
+            stop_below = stop_below.min(STOP_FRACTION * gap);
+            let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
+            let [Some(sa), Some(sb)] = surfaces else { continue };
+            let surfaces = [sa, sb];
+            let windings = [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
+            let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
+            // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
+            let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
+            let weights = [0, 1].map(|l| if movable(l) { k_bar[1 - l].max(0.0) } else { 0.0 });
+            let total = weights[0] + weights[1];
+            if total <= 0.0 {
+                continue;
+            }
+            let shares = weights.map(|w| w / total);
+            let depth = DEPTH_EDGES * edge_lengths[objects[0]].max(edge_lengths[objects[1]]);
+            let overlap = overlap_box(&surfaces[0].bvh.bounds(), &surfaces[1].bvh.bounds(), gap.max(depth));
+            let Some(overlap) = overlap else { continue };
+            for l in 0..2 {
+                if shares[l] == 0.0 {
+                    continue;
+                }
+                let (own, other) = (&surfaces[l], &surfaces[1 - l]);
+                let (own_winding, other_winding) = (windings[l].as_ref(), windings[1 - l].as_ref());
+                let object = objects[l];
+                let share = shares[l];
+                // Own vertices near or inside the other side.
+                let near: Vec<Vec<DVec3>> = own
+                    .vertices
+                    .par_iter()
+                    .with_min_len(256)
+                    .map_init(Vec::new, |faces, &v| {
+                        let p = own.mesh.positions[v as usize];
+                        if slots[object][v as usize].is_none() || !inside_box(&overlap, p) {
+                            return Vec::new();
+                        }
+                        let near = other.near(other_winding, p, gap, depth, faces);
+                        near.iter().filter(|n| n.distance < gap).map(|n| share * (gap - n.distance) * n.out).collect()
+                    })
+                    .collect();
+                for (&v, moves) in own.vertices.iter().zip(near) {
+                    for m in moves {
+                        blends[object][v as usize].add(m);
+                    }
+                }
+                // The other side's vertices near or inside this side move this side's faces.
+                let poking: Vec<Vec<FaceMove>> = other
+                    .vertices
+                    .par_iter()
+                    .with_min_len(256)
+                    .map_init(Vec::new, |faces, &w| {
+                        let p = other.mesh.positions[w as usize];
+                        if !inside_box(&overlap, p) {
+                            return Vec::new();
+                        }
+                        let near = own.near(own_winding, p, gap, depth, faces);
+                        near.iter()
+                            .filter(|n| n.distance < gap)
+                            .map(|n| (own.mesh.triangles[n.face as usize], n.bary, -share * (gap - n.distance) * n.out))
+                            .collect()
+                    })
+                    .collect();
+                for (corners, bary, m) in poking.iter().flatten().copied() {
+                    let norm: f64 = bary.iter().map(|b| b * b).sum();
+                    if norm <= 0.0 {
+                        continue;
+                    }
+                    for (&c, &b) in corners.iter().zip(&bary) {
+                        if b > 0.0 && slots[object][c as usize].is_some() {
+                            blends[object][c as usize].add((b / norm) * m);
+                        }
+                    }
+                }
+            }
+        }
+        let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
+        for m in moves.iter().flatten() {
+            largest = largest.max(m.length());
+        }
+        if largest <= stop_below || largest == 0.0 {
+            break;
+        }
+        rounds += 1;
+        for i in 0..count {
+            if moves[i].iter().all(|m| *m == DVec3::ZERO) {
+                continue;
+            }
+            let Some(cache) = caches[i].as_ref() else { continue };
+            let spread = spread_moves(cache, &meshes[i].positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
+            for (c, s) in corrections[i].iter_mut().zip(&spread) {
+                *c += *s;
+            }
+            correct_regions(frame, i, cache, &corrections[i], &mut outcomes[i])?;
+        }
+        meshes = meshes_at(outcomes);
+    }
+    let mut warnings = Vec::new();
+    for &k in &active {
+        let rp = &region_pairs[k];
+        let Some(regions) = rp.regions else { continue };
+        let objects = frame.pairs[rp.pair].objects;
+        let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
+        let [Some(sa), Some(sb)] = surfaces else { continue };
+        let pairs = sa.bvh.intersections_with(&sb.bvh);
+        let distinct = |side: usize| {
+            let mut faces: Vec<u32> = pairs.iter().map(|p| p[side]).collect();
+            faces.sort_unstable();
+            faces.dedup();
+            faces.len()
+        };
+        let remaining = distinct(0) + distinct(1);
+        report[k] = PairSeparation { rounds, remaining_faces: remaining };
+        if remaining > 0 {
+            let names = objects.map(|i| frame.objects[i].name);
+            warnings.push(FrameWarning {
+                kind: WarningKind::Unseparated,
+                pair: Some(k),
+                object: None,
+                message: format!(
+                    "pair (\"{}\", \"{}\"): {remaining} faces still intersect the other object after {rounds} rounds of \
+                     the separation pass; a larger pair.contact_gap, a smaller pair.contact_tau or a finer mesh on the \
+                     deformed side separate more",
+                    names[0], names[1]
+                ),
+            });
+        }
+    }
+    Ok((report, warnings))
+}
+
+/// The surface of region `region` of an object at `mesh`'s positions, in the pair of `objects`.
+/// Its inside is its closed object's unless the pair is of one object's regions (every point of
+/// one region is on or in the object: its inside is then the region's own).
+fn surface<'a>(
+    mesh: &'a TriMesh,
+    cache: Option<&ObjectCache>,
+    region: usize,
+    objects: [usize; 2],
+) -> Option<Surface<'a>> {
+    let cache = cache?;
+    let closed = cache.closed && objects[0] != objects[1];
+    let region_cache = cache.regions.get(region)?;
+    let (bvh, vertices, whole) = match region_cache.faces.as_ref() {
+        None => (TriangleBvh::new(mesh).ok()?, (0..mesh.num_vertices() as u32).collect(), None),
+        Some(faces) => {
+            let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
+            vertices.sort_unstable();
+            vertices.dedup();
+            let whole = if closed { Some(TriangleBvh::new(mesh).ok()?) } else { None };
+            (TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?, vertices, whole)
+        }
+    };
+    Some(Surface { bvh, mesh, closed, whole, vertices })
+}
+
+fn inside_box(b: &Aabb3, p: DVec3) -> bool {
+    p.cmpge(b.min).all() && p.cmple(b.max).all()
+}
+
+/// The intersection of two boxes widened by `margin`, if they overlap.
+fn overlap_box(a: &Aabb3, b: &Aabb3, margin: f64) -> Option<Aabb3> {
+    let min = a.min.max(b.min) - DVec3::splat(margin);
+    let max = a.max.min(b.max) + DVec3::splat(margin);
+    (min.cmple(max).all()).then_some(Aabb3 { min, max })
+}
+
+/// Each non-zero move spread over the movable vertices within `radius` (edge paths, Euclidean
+/// distance at `positions`) with the weight `(1 − (r/R)²)²`, blended per vertex with its own
+/// ([`Blend`]).
+fn spread_moves(
+    cache: &ObjectCache,
+    positions: &[DVec3],
+    moves: &[DVec3],
+    slots: &[Option<(u32, u32)>],
+    radius: f64,
+) -> Vec<DVec3> {
+    if radius <= 0.0 {
+        return moves.to_vec();
+    }
+    let mut blends = vec![Blend::default(); moves.len()];
+    let mut seen = vec![u32::MAX; moves.len()];
+    let mut stack = Vec::new();
+    for (source, m) in moves.iter().enumerate() {
+        if *m == DVec3::ZERO {
+            continue;
+        }
+        blends[source].add(*m);
+        let origin = positions[source];
+        stack.clear();
+        stack.push(source as u32);
+        seen[source] = source as u32;
+        while let Some(v) = stack.pop() {
+            for w in cache.topology.vertex_neighbors(v) {
+                if seen[w as usize] == source as u32 || slots[w as usize].is_none() {
+                    continue;
+                }
+                seen[w as usize] = source as u32;
+                let r = (positions[w as usize] - origin).length() / radius;
+                if r >= 1.0 {
+                    continue;
+                }
+                blends[w as usize].add((1.0 - r * r).powi(2) * *m);
+                stack.push(w);
+            }
+        }
+    }
+    blends.iter().map(Blend::result).collect()
+}
+
+/// Applies object `i`'s whole correction to its deformed regions, each solving its bulge height
+/// again for its volume.
+fn correct_regions(
+    frame: &Frame,
+    i: usize,
+    cache: &ObjectCache,
+    correction: &[DVec3],
+    outcomes: &mut [Option<RegionOutcome>],
+) -> Result<(), PipelineError> {
+    let object = &frame.objects[i];
+    let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
+    for (region, outcome) in cache.regions.iter().zip(outcomes.iter_mut()) {
+        let Some(outcome) = outcome.as_mut() else { continue };
+        let (mesh, topology, local) = match region.sub.as_deref() {
+            None => (object.mesh, &cache.topology, correction.to_vec()),
+            Some(sub) => {
+                let mut local = sub.sub.gather(correction);
+                for (c, &border) in local.iter_mut().zip(&sub.border) {
+                    if border {
+                        *c = DVec3::ZERO;
+                    }
+                }
+                (&sub.sub.mesh, &sub.topology, local)
+            }
+        };
+        if local.iter().all(|c| *c == DVec3::ZERO) {
+            continue;
+        }
+        let choice = HeightChoice {
+            preserve_volume: object.params.preserve_volume.unwrap_or(true),
+            bulge: object.params.bulge,
+            extent: outcome.extent,
+        };
+        outcome.deformation.correct(mesh, topology, &local, choice).map_err(err)?;
+    }
+    Ok(())
+}
