@@ -152,7 +152,11 @@ fn writes_all_of_its_outputs_or_none(command: &str, blocked: &str, report: &str,
     std::fs::create_dir_all(out.join(blocked)).unwrap();
     std::fs::write(out.join(report), "earlier").unwrap();
     let run = || {
-        squish().current_dir(dir.path()).args([command, "ball.obj", "slab.obj", "-o", "out", "--preview"]).output().unwrap()
+        squish()
+            .current_dir(dir.path())
+            .args([command, "ball.obj", "slab.obj", "-o", "out", "--preview"])
+            .output()
+            .unwrap()
     };
     let output = run();
     let message = stderr(&output);
@@ -172,23 +176,22 @@ fn writes_all_of_its_outputs_or_none(command: &str, blocked: &str, report: &str,
 
 #[test]
 fn deform_writes_all_of_its_outputs_or_none() {
-    writes_all_of_its_outputs_or_none("deform", "slab.obj", "report.json", &[
-        "ball.obj",
-        "preview.png",
-        "report.json",
+    writes_all_of_its_outputs_or_none(
+        "deform",
         "slab.obj",
-    ]);
+        "report.json",
+        &["ball.obj", "preview.png", "report.json", "slab.obj"],
+    );
 }
 
 #[test]
 fn contact_writes_all_of_its_outputs_or_none() {
-    writes_all_of_its_outputs_or_none("contact", "slab.ply", "contact.json", &[
-        "ball.ply",
-        "boundary_points.ply",
-        "contact.json",
-        "preview.png",
+    writes_all_of_its_outputs_or_none(
+        "contact",
         "slab.ply",
-    ]);
+        "contact.json",
+        &["ball.ply", "boundary_points.ply", "contact.json", "preview.png", "slab.ply"],
+    );
 }
 
 #[test]

@@ -52,10 +52,16 @@ fn measure(scene: &BenchScene, t: f64, deformer: &mut Deformer) -> PoseFigures {
             println!("  warning: {}", w.message);
         }
         for o in &result.stats.objects {
-            println!("  {}: rigid {} extent {:.3} clamped {} fallbacks {} dvol {:.1e} zones {}", o.name, o.rigid, o.extent, o.extent_clamped, o.fallbacks, o.relative_volume_change, o.zones);
+            println!(
+                "  {}: rigid {} extent {:.3} clamped {} fallbacks {} dvol {:.1e} zones {}",
+                o.name, o.rigid, o.extent, o.extent_clamped, o.fallbacks, o.relative_volume_change, o.zones
+            );
         }
         for p in &result.stats.pairs {
-            println!("  pair {:?}: in contact {} zone vertices {:?} fallbacks {} area {:.3}", p.objects, p.in_contact, p.zone_vertices, p.fallbacks, p.contact_area);
+            println!(
+                "  pair {:?}: in contact {} zone vertices {:?} fallbacks {} area {:.3}",
+                p.objects, p.in_contact, p.zone_vertices, p.fallbacks, p.contact_area
+            );
         }
     }
     PoseFigures { before, after, volume }

@@ -87,8 +87,9 @@ impl ObjectCache {
         let region = self.regions.get(r)?;
         let side = match region.sub.as_deref() {
             None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
-            Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
-                .with_border(sub.contact_border()),
+            Some(sub) => {
+                ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh).with_border(sub.contact_border())
+            }
         };
         Some(side.with_name(name).with_stiffness(crate::contact::Stiffness::of(object.params)).with_uvs(uvs))
     }
@@ -310,7 +311,15 @@ impl RegionCache {
         Ok(Self {
             components: components.of_faces(&faces),
             faces: Some(faces),
-            sub: Some(Box::new(SubRegion { sub, topology: sub_topology, bvh, border, border_count, contact_border: None, normals })),
+            sub: Some(Box::new(SubRegion {
+                sub,
+                topology: sub_topology,
+                bvh,
+                border,
+                border_count,
+                contact_border: None,
+                normals,
+            })),
             solver: None,
             rebuilt: true,
         })

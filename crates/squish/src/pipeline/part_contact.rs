@@ -249,7 +249,8 @@ fn restore_volume(current: &TriMesh, new: Vec<DVec3>) -> Option<Vec<DVec3>> {
     if !moved.iter().any(|&m| m) {
         return Some(new);
     }
-    let normals = crate::mesh::vertex_normals(&TriMesh { positions: new.clone(), triangles: current.triangles.clone() });
+    let normals =
+        crate::mesh::vertex_normals(&TriMesh { positions: new.clone(), triangles: current.triangles.clone() });
     let constant: Vec<DVec3> = current.positions.iter().zip(&new).map(|(p, q)| *q - *p).collect();
     let reference = crate::mesh::vertex_centroid(&current.positions);
     let scale = constant.iter().map(|d| d.length()).fold(0.0, f64::max);
@@ -261,17 +262,17 @@ fn restore_volume(current: &TriMesh, new: Vec<DVec3>) -> Option<Vec<DVec3>> {
         solution.exact.then_some(sign * solution.height)
     };
     let height = match (solve(1.0), solve(-1.0)) {
-        (Some(a), Some(b)) => if a.abs() <= b.abs() { a } else { b },
+        (Some(a), Some(b)) => {
+            if a.abs() <= b.abs() {
+                a
+            } else {
+                b
+            }
+        }
         (Some(h), None) | (None, Some(h)) => h,
         (None, None) => return None,
     };
-    Some(
-        new.iter()
-            .zip(&normals)
-            .zip(&moved)
-            .map(|((q, n), &m)| if m { *q + height * *n } else { *q })
-            .collect(),
-    )
+    Some(new.iter().zip(&normals).zip(&moved).map(|((q, n), &m)| if m { *q + height * *n } else { *q }).collect())
 }
 
 /// Faces of parts `pair.parts` intersecting a face of the other part, not a rest-pose pair.
@@ -364,8 +365,11 @@ pub(super) fn resolve_part_contacts(
         s.faces_before = crossing_faces(&current, parts, setup, pair.parts).map_err(spatial)?;
         let tries = MARGIN_RINGS.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
         for (grown, rings) in tries {
-            let labels =
-                if grown { intersection_labels(mesh, &pair.faces, rings) } else { pair_labels(mesh, parts, pair.parts, rings) };
+            let labels = if grown {
+                intersection_labels(mesh, &pair.faces, rings)
+            } else {
+                pair_labels(mesh, parts, pair.parts, rings)
+            };
             // Grown regions follow the intersection: a new deformer when they change.
             let key = (pair.parts, grown, rings);
             if cache.deformers.get(&key).is_some_and(|d| d.labels != labels) {
@@ -566,8 +570,17 @@ mod tests {
         // On one capsule split in two halves by label, the vertices next to the other half are.
         let n = s.count;
         let mid = s.rest.positions[..n].iter().map(|p| p.z).sum::<f64>() / n as f64;
-        let halves: Vec<f64> =
-            (0..2 * n).map(|v| if v >= n { 0.0 } else if s.rest.positions[v].z < mid { 1.0 } else { 2.0 }).collect();
+        let halves: Vec<f64> = (0..2 * n)
+            .map(|v| {
+                if v >= n {
+                    0.0
+                } else if s.rest.positions[v].z < mid {
+                    1.0
+                } else {
+                    2.0
+                }
+            })
+            .collect();
         let open = seam_between(&s.rest, &halves);
         assert!(open.iter().any(|&o| o));
         for (v, &o) in open.iter().enumerate() {

@@ -299,10 +299,12 @@ pub(super) fn separate(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
+            let surfaces =
+                [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
-            let windings = [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
+            let windings =
+                [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
             let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
@@ -385,7 +387,8 @@ pub(super) fn separate(
                 continue;
             }
             let Some(cache) = caches[i].as_ref() else { continue };
-            let spread = spread_moves(cache, &meshes[i].positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
+            let spread =
+                spread_moves(cache, &meshes[i].positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
             for (c, s) in corrections[i].iter_mut().zip(&spread) {
                 *c += *s;
             }

@@ -55,3 +55,24 @@ pub fn assert_no_flipped_face(input: &TriMesh, output: &TriMesh, what: &str) {
         assert!(n0.dot(n1) > 0.0, "{what}: face {t} flipped");
     }
 }
+
+/// Largest distance between object `object`'s output for `scene` moved by (`rotation`, `shift`)
+/// and its output for the moved scene: 0 up to round-off for a rigid-motion invariant pipeline.
+pub fn rigid_motion_difference(
+    scene: &ProceduralScene,
+    object: usize,
+    rotation: glam::DQuat,
+    shift: glam::DVec3,
+) -> f64 {
+    let mut moved = scene.clone();
+    for o in &mut moved.objects {
+        o.mesh.map_positions(|p| rotation * p + shift);
+    }
+    let a = squish::pipeline::Deformer::new().deform(&scene.frame()).unwrap();
+    let b = squish::pipeline::Deformer::new().deform(&moved.frame()).unwrap();
+    a.positions[object]
+        .iter()
+        .zip(&b.positions[object])
+        .map(|(p, q)| (rotation * *p + shift - *q).length())
+        .fold(0.0, f64::max)
+}

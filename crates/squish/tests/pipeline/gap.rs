@@ -7,7 +7,7 @@ use squish::pipeline::{Deformer, FrameResult};
 use squish::spatial::mesh_intersections;
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
-use crate::common::deformed;
+use crate::common::{deformed, rigid_motion_difference};
 
 /// Distinct faces of each mesh that intersect the other.
 fn intersecting_faces(a: &squish::TriMesh, b: &squish::TriMesh) -> [usize; 2] {
@@ -166,7 +166,10 @@ fn a_fine_rigid_bumpy_ball_does_not_poke_through_a_coarse_soft_slab() {
     let scene = bumpy_ball_on_coarse_slab(0.12, 0.0);
     let (result, m) = measure(&scene);
     let (_, coincident) = measure(&with_gap(scene.clone(), Some(0.0)));
-    println!("bumpy ball: faces {:?} before, {:?} without gap, {:?} after; volume {:.1e}", m.before, coincident.after, m.after, m.volume);
+    println!(
+        "bumpy ball: faces {:?} before, {:?} without gap, {:?} after; volume {:.1e}",
+        m.before, coincident.after, m.after, m.volume
+    );
     assert!(m.before.iter().all(|&n| n > 10), "{:?}", m.before);
     assert_eq!(m.after, [0, 0], "gap {}", m.gap);
     assert!(m.volume <= 1e-9, "{:.3e}", m.volume);
@@ -180,7 +183,10 @@ fn two_soft_balls_bulging_into_each_other_are_separated() {
     for (depth, subdivisions) in [(0.3, 3), (0.4, 4)] {
         let scene = scenes::two_balls(depth, subdivisions);
         let (result, m) = measure(&scene);
-        println!("two balls {depth} / {subdivisions}: faces {:?} before, {:?} after; volume {:.1e}", m.before, m.after, m.volume);
+        println!(
+            "two balls {depth} / {subdivisions}: faces {:?} before, {:?} after; volume {:.1e}",
+            m.before, m.after, m.volume
+        );
         assert_eq!(m.after, [0, 0], "depth {depth}");
         assert!(m.volume <= 1e-9, "depth {depth}: {:.3e}", m.volume);
         assert!(result.stats.warnings.is_empty(), "{:?}", result.stats.warnings);
@@ -192,17 +198,7 @@ fn the_separation_pass_is_invariant_under_rigid_motions() {
     let scene = bumpy_ball_on_coarse_slab(0.12, 0.03);
     let (rotation, shift) =
         (glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.4, -0.9, 1.3), glam::DVec3::new(-3.0, 7.0, 2.0));
-    let mut moved = scene.clone();
-    for o in &mut moved.objects {
-        o.mesh.map_positions(|p| rotation * p + shift);
-    }
-    let a = Deformer::new().deform(&scene.frame()).unwrap();
-    let b = Deformer::new().deform(&moved.frame()).unwrap();
-    let worst = a.positions[1]
-        .iter()
-        .zip(&b.positions[1])
-        .map(|(p, q)| (rotation * *p + shift - *q).length())
-        .fold(0.0, f64::max);
+    let worst = rigid_motion_difference(&scene, 1, rotation, shift);
     println!("bumpy ball, rotated and moved: largest difference {worst:.2e}");
     assert!(worst < 1e-9, "{worst:e}");
 }
@@ -221,7 +217,8 @@ fn the_separation_pass_keeps_the_motion_continuous() {
             let mut deformer = if separate { Deformer::new() } else { Deformer::new().without_separation() };
             let result = deformer.deform(&scene.frame()).unwrap();
             if let Some(previous) = &previous {
-                let step = previous.iter().zip(&result.positions[1]).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+                let step =
+                    previous.iter().zip(&result.positions[1]).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
                 worst = worst.max(step);
             }
             previous = Some(result.positions[1].clone());
@@ -229,6 +226,9 @@ fn the_separation_pass_keeps_the_motion_continuous() {
         worst
     };
     let (with_pass, without) = (largest_step(true), largest_step(false));
-    println!("sliding bumpy ball: largest step {with_pass:.3e} with the pass, {without:.3e} without ({:.2}×)", with_pass / without);
+    println!(
+        "sliding bumpy ball: largest step {with_pass:.3e} with the pass, {without:.3e} without ({:.2}×)",
+        with_pass / without
+    );
     assert!(with_pass <= 1.2 * without, "{with_pass:.3e} vs {without:.3e}");
 }

@@ -11,6 +11,8 @@ use squish::pipeline::{Deformer, FramePair, FrameResult};
 use squish::{SubMesh, Topology};
 use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
+use crate::common::rigid_motion_difference;
+
 /// Signed volume swept from `before` to `after` (same triangles), about the origin.
 fn swept_volume(mesh: &TriMesh, after: &[DVec3]) -> f64 {
     let before = &mesh.positions;
@@ -91,16 +93,6 @@ fn an_open_dome_pressed_by_a_ball_bulges_and_keeps_its_swept_volume() {
 fn the_open_bulge_is_invariant_under_rigid_motions() {
     let scene = ball_on_sheet(shapes::grid(3.0, 3.0, 32, 32), 0.0, 0.5, 0.15);
     let (rotation, shift) = (DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1), DVec3::new(5.0, -2.0, 3.0));
-    let mut moved = scene.clone();
-    for o in &mut moved.objects {
-        o.mesh.map_positions(|p| rotation * p + shift);
-    }
-    let a = Deformer::new().deform(&scene.frame()).unwrap();
-    let b = Deformer::new().deform(&moved.frame()).unwrap();
-    let worst = a.positions[1]
-        .iter()
-        .zip(&b.positions[1])
-        .map(|(p, q)| (rotation * *p + shift - *q).length())
-        .fold(0.0, f64::max);
+    let worst = rigid_motion_difference(&scene, 1, rotation, shift);
     assert!(worst < 1e-9, "{worst:e}");
 }
