@@ -208,6 +208,21 @@ mod tests {
         assert_eq!(report["missing_frames"], json!(["15:15"]));
     }
 
+    /// A figure read back from a part and written into the merged report keeps every bit (serde_json's
+    /// default float parsing could be 1 ulp off: `float_roundtrip` is on).
+    #[test]
+    fn merged_figures_keep_every_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let figure = f64::from_bits(0xbcfc_b5bd_c64e_9867); // −6.374884393956365e-15, 1 ulp off before
+        let mut value = part(1, 10, &[]);
+        value["per_frame"][0]["volume_change"] = json!(figure);
+        std::fs::write(dir.path().join(part_file_name(1, 10)), value.to_string()).unwrap();
+        merge_reports(dir.path(), 1, 10).unwrap();
+        let report: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap()).unwrap();
+        assert_eq!(report["per_frame"][0]["volume_change"].as_f64().unwrap().to_bits(), figure.to_bits());
+    }
+
     #[test]
     fn two_parts_merge_the_same_in_either_order() {
         let mut merged = Vec::new();

@@ -77,10 +77,7 @@ def test_a_scene_run_writes_the_files_of_squish_run(cli, example_scene, tmp_path
     # A frame of the scene deformed alone is the run's frame.
     vertices, figures = scene.frame(22).deform(threads=2)
     assert np.array_equal(vertices[0], squish.read_mesh(tmp_path / "py" / "ball" / "0022.obj").vertices)
-    # The vertices are bit-equal; the volume change's last bit is not (1 ulp of a 6e-15 figure,
-    # open in docs/python.md), so the figure is compared to 1e-12 of the volume.
-    change = figures["objects"][0]["relative_volume_change"]
-    assert abs(change - report["per_frame"][2]["objects"][0]["relative_volume_change"]) <= 1e-12
+    assert figures["objects"][0]["relative_volume_change"] == report["per_frame"][2]["objects"][0]["relative_volume_change"]
 
     # completed_frames sees what is on disk.
     assert scene.completed_frames(tmp_path / "py") == list(range(20, 26))
