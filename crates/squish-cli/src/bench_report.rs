@@ -305,6 +305,8 @@ pub struct SelfContactFrame {
     /// The articulations: the sum of their times (the rest of the frame is mostly the
     /// counting of the faces intersecting beyond the rest pose's).
     pub articulations_ms: f64,
+    /// The untangling after the part contacts (`untangle`), counting its own crossings.
+    pub untangle_ms: f64,
     /// Faces intersecting beyond the rest pose's, before and after.
     pub faces: [usize; 2],
 }
@@ -317,6 +319,7 @@ pub struct SelfContactGroup {
     pub median_ms: f64,
     pub median_part_pairs_ms: f64,
     pub median_articulations_ms: f64,
+    pub median_untangle_ms: f64,
 }
 
 impl SelfContactReport {
@@ -338,6 +341,7 @@ impl SelfContactReport {
                     median_ms: median(|f| f.ms),
                     median_part_pairs_ms: median(|f| f.part_pairs_ms),
                     median_articulations_ms: median(|f| f.articulations_ms),
+                    median_untangle_ms: median(|f| f.untangle_ms),
                 }
             })
             .collect();
@@ -714,17 +718,18 @@ pub fn print_table(report: &BenchReport) {
             growth.frames.len()
         );
         println!(
-            "{:>14} {:>7} {:>9} {:>14} {:>16}",
-            "touching pairs", "frames", "frame ms", "part stage ms", "articulations ms"
+            "{:>14} {:>7} {:>9} {:>14} {:>16} {:>12}",
+            "touching pairs", "frames", "frame ms", "part stage ms", "articulations ms", "untangle ms"
         );
         for group in &growth.by_touching_pairs {
             println!(
-                "{:>14} {:>7} {:>9.1} {:>14.1} {:>16.1}",
+                "{:>14} {:>7} {:>9.1} {:>14.1} {:>16.1} {:>12.1}",
                 group.touching_pairs,
                 group.frames,
                 group.median_ms,
                 group.median_part_pairs_ms,
-                group.median_articulations_ms
+                group.median_articulations_ms,
+                group.median_untangle_ms
             );
         }
     }

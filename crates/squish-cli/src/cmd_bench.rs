@@ -450,6 +450,7 @@ fn measure_self_contact(scene: &BenchScene) -> Result<SelfContactReport, String>
             ms: stats.total.as_secs_f64() * 1e3,
             part_pairs_ms: stats.part_pairs.iter().map(|p| p.time.as_secs_f64() * 1e3).sum(),
             articulations_ms: stats.articulations.iter().map(|a| a.total_time.as_secs_f64() * 1e3).sum(),
+            untangle_ms: stats.objects.iter().filter_map(|o| o.untangled).map(|u| u.time.as_secs_f64() * 1e3).sum(),
             faces,
         });
     }

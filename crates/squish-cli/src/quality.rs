@@ -100,6 +100,8 @@ pub struct PartPairQuality {
     /// The object's name and the two parts' names.
     pub object: String,
     pub parts: [String; 2],
+    /// What touches: `parts`, `after articulation` (a parent and child), `within part` (a fold).
+    pub kind: String,
     /// Faces of the two parts intersecting the other part (beyond the rest pose's), before and
     /// after this pair's resolution.
     pub faces_before: usize,
@@ -122,6 +124,7 @@ pub fn part_pair_figures(record: &FrameRecord) -> Vec<PartPairQuality> {
         .map(|p| PartPairQuality {
             object: object(p.object),
             parts: p.parts.clone(),
+            kind: p.kind.clone(),
             faces_before: p.faces_before,
             faces_after: p.faces_after,
             in_contact: p.in_contact,

@@ -203,16 +203,12 @@ fn cesium_man_walks_with_self_contact_at_its_knees_hips_and_elbows() {
     }
 }
 
-/// examples/cesium_man.toml: `self_contact = "auto"` on CesiumMan's walk (issue 27). The
-/// articulations of the skeleton resolve the knees as the explicit ones do; the part contacts
-/// never make a frame worse than plain skinning; the volume is kept and the output moves no
-/// more than 3× the input from frame to frame. (What is left, the armpits: docs/self-contact.md.)
-#[test]
-fn cesium_man_walks_with_automatic_self_contact() {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cesium_man.toml");
-    if common::shared_data("rigged/CesiumMan.glb").is_none() {
-        return;
-    }
+/// Runs an example with `self_contact = "auto"` and checks what issue 27 asks of a skinned
+/// character's shot: the volume kept (≤ 1e-9), the largest step of the output no more than 3×
+/// the input's, no frame with more self-intersecting faces (beyond the rest pose's) than plain
+/// skinning, and at least 95% of them removed over the shot. Returns the report.
+fn check_automatic_self_contact(example: &str) -> Value {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples").join(example);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     run(&scene, &out, &[]);
@@ -232,11 +228,35 @@ fn cesium_man_walks_with_automatic_self_contact() {
         input += before;
         output += after;
     }
-    assert!(output < input, "{input} → {output}");
+    assert!(input > 0 && 20 * output <= input, "{example}: {input} → {output}, less than 95% removed");
+    report
+}
+
+/// examples/cesium_man.toml: `self_contact = "auto"` on CesiumMan's walk (issue 27). Besides
+/// [`check_automatic_self_contact`], the articulations of the skeleton resolve the knees as the
+/// explicit ones do. (Figures: docs/self-contact.md.)
+#[test]
+fn cesium_man_walks_with_automatic_self_contact() {
+    if common::shared_data("rigged/CesiumMan.glb").is_none() {
+        return;
+    }
+    let report = check_automatic_self_contact("cesium_man.toml");
     for knee in ["leg_joint_L_1 / leg_joint_L_2", "leg_joint_R_1 / leg_joint_R_2"] {
         for a in &articulations(&report, knee, "cesium_man") {
             assert_eq!(a["self_intersecting_faces_after"], 0, "{knee}: {a}");
         }
+    }
+}
+
+/// examples/fox_walk.toml and fox_run.toml: the Fox's coarse skin (576 faces) walking and
+/// running, with [`check_automatic_self_contact`].
+#[test]
+fn the_fox_walks_and_runs_with_automatic_self_contact() {
+    if common::shared_data("rigged/Fox.glb").is_none() {
+        return;
+    }
+    for example in ["fox_walk.toml", "fox_run.toml"] {
+        check_automatic_self_contact(example);
     }
 }
 
@@ -277,17 +297,18 @@ fn the_rigged_cylinder_example_folds_into_contact_and_is_resolved() {
     assert_eq!(whole.len(), 100);
     assert!(whole.iter().all(|(before, after)| after <= before), "{whole:?}");
     let (input, output) = whole.iter().fold((0, 0), |(i, o), (b, a)| (i + b, o + a));
-    assert!(input > 1000 && output * 5 < input, "{input} → {output}");
+    assert!(input > 1000 && output * 20 <= input, "{input} → {output}");
 
-    // Frame 101 (two joints folded at once) keeps faces through each other: the preview's output
-    // draws them in red too (above its legend, whose last row is their swatch).
+    // Frame 101 (two joints folded at once): the preview draws the input's faces through each
+    // other in red, and the output's (none left) not at all.
     let left = dir.path().join("left");
     run(&scene, &left, &["--frames", "101:101", "--preview=101"]);
     let counts = counts(&left);
-    assert!(counts[0].1 > 0, "{counts:?}");
+    assert!(counts[0].0 > 0 && counts[0].1 == 0, "{counts:?}");
     let (pixels, width) = read_png(&left.join("preview/0101_compare.png"));
-    let red = red_pixels(&pixels, width, (644, 1284), (0, 430));
-    assert!(red > 100, "{red} red pixels on the output of a frame that still self-intersects");
+    let input_red = red_pixels(&pixels, width, (0, 640), (0, 430));
+    let output_red = red_pixels(&pixels, width, (644, 1284), (0, 430));
+    assert!(input_red > 100 && output_red < input_red / 10, "red pixels: input {input_red}, output {output_red}");
 }
 
 /// The pixels of a PNG (RGBA rows) and its width.

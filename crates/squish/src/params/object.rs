@@ -197,12 +197,24 @@ pub struct ObjectParams {
     /// one articulation, issue 27), after the articulations. `None`: no part contact.
     #[param(skip)]
     pub self_contact_parts: Option<SkinParts>,
+    /// With self-contact parts (`self_contact = "auto"`): after the contacts, smooth out what
+    /// still passes through the skin (folds crumpled by the skinning, chords of a coarse mesh),
+    /// the volume restored exactly over the rest of the object; `false` keeps the method's own
+    /// result (docs/decisions.md, "Untangling what is left").
+    #[param(section = "beyond the thesis (issue 27)")]
+    pub untangle: bool,
     /// Per object vertex: true where a cut region's border is *not* a border for the contact
     /// stage (the seam between the two sides of one self-contact, which an intersection of a
     /// fold reaches by nature; ch. 6). The deformation keeps every border vertex fixed. `None`:
     /// every cut border is a border. Set by the part contacts, not a user key.
     #[param(skip)]
     pub contact_open_border: Option<Vec<bool>>,
+    /// Per object vertex: true where the vertex lies inside the other side of its cut region's
+    /// contact (given to the contact stage instead of its flood fill, [`crate::contact::ContactSide::interior`]).
+    /// Set by the part contacts (a vertex inside the object's own volume: the flood fill cannot
+    /// tell inside from outside across an open seam), not a user key. `None`: the contact stage decides.
+    #[param(skip)]
+    pub contact_interior: Option<Vec<bool>>,
     /// The rest (bind) pose, one position per vertex, on which the articulations' partition of
     /// unity β is computed (§6.1.1). `None`: the frame's own mesh.
     #[param(skip)]
@@ -238,6 +250,8 @@ impl Default for ObjectParams {
             self_contact: Vec::new(),
             self_contact_parts: None,
             contact_open_border: None,
+            contact_interior: None,
+            untangle: true,
             rest_positions: None,
         }
     }

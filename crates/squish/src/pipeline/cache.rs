@@ -87,9 +87,9 @@ impl ObjectCache {
         let region = self.regions.get(r)?;
         let side = match region.sub.as_deref() {
             None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
-            Some(sub) => {
-                ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh).with_border(sub.contact_border())
-            }
+            Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
+                .with_border(sub.contact_border())
+                .with_interior(sub.contact_interior.as_deref()),
         };
         Some(side.with_name(name).with_stiffness(crate::contact::Stiffness::of(object.params)).with_uvs(uvs))
     }
@@ -247,6 +247,9 @@ pub(super) struct SubRegion {
     /// Per region vertex: the border for the contact stage when it differs from `border` (see
     /// [`crate::params::ObjectParams::contact_open_border`]).
     pub contact_border: Option<Vec<bool>>,
+    /// Per region vertex: inside the other side, decided by the caller
+    /// ([`crate::params::ObjectParams::contact_interior`]); `None`: the contact stage decides.
+    pub contact_interior: Option<Vec<bool>>,
     /// Vertex normals of this frame, from all parent faces.
     pub normals: Vec<DVec3>,
 }
@@ -258,6 +261,13 @@ impl SubRegion {
             Some(border) => border.iter().any(|&b| b).then_some(border.as_slice()),
             None => (self.border_count > 0).then_some(self.border.as_slice()),
         }
+    }
+
+    /// The interior flags of the contact stage from per-parent-vertex flags `interior`.
+    pub fn set_contact_interior(&mut self, interior: Option<&[bool]>) {
+        self.contact_interior = interior.map(|interior| {
+            self.sub.parent_vertex.iter().map(|&v| interior.get(v as usize).copied().unwrap_or(false)).collect()
+        });
     }
 
     /// Removes the vertices `open` (per parent vertex) from the contact stage's border.
@@ -318,6 +328,7 @@ impl RegionCache {
                 border,
                 border_count,
                 contact_border: None,
+                contact_interior: None,
                 normals,
             })),
             solver: None,

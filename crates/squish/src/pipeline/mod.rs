@@ -50,6 +50,7 @@ mod self_contact;
 mod separation;
 mod setup;
 mod stats;
+mod untangle;
 mod warnings;
 
 use std::time::Instant;
@@ -58,7 +59,7 @@ use glam::DVec3;
 
 pub use edits::{DOWNSTREAM_KEYS, is_downstream};
 pub use error::PipelineError;
-pub use part_contact::{MARGIN_RINGS, PartPairStats};
+pub use part_contact::{MARGIN_RINGS, PartPairStats, Untangled};
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
 pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};

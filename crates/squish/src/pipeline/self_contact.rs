@@ -50,6 +50,8 @@ pub struct SelfContactResult {
     /// With self-contact parts: the faces intersecting beyond the rest pose's, in the input and
     /// after this stage (see [`ObjectStats::self_intersecting_faces`]).
     pub self_intersecting_faces: Option<[usize; 2]>,
+    /// With self-contact parts: what the untangling did.
+    pub untangled: Option<super::Untangled>,
 }
 
 /// The figures of a frame's self-contact stage: per articulation and per touching part pair.
@@ -197,17 +199,17 @@ fn resolve_object(
         }
         stats.push(s);
     }
-    let (positions, part_pairs, self_intersecting_faces) = match &params.self_contact_parts {
+    let (positions, part_pairs, self_intersecting_faces, untangled) = match &params.self_contact_parts {
         Some(parts) => {
             let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &rest, params, parts)?;
             for (m, p) in moved.iter_mut().zip(r.moved) {
                 *m |= p;
             }
-            (r.positions, r.pairs, Some(r.self_intersecting_faces))
+            (r.positions, r.pairs, Some(r.self_intersecting_faces), Some(r.untangled))
         }
-        None => (after.positions, Vec::new(), None),
+        None => (after.positions, Vec::new(), None, None),
     };
-    let result = SelfContactResult { positions, contact, moved, cuts, self_intersecting_faces };
+    let result = SelfContactResult { positions, contact, moved, cuts, self_intersecting_faces, untangled };
     Ok((result, (stats, part_pairs)))
 }
 
@@ -248,5 +250,6 @@ pub(super) fn relative_to_input(
             object.mesh.positions.iter().zip(positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
         stats.deformed |= r.as_ref().is_some_and(|r| r.moved.iter().any(|&m| m));
         stats.self_intersecting_faces = r.as_ref().and_then(|r| r.self_intersecting_faces);
+        stats.untangled = r.as_ref().and_then(|r| r.untangled);
     }
 }

@@ -61,6 +61,10 @@ pub struct ObjectStats {
     /// stage ([`crate::skinning::RestIntersections`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_intersecting_faces: Option<[usize; 2]>,
+    /// For a skinned object with self-contact parts: what the untangling after its contacts did
+    /// ([`crate::pipeline::Untangled`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub untangled: Option<super::Untangled>,
 }
 
 /// Figures of one region pair for one frame (one entry per pair of overlapping regions of a

@@ -14,7 +14,7 @@ mod self_contact;
 pub use articulation::{ArticulationError, articulation_direction, joints_direction, regions_from_skin_weights};
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
 pub use partition::{Seed, SharedRegion};
-pub use parts::{PartContactSetup, RestIntersections, TouchingPair, dominant_joints, parts_from_skin};
+pub use parts::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair, dominant_joints, parts_from_skin};
 pub use self_contact::{
     AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, CONTACT_THRESHOLD_FLOOR,
     FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError, SelfIntersectionCounts, apply_articulations, plan_articulation,

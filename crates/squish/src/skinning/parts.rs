@@ -9,18 +9,20 @@
 //! numbered in the order of their joints and named after them. Parts may also be painted: one
 //! label per face ([`SkinParts::from_face_labels`]).
 //!
-//! **Touching pairs** ([`PartContactSetup::touching`]). At a frame, two faces of different parts
-//! touch when they intersect (exact closed-triangle test over one triangle tree of the posed
-//! mesh), except
+//! **Touching pairs** ([`PartContactSetup::touching`]). At a frame, two faces touch when they
+//! intersect (exact closed-triangle test over one triangle tree of the posed mesh), except
 //! - faces sharing a vertex — by *position in the rest pose*, so that faces across a UV or
 //!   normal seam (duplicated vertices) count as neighbours: they always touch there;
 //! - face pairs that already intersect in the rest pose (the asset's own self-intersections,
-//!   computed once): the character is not to be repaired, only its animation;
-//! - pairs of parts listed as left to the articulations (a parent and child whose fold the
-//!   crease cut of ch. 6 handles).
+//!   computed once): the character is not to be repaired, only its animation.
 //!
-//! The touching pairs are grouped by part pair, sorted by part pair and face pair: the result
-//! does not depend on the thread count.
+//! They are grouped by what touches ([`TouchingKind`]): two parts that are not parent and child;
+//! a parent and a child (their fold is first the articulation's, ch. 6 — what it leaves is
+//! resolved as a contact); or a **fold within one part** (a chest creasing under a raised
+//! collarbone), where the two sheets of the fold are found by two-colouring the intersecting
+//! faces (faces that cross are on opposite sides, faces sharing a vertex on the same side), each
+//! connected cluster its own pair. Sorted by part pair, kind and face pair: the result does not
+//! depend on the thread count.
 
 use std::collections::BTreeMap;
 
@@ -135,13 +137,27 @@ pub fn parts_from_skin(
     SkinParts { face_parts, names: part_names, parent_child: adjacent }
 }
 
-/// One part pair touching at a frame.
+/// One part pair touching at a frame, or one fold within a part.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TouchingPair {
-    /// The two parts, `parts[0] < parts[1]`.
+    /// The two parts, `parts[0] <= parts[1]` (equal for a fold within one part).
     pub parts: [u32; 2],
-    /// The intersecting face pairs `[face of parts[0], face of parts[1]]`, sorted.
+    /// What touches: two parts, what a parent/child articulation left, or a fold of one part.
+    pub kind: TouchingKind,
+    /// The intersecting face pairs `[face of side 1, face of side 2]`, sorted: for two parts,
+    /// side 1 is `parts[0]`; within a part, the sides of the fold (see the module doc).
     pub faces: Vec<[u32; 2]>,
+}
+
+/// What a [`TouchingPair`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum TouchingKind {
+    /// Two parts that are not parent and child.
+    Parts,
+    /// A parent and a child part still intersecting after their articulation (ch. 6).
+    AfterArticulation,
+    /// Cluster k of a part's faces intersecting faces of the same part.
+    WithinPart(u32),
 }
 
 /// What the part contacts of an object keep between frames: the rest pose's vertex welding and
@@ -152,14 +168,14 @@ pub struct PartContactSetup {
     rest: Vec<DVec3>,
     /// Per vertex: the smallest vertex id at the same rest position.
     position_id: Vec<u32>,
-    /// Face pairs `[f, g]` (f < g) of different parts that intersect in the rest pose, sorted.
+    /// Face pairs `[f, g]` (f < g), not adjacent, that intersect in the rest pose, sorted.
     rest_pairs: Vec<[u32; 2]>,
     tree: TriangleBvh,
 }
 
 impl PartContactSetup {
-    /// Builds the caches for `parts` on a mesh of this connectivity at rest pose `rest`.
-    pub fn new(rest: &TriMesh, parts: &SkinParts) -> Result<Self, SpatialError> {
+    /// Builds the caches for a mesh of this connectivity at rest pose `rest`.
+    pub fn new(rest: &TriMesh) -> Result<Self, SpatialError> {
         let mut first: BTreeMap<[u64; 3], u32> = BTreeMap::new();
         let position_id = rest
             .positions
@@ -175,7 +191,7 @@ impl PartContactSetup {
             rest_pairs: Vec::new(),
             tree,
         };
-        setup.rest_pairs = setup.candidate_pairs(parts);
+        setup.rest_pairs = setup.candidate_pairs();
         Ok(setup)
     }
 
@@ -189,49 +205,126 @@ impl PartContactSetup {
         &self.rest_pairs
     }
 
+    /// Per vertex: the smallest vertex id at the same rest position.
+    pub fn position_ids(&self) -> &[u32] {
+        &self.position_id
+    }
+
     /// True if faces f and g share a vertex by rest position.
     pub fn adjacent(&self, f: u32, g: u32) -> bool {
         let (a, b) = (&self.triangles[f as usize], &self.triangles[g as usize]);
         a.iter().any(|&u| b.iter().any(|&w| self.position_id[u as usize] == self.position_id[w as usize]))
     }
 
-    /// Intersecting face pairs of the tree's current positions between different parts, not
-    /// adjacent, not left to the articulations; sorted `[f, g]`, f < g.
-    fn candidate_pairs(&self, parts: &SkinParts) -> Vec<[u32; 2]> {
-        let part = |f: u32| parts.face_parts.get(f as usize).copied().unwrap_or(u32::MAX);
+    /// Intersecting face pairs of the tree's current positions, not adjacent; sorted `[f, g]`,
+    /// f < g.
+    fn candidate_pairs(&self) -> Vec<[u32; 2]> {
         let mut pairs: Vec<[u32; 2]> = self
             .tree
             .intersections_with(&self.tree)
             .into_iter()
-            .filter(|&[f, g]| {
-                let (pf, pg) = (part(f), part(g));
-                f < g && pf != pg && !parts.is_left_to_articulations(pf, pg) && !self.adjacent(f, g)
-            })
+            .filter(|&[f, g]| f < g && !self.adjacent(f, g))
             .collect();
         pairs.sort_unstable();
         pairs
     }
 
-    /// The part pairs touching in `mesh` (this connectivity, any pose), beyond the rest pose's
-    /// own intersections, sorted (see the module doc).
+    /// The part pairs and folds touching in `mesh` (this connectivity, any pose), beyond the
+    /// rest pose's own intersections, sorted by parts and kind (see the module doc).
     pub fn touching(&mut self, mesh: &TriMesh, parts: &SkinParts) -> Result<Vec<TouchingPair>, SpatialError> {
         self.tree.refit(&mesh.positions)?;
-        let mut grouped: BTreeMap<[u32; 2], Vec<[u32; 2]>> = BTreeMap::new();
-        for [f, g] in self.candidate_pairs(parts) {
+        let mut grouped: BTreeMap<([u32; 2], TouchingKind), Vec<[u32; 2]>> = BTreeMap::new();
+        let mut within: BTreeMap<u32, Vec<[u32; 2]>> = BTreeMap::new();
+        for [f, g] in self.candidate_pairs() {
             if self.rest_pairs.binary_search(&[f, g]).is_ok() {
                 continue;
             }
             let (pf, pg) = (parts.face_parts[f as usize], parts.face_parts[g as usize]);
+            if pf == pg {
+                within.entry(pf).or_default().push([f, g]);
+                continue;
+            }
+            let kind = if parts.is_left_to_articulations(pf, pg) {
+                TouchingKind::AfterArticulation
+            } else {
+                TouchingKind::Parts
+            };
             let (key, pair) = if pf < pg { ([pf, pg], [f, g]) } else { ([pg, pf], [g, f]) };
-            grouped.entry(key).or_default().push(pair);
+            grouped.entry((key, kind)).or_default().push(pair);
+        }
+        for (part, pairs) in within {
+            for (k, faces) in self.fold_sides(&pairs).into_iter().enumerate() {
+                grouped.insert(([part, part], TouchingKind::WithinPart(k as u32)), faces);
+            }
         }
         Ok(grouped
             .into_iter()
-            .map(|(parts, mut faces)| {
+            .map(|((parts, kind), mut faces)| {
                 faces.sort_unstable();
-                TouchingPair { parts, faces }
+                TouchingPair { parts, kind, faces }
             })
             .collect())
+    }
+
+    /// The clusters of intersecting face pairs within one part, each with its pairs ordered
+    /// `[side 1, side 2]`. A fold's two sheets are told apart by two-colouring the graph of its
+    /// faces: faces that intersect are on opposite sides, faces sharing a vertex (by rest
+    /// position) on the same side; a connected piece of that graph is a cluster. Breadth-first
+    /// from the smallest face id, so the result is deterministic; a pair whose faces got the
+    /// same side (the sheets meet at a crease within the cluster) is dropped from the seeds.
+    fn fold_sides(&self, pairs: &[[u32; 2]]) -> Vec<Vec<[u32; 2]>> {
+        let mut faces: Vec<u32> = pairs.iter().flatten().copied().collect();
+        faces.sort_unstable();
+        faces.dedup();
+        let index = |f: u32| faces.binary_search(&f).unwrap_or(0);
+        let mut crossing: Vec<Vec<usize>> = vec![Vec::new(); faces.len()];
+        for &[f, g] in pairs {
+            crossing[index(f)].push(index(g));
+            crossing[index(g)].push(index(f));
+        }
+        // Faces of the clusters sharing a vertex, by rest position.
+        let mut by_vertex: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+        for (i, &f) in faces.iter().enumerate() {
+            for &v in &self.triangles[f as usize] {
+                by_vertex.entry(self.position_id[v as usize]).or_default().push(i);
+            }
+        }
+        let mut touching: Vec<Vec<usize>> = vec![Vec::new(); faces.len()];
+        for group in by_vertex.values() {
+            for &i in group {
+                touching[i].extend(group.iter().copied().filter(|&j| j != i));
+            }
+        }
+        let mut side: Vec<Option<(usize, bool)>> = vec![None; faces.len()];
+        let mut clusters = 0;
+        for start in 0..faces.len() {
+            if side[start].is_some() {
+                continue;
+            }
+            side[start] = Some((clusters, false));
+            let mut queue = std::collections::VecDeque::from([start]);
+            while let Some(i) = queue.pop_front() {
+                let Some((_, s)) = side[i] else { continue };
+                let next = crossing[i].iter().map(|&j| (j, !s)).chain(touching[i].iter().map(|&j| (j, s)));
+                for (j, sj) in next {
+                    if side[j].is_none() {
+                        side[j] = Some((clusters, sj));
+                        queue.push_back(j);
+                    }
+                }
+            }
+            clusters += 1;
+        }
+        let mut out: Vec<Vec<[u32; 2]>> = vec![Vec::new(); clusters];
+        for &[f, g] in pairs {
+            if let (Some((k, sf)), Some((_, sg))) = (side[index(f)], side[index(g)])
+                && sf != sg
+            {
+                out[k].push(if sf { [g, f] } else { [f, g] });
+            }
+        }
+        out.retain(|c| !c.is_empty());
+        out
     }
 }
 
@@ -323,7 +416,7 @@ mod tests {
     fn crossing_capsules_touch_and_rest_intersections_are_ignored() {
         let (rest, weights) = two_capsules(3.0);
         let parts = parts_from_skin(&rest, &weights, &[None, Some(0), Some(0)], &names(3), 10);
-        let mut setup = PartContactSetup::new(&rest, &parts).unwrap();
+        let mut setup = PartContactSetup::new(&rest).unwrap();
         assert!(setup.rest_pairs().is_empty());
         assert!(setup.touching(&rest, &parts).unwrap().is_empty());
         let (posed, _) = two_capsules(0.8);
@@ -332,12 +425,46 @@ mod tests {
         assert_eq!(touching[0].parts, [0, 1]);
         assert!(!touching[0].faces.is_empty());
         // The same overlap already in the rest pose is the asset's own.
-        let mut setup = PartContactSetup::new(&posed, &parts).unwrap();
+        let mut setup = PartContactSetup::new(&posed).unwrap();
         assert!(!setup.rest_pairs().is_empty());
         assert!(setup.touching(&posed, &parts).unwrap().is_empty());
-        // Left to an articulation: not reported.
+        assert_eq!(touching[0].kind, TouchingKind::Parts);
+        // A parent and a child: reported as what their articulation leaves.
         let parts = SkinParts { parent_child: vec![[0, 1]], ..parts };
-        let mut setup = PartContactSetup::new(&rest, &parts).unwrap();
-        assert!(setup.touching(&posed, &parts).unwrap().is_empty());
+        let mut setup = PartContactSetup::new(&rest).unwrap();
+        let left = setup.touching(&posed, &parts).unwrap();
+        assert_eq!(left.len(), 1);
+        assert_eq!(left[0].kind, TouchingKind::AfterArticulation);
+        assert_eq!(left[0].faces, touching[0].faces);
+    }
+
+    #[test]
+    fn a_fold_within_one_part_is_split_into_its_two_sheets() {
+        // The two crossing capsules as one part: one cluster, each pair across the two capsules.
+        let (rest, _) = two_capsules(3.0);
+        let (posed, _) = two_capsules(0.8);
+        let one = SkinParts::from_face_labels(vec![0; rest.num_triangles()]);
+        let mut setup = PartContactSetup::new(&rest).unwrap();
+        let touching = setup.touching(&posed, &one).unwrap();
+        assert_eq!(touching.len(), 1, "{touching:?}");
+        assert_eq!(touching[0].kind, TouchingKind::WithinPart(0));
+        let half = rest.num_triangles() as u32 / 2;
+        let first_side_is_first_capsule = touching[0].faces[0][0] < half;
+        for &[f, g] in &touching[0].faces {
+            assert_eq!(f < half, first_side_is_first_capsule, "{f} {g}");
+            assert_eq!(g < half, !first_side_is_first_capsule, "{f} {g}");
+        }
+        // Two separate crossings of one part are two clusters.
+        let mut two = posed.clone();
+        let n = two.num_vertices() as u32;
+        two.positions.extend(posed.positions.iter().map(|p| *p + DVec3::new(0.0, 10.0, 0.0)));
+        two.triangles.extend(posed.triangles.iter().map(|t| t.map(|v| v + n)));
+        let mut rest_two = rest.clone();
+        rest_two.positions.extend(rest.positions.iter().map(|p| *p + DVec3::new(0.0, 10.0, 0.0)));
+        rest_two.triangles = two.triangles.clone();
+        let one = SkinParts::from_face_labels(vec![0; two.num_triangles()]);
+        let mut setup = PartContactSetup::new(&rest_two).unwrap();
+        let kinds: Vec<TouchingKind> = setup.touching(&two, &one).unwrap().iter().map(|t| t.kind).collect();
+        assert_eq!(kinds, vec![TouchingKind::WithinPart(0), TouchingKind::WithinPart(1)]);
     }
 }
