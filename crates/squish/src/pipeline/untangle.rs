@@ -1,13 +1,12 @@
-//! Untangling what the self-contacts leave crossing (issue 27; docs/decisions.md, "Untangling a
-//! skin after its self-contacts").
+//! Untangling what the self-contacts leave crossing (issue 27; docs/decisions.md, "Untangling
+//! what is left").
 //!
 //! **Why.** Linear blend skinning does not only press two parts together (what ch. 4–6 and the
 //! part contacts treat as contacts): it also *crumples* the skin where a joint turns far, a
 //! lowered arm collapsing the shoulder and the armpit into folds whose sheets cross a few edges
 //! from each other. There is no inside to push out of there — the ch. 4 contact finds no vertex
 //! of one sheet inside the other, or only a few, and a coarse skin's chords keep crossing after
-//! a contact that was found. Measured on CesiumMan's walk, 39% of the crossing faces left after
-//! the part contacts were such folds within one part, 45% between a parent and a child part.
+//! a contact that was found (docs/self-contact.md: where the faces were).
 //!
 //! **Rule** ([`relax`]). Around the faces still crossing (beyond the rest pose's own), the
 //! vertices within [`RELAX_RINGS`]`[0]` edges are smoothed by half an umbrella step per round,
@@ -18,11 +17,12 @@
 //! smoothed ones (App. C's cubic, their normals: a crumpled fold's own normals would crumple it
 //! again) and keeps the result only if fewer faces cross.
 //!
-//! Smoothing shrinks what it smooths, so the offset of the rest of the object is what the
-//! smoothing lost spread over its whole area (measured: 10⁻⁵–10⁻⁴ of the mean edge length on
-//! CesiumMan). Deterministic (vertex order, no parallel reduction). Discrete where it stops (a
-//! round more or less when a crossing appears or vanishes): docs/self-contact.md gives the
-//! measured steps. It extends the thesis (not in it).
+//! Untangling changes the signed volume a lot where the input crossed itself (the overlap of two
+//! sheets counts twice, as in ch. 6's input), so the offset of the rest of the object is that
+//! change spread over its whole area: a slight inflation of the whole character
+//! (docs/self-contact.md gives its size). Deterministic (vertex order, no parallel reduction).
+//! Discrete where it stops (a round more or less when a crossing appears or vanishes). It
+//! extends the thesis (not in it).
 
 use glam::DVec3;
 
