@@ -19,13 +19,21 @@ fn squish() -> Command {
 }
 
 /// A cylinder of 61 rings of 24 vertices ([`common::bending_cylinder`]) whose weights blend the
-/// root and the elbow over −0.3 < x < 0.3, written as `dir/arm.glb`.
-fn write_bending_cylinder(dir: &Path) {
+/// root and the elbow over −0.3 < x < 0.3, written as `dir/arm.glb`, and a 25-frame scene of it,
+/// `dir/arm.toml`, whose object ends with the lines `self_contact`.
+/// Returns the scene's path.
+fn write_bending_cylinder(dir: &Path, self_contact: &str) -> PathBuf {
     common::bending_cylinder(61, 24, |x| {
         let w = ((x + 0.3) / 0.6).clamp(0.0, 1.0);
         ([0.0, 1.0], [1.0 - w, w])
     })
     .write_glb(dir, "arm");
+    let scene = dir.join("arm.toml");
+    let text = format!(
+        "frames = {{ start = 1, end = 25, fps = 24 }}\n\n[[objects]]\nname = \"arm\"\nmesh = \"arm.glb\"\n{self_contact}"
+    );
+    std::fs::write(&scene, text).unwrap();
+    scene
 }
 
 fn run(scene: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -63,22 +71,10 @@ fn articulations(report: &Value, name: &str, object: &str) -> Vec<Value> {
 #[test]
 fn a_bending_skinned_cylinder_runs_with_self_contact() {
     let dir = tempfile::tempdir().unwrap();
-    write_bending_cylinder(dir.path());
-    let scene = dir.path().join("arm.toml");
-    std::fs::write(
-        &scene,
-        r#"frames = { start = 1, end = 25, fps = 24 }
-
-[[objects]]
-name = "arm"
-mesh = "arm.glb"
-
-[[objects.self_contact]]
-name = "elbow"
-joints = ["root", "elbow"]
-"#,
-    )
-    .unwrap();
+    let scene = write_bending_cylinder(
+        dir.path(),
+        "\n[[objects.self_contact]]\nname = \"elbow\"\njoints = [\"root\", \"elbow\"]\n",
+    );
     let out = dir.path().join("out");
     let output = run(&scene, &out, &["--frames", "19:25"]);
     let stdout = String::from_utf8_lossy(&output.stdout);
@@ -340,13 +336,7 @@ fn red_pixels(pixels: &[u8], width: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u
 #[test]
 fn previews_draw_the_input_self_intersections_in_red() {
     let dir = tempfile::tempdir().unwrap();
-    write_bending_cylinder(dir.path());
-    let scene = dir.path().join("arm.toml");
-    std::fs::write(
-        &scene,
-        "frames = { start = 1, end = 25, fps = 24 }\n\n[[objects]]\nname = \"arm\"\nmesh = \"arm.glb\"\nself_contact = \"auto\"\n",
-    )
-    .unwrap();
+    let scene = write_bending_cylinder(dir.path(), "self_contact = \"auto\"\n");
     let out = dir.path().join("out");
     run(&scene, &out, &["--frames", "1:25", "--preview=1,25"]);
     let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
