@@ -311,24 +311,14 @@ fn restore_volume_with(current: &TriMesh, new: Vec<DVec3>, carriers: &[bool]) ->
     Some(new.iter().zip(&normals).zip(carriers).map(|((q, n), &c)| if c { *q + height * *n } else { *q }).collect())
 }
 
-/// How many faces [`pair_crossing_faces`] finds.
+/// How many faces of parts `pair.parts` intersect a face of the other part (of the same part
+/// for a fold within one), not adjacent, not a rest-pose pair.
 fn crossing_faces(
     mesh: &TriMesh,
     parts: &SkinParts,
     setup: &PartContactSetup,
-    pair: [u32; 2],
-) -> Result<usize, crate::spatial::SpatialError> {
-    Ok(pair_crossing_faces(mesh, parts, setup, pair)?.len())
-}
-
-/// Faces of parts `pair.parts` intersecting a face of the other part (of the same part for a
-/// fold within one), not adjacent, not a rest-pose pair; sorted.
-fn pair_crossing_faces(
-    mesh: &TriMesh,
-    parts: &SkinParts,
-    setup: &PartContactSetup,
     [a, b]: [u32; 2],
-) -> Result<Vec<u32>, crate::spatial::SpatialError> {
+) -> Result<usize, crate::spatial::SpatialError> {
     let part = |f: u32| parts.face_parts[f as usize];
     let faces = (0..mesh.num_triangles() as u32).filter(|&f| part(f) == a || part(f) == b);
     let related = |f: u32, g: u32| {
@@ -336,7 +326,7 @@ fn pair_crossing_faces(
             && setup.rest_pairs().binary_search(&[f.min(g), f.max(g)]).is_err()
             && !setup.adjacent(f, g)
     };
-    crate::spatial::self_intersecting_faces(mesh, faces, related)
+    Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())
 }
 
 /// What [`resolve_part_contacts`] gives back for one object.
