@@ -245,13 +245,9 @@ fn cesium_man_walk(data: &Path) -> Result<BenchScene, String> {
             let objects = spec
                 .objects
                 .into_iter()
-                .map(|o| squish_scenes::procedural::SceneObject { name: o.name, mesh: o.mesh, params: o.params })
+                .map(|o| squish::OwnedObject { name: o.name, mesh: o.mesh, params: o.params })
                 .collect();
-            Ok(squish_scenes::procedural::ProceduralScene {
-                name: "cesium-man-walk".into(),
-                objects,
-                pairs: Vec::new(),
-            })
+            Ok(squish_scenes::procedural::ProceduralScene::new("cesium-man-walk".into(), objects, Vec::new()))
         })
         .collect::<Result<Vec<_>, String>>()?;
     BenchScene::from_poses("cesium-man-walk", poses).ok_or_else(|| "no frame".to_string())

@@ -17,7 +17,8 @@ use crate::input::{
 use crate::params::{PairSettings, pair_settings, pipeline_error};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
 use crate::report::FrameReport;
-use crate::shot::{PreviewFrame, ShotFrame, ShotObject};
+use crate::shot::PreviewFrame;
+use squish::pipeline::{OwnedFrame, OwnedObject};
 
 #[derive(Args, Debug)]
 pub struct DeformArgs {
@@ -143,12 +144,12 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     let report_path = args.output.join("report.json");
     write_text(&staged.path(&report_path), &serde_json::to_string_pretty(&report)?)?;
     let picture = if args.preview {
-        let shot = ShotFrame {
+        let shot = OwnedFrame {
             objects: inputs
                 .iter()
                 .zip(names)
                 .zip([&settings.a, &settings.b])
-                .map(|((input, name), params)| ShotObject {
+                .map(|((input, name), params)| OwnedObject {
                     name: name.to_string(),
                     mesh: input.mesh.clone(),
                     params: params.clone(),

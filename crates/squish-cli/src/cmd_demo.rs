@@ -23,9 +23,10 @@ use squish::ObjectParams;
 use squish::PairParams;
 use squish::mesh::shapes;
 use squish::pipeline::FramePair;
+use squish::pipeline::OwnedObject;
 use squish_io::scene::{OutputFormat, OutputSpec};
 use squish_render::vstack;
-use squish_scenes::procedural::{self as scenes, ProceduralScene, SceneObject};
+use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
 use crate::console::say;
 use crate::error::CliError;
@@ -33,7 +34,8 @@ use crate::input::{create_dir, write_text};
 use crate::interrupt;
 use crate::preview::{PictureSettings, strip, write_png, write_previews};
 use crate::quality::{ShotSummary, percent, write_report};
-use crate::shot::{ShotFrame, ShotObject, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot::{ShotSettings, ShotSource, run_shot, worker_pool};
+use squish::pipeline::OwnedFrame;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -87,16 +89,8 @@ struct DemoScene {
 }
 
 impl ShotSource for DemoScene {
-    fn frame(&self, frame: i64) -> Result<ShotFrame, CliError> {
-        let scene = (self.build)((self.depth)(frame));
-        Ok(ShotFrame {
-            objects: scene
-                .objects
-                .into_iter()
-                .map(|o| ShotObject { name: o.name, mesh: o.mesh, params: o.params })
-                .collect(),
-            pairs: scene.pairs,
-        })
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError> {
+        Ok((self.build)((self.depth)(frame)).contents)
     }
 }
 
@@ -169,23 +163,23 @@ fn squeezed_ball(depth: f64, subdivisions: u32) -> ProceduralScene {
         mesh
     };
     let offset = 1.8 - depth;
-    let object = |name: &str, mesh, stiffness| SceneObject {
+    let object = |name: &str, mesh, stiffness| OwnedObject {
         name: name.to_string(),
         mesh,
         params: ObjectParams::default().with_stiffness(stiffness),
     };
-    ProceduralScene {
-        name: "squeeze".into(),
-        objects: vec![
+    ProceduralScene::new(
+        "squeeze".into(),
+        vec![
             object("top", ball(0.8, offset), 2.0),
             object("middle", ball(1.0, 0.0), 1.0),
             object("bottom", ball(0.8, -offset), 2.0),
         ],
-        pairs: vec![
+        vec![
             FramePair { objects: [0, 1], params: PairParams::default() },
             FramePair { objects: [2, 1], params: PairParams::default() },
         ],
-    }
+    )
 }
 
 /// What `report.json` says about a demo scene.
@@ -310,7 +304,7 @@ fn run_scene(
         keep_outputs: false,
         label: format!("  {}", demo.slug),
     };
-    let write = |frame: i64, shot: &ShotFrame, positions: &[Vec<DVec3>]| -> Result<(), CliError> {
+    let write = |frame: i64, shot: &OwnedFrame, positions: &[Vec<DVec3>]| -> Result<(), CliError> {
         for (object, p) in shot.objects.iter().zip(positions) {
             let mesh = squish::TriMesh { positions: p.clone(), triangles: object.mesh.triangles.clone() };
             squish_io::write_mesh(&output.path_for(&object.name, frame), &mesh)?;

@@ -28,8 +28,9 @@ use crate::preview::{
 use crate::quality::{ShotSummary, write_report};
 use crate::report_parts::{merge_reports, part_file_name};
 use crate::scene_shot::{FileNumbering, SceneShot, file_numbering};
-use crate::shot::{ShotFrame, ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::shot::{ShotOutcome, ShotSettings, ShotSource, run_shot, worker_pool};
 use crate::shot_outputs::ShotOutputs;
+use squish::pipeline::OwnedFrame;
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -213,7 +214,7 @@ pub struct RunPlan<'a> {
     pub output: OutputSpec,
     /// Sequence files missing for the frames: (object, frame, expected path).
     pub missing: Vec<(String, i64, PathBuf)>,
-    pub first: ShotFrame,
+    pub first: OwnedFrame,
     pub numbering: Vec<FileNumbering>,
     pool: rayon::ThreadPool,
 }
@@ -286,7 +287,7 @@ impl<'a> RunPlan<'a> {
         };
         let writers = ShotOutputs::new(scene, output, &self.numbering, self.part)?;
         let write =
-            |frame: i64, shot: &ShotFrame, positions: &[Vec<glam::DVec3>]| writers.write_frame(frame, shot, positions);
+            |frame: i64, shot: &OwnedFrame, positions: &[Vec<glam::DVec3>]| writers.write_frame(frame, shot, positions);
         let outcome = run_shot(&SceneShot { scene }, &settings, &self.pool, interrupt, &write)?;
 
         let mut animated = Vec::new();
@@ -449,7 +450,7 @@ fn any_gltf(scene: &Scene) -> bool {
 fn outputs_json(
     output: &OutputSpec,
     writers: &ShotOutputs,
-    first: &ShotFrame,
+    first: &OwnedFrame,
     numbering: &[FileNumbering],
     animated: &[PathBuf],
     previews: &[PathBuf],

@@ -1,5 +1,6 @@
-//! A scene file as a shot: each frame of the scene ([`Scene::evaluate`]) mapped to the library's
-//! frame ([`library_frame`]), and each object's file numbering, so that results are written
+//! A scene file as a shot: each frame of the scene ([`Scene::evaluate`], the library's owned
+//! frame with every pair; the library leaves out the pairs disabled at a frame), and each
+//! object's file numbering, so that results are written
 //! with the vertices of the input file — same count, same order — even when the scene layer
 //! welded them (glTF seams, `weld = true`).
 
@@ -7,21 +8,12 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 use squish::TriMesh;
-use squish::pipeline::FramePair;
 use squish_io::scene::{FramePattern, MeshSource, Weld};
-use squish_io::{FrameSpec, GltfReadOptions, Scene, WeldMode, read_gltf, read_mesh, weld_positions};
+use squish_io::{GltfReadOptions, Scene, WeldMode, read_gltf, read_mesh, weld_positions};
 
 use crate::error::CliError;
-use crate::shot::{ShotFrame, ShotObject, ShotSource};
-
-/// A scene frame as the library's frame: every object with its parameters, every pair (the
-/// library leaves out the pairs disabled at this frame).
-pub fn library_frame(spec: FrameSpec) -> ShotFrame {
-    let pairs = spec.pairs.iter().map(|pair| FramePair { objects: pair.objects, params: pair.params }).collect();
-    let objects =
-        spec.objects.into_iter().map(|o| ShotObject { name: o.name, mesh: o.mesh, params: o.params }).collect();
-    ShotFrame { objects, pairs }
-}
+use crate::shot::ShotSource;
+use squish::pipeline::OwnedFrame;
 
 /// A loaded scene as a [`ShotSource`].
 pub struct SceneShot<'a> {
@@ -29,9 +21,8 @@ pub struct SceneShot<'a> {
 }
 
 impl ShotSource for SceneShot<'_> {
-    fn frame(&self, frame: i64) -> Result<ShotFrame, CliError> {
-        let spec = self.scene.evaluate(frame as f64)?;
-        Ok(library_frame(spec))
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError> {
+        Ok(self.scene.evaluate(frame as f64)?)
     }
 }
 
@@ -73,7 +64,7 @@ impl FileNumbering {
 /// public trace of the file's vertices, so this re-reads the source once and welds it the same
 /// way (welding is deterministic), then checks the result against the scene's own mesh. When the
 /// check fails, results keep the scene's vertices and the note says so.
-pub fn file_numbering(scene: &Scene, reference: &ShotFrame) -> Vec<FileNumbering> {
+pub fn file_numbering(scene: &Scene, reference: &OwnedFrame) -> Vec<FileNumbering> {
     let description = scene.description();
     description
         .objects
@@ -135,35 +126,5 @@ fn source_file_mesh(source: &MeshSource, scene: &Scene) -> Result<TriMesh, Strin
             let mesh = file.meshes.get(node.mesh).ok_or("cannot find the node's mesh")?;
             Ok(TriMesh { positions: mesh.positions.clone(), triangles: mesh.triangles.clone() })
         }
-    }
-}
-
-#[cfg(test)]
-#[allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
-mod tests {
-    use super::*;
-    use squish::{ObjectParams, PairParams};
-    use squish_io::scene::{ObjectFrame, PairFrame};
-
-    #[test]
-    fn every_object_and_pair_reaches_the_library_as_evaluated() {
-        let params = ObjectParams::default().with_extent(0.4).with_bulge(1.5).with_region_distance(0.5);
-        let object = ObjectFrame { name: "ball".into(), mesh: squish::mesh::shapes::icosphere(1.0, 0), params };
-        let pair = PairFrame {
-            objects: [0, 1],
-            names: ["ball".into(), "ground".into()],
-            params: PairParams::default().with_ball(0.3),
-        };
-        let disabled = PairFrame { params: PairParams { enabled: false, ..pair.params }, ..pair.clone() };
-        let spec = FrameSpec {
-            frame: 7.0,
-            objects: vec![object.clone(), object.clone()],
-            pairs: vec![pair.clone(), disabled],
-        };
-        let frame = library_frame(spec);
-        assert_eq!(frame.objects[0].params, object.params);
-        assert_eq!(frame.pairs[0].params, pair.params);
-        // Disabled pairs reach the library, which leaves them out.
-        assert!(!frame.pairs[1].params.enabled);
     }
 }

@@ -24,52 +24,22 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use rayon::prelude::*;
-use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats};
+use squish::pipeline::{Deformer, Frame, FrameResult, FrameStats, OwnedFrame};
 use squish::{ObjectParams, TriMesh};
 
 use crate::error::CliError;
 use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
 use crate::interrupt::Interrupt;
 
-/// An object of one frame, owned.
-#[derive(Clone, Debug)]
-pub struct ShotObject {
-    pub name: String,
-    pub mesh: TriMesh,
-    pub params: ObjectParams,
-}
-
-/// Everything the deformer needs for one frame, owned (the library's [`Frame`] borrows it).
-#[derive(Clone, Debug, Default)]
-pub struct ShotFrame {
-    pub objects: Vec<ShotObject>,
-    /// The pairs processed at this frame (disabled pairs are left out).
-    pub pairs: Vec<FramePair>,
-}
-
-impl ShotFrame {
-    /// The library's view of this frame.
-    pub fn frame(&self) -> Frame<'_> {
-        Frame {
-            objects: self
-                .objects
-                .iter()
-                .map(|o| FrameObject { name: &o.name, mesh: &o.mesh, params: &o.params })
-                .collect(),
-            pairs: self.pairs.clone(),
-        }
-    }
-}
-
 /// Where frames come from: a scene file, or a procedural animation. Must give the same objects
 /// (names, order, vertex counts, triangles) at every frame.
 pub trait ShotSource: Sync {
     /// The frame `frame`. Errors name the frame and what is wrong with it.
-    fn frame(&self, frame: i64) -> Result<ShotFrame, CliError>;
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError>;
 }
 
 /// Writes one frame's results (called on worker threads, once per frame).
-pub type FrameWriter<'a> = dyn Fn(i64, &ShotFrame, &[Vec<DVec3>]) -> Result<(), CliError> + Sync + 'a;
+pub type FrameWriter<'a> = dyn Fn(i64, &OwnedFrame, &[Vec<DVec3>]) -> Result<(), CliError> + Sync + 'a;
 
 /// How to run a shot.
 #[derive(Clone, Debug)]
@@ -106,7 +76,7 @@ impl PreviewFrame {
     /// parts) also get their self-intersecting input faces marked as overlaps (drawn red on the
     /// input): those beyond the rest pose's own, as report.json counts them; and those that are
     /// left on the output.
-    pub fn new(shot: &ShotFrame, result: &FrameResult) -> Self {
+    pub fn new(shot: &OwnedFrame, result: &FrameResult) -> Self {
         let outputs: Vec<TriMesh> = shot
             .objects
             .iter()

@@ -24,7 +24,8 @@ use squish_io::{GltfDocument, MeshDocument, MeshFormat, MorphAnimation, Scene};
 
 use crate::error::CliError;
 use crate::scene_shot::FileNumbering;
-use crate::shot::{ShotFrame, ShotOutcome};
+use crate::shot::ShotOutcome;
+use squish::pipeline::OwnedFrame;
 
 /// Where an object's results are written into.
 enum Target {
@@ -86,7 +87,7 @@ impl<'a> ShotOutputs<'a> {
     }
 
     /// Writes one frame's files (per-frame formats only).
-    pub fn write_frame(&self, frame: i64, shot: &ShotFrame, positions: &[Vec<DVec3>]) -> Result<(), CliError> {
+    pub fn write_frame(&self, frame: i64, shot: &OwnedFrame, positions: &[Vec<DVec3>]) -> Result<(), CliError> {
         if !self.output.format.per_frame() {
             return Ok(());
         }
@@ -106,7 +107,7 @@ impl<'a> ShotOutputs<'a> {
 
     /// Writes the files holding every frame (`glb`, `gltf`, `pc2`) from the kept outputs, in
     /// frame order; returns their paths.
-    pub fn write_shot(&self, first: &ShotFrame, outcome: &ShotOutcome) -> Result<Vec<PathBuf>, CliError> {
+    pub fn write_shot(&self, first: &OwnedFrame, outcome: &ShotOutcome) -> Result<Vec<PathBuf>, CliError> {
         let mut written = Vec::new();
         let frames: Vec<i64> = outcome.kept.keys().copied().collect();
         for (i, (object, n)) in first.objects.iter().zip(self.numbering).enumerate() {

@@ -49,7 +49,7 @@ pub use ply::{
     PlyColumn, PlyData, PlyDocument, PlyElement, PlyFormat, PlyProperty, PlyWriteOptions, ScalarType, VertexProperty,
     read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply,
 };
-pub use scene::{FrameSpec, Scene, SceneDescription, parse_frame_selection};
+pub use scene::{Scene, SceneDescription, parse_frame_selection};
 pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).

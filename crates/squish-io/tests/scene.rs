@@ -550,9 +550,9 @@ fn parallel_evaluation_equals_sequential() {
     }
     let scene = shot.load(&toml).unwrap();
     let frames: Vec<i64> = scene.frames().collect();
-    let sequential: Vec<FrameSpec> = frames.iter().map(|&f| scene.evaluate(f as f64).unwrap()).collect();
+    let sequential: Vec<squish::OwnedFrame> = frames.iter().map(|&f| scene.evaluate(f as f64).unwrap()).collect();
     // Four threads taking interleaved frames, as a pool would.
-    let mut parallel: Vec<Option<FrameSpec>> = vec![None; frames.len()];
+    let mut parallel: Vec<Option<squish::OwnedFrame>> = vec![None; frames.len()];
     std::thread::scope(|s| {
         let handles: Vec<_> = (0..4)
             .map(|t| {
@@ -575,7 +575,7 @@ fn parallel_evaluation_equals_sequential() {
             }
         }
     });
-    let parallel: Vec<FrameSpec> = parallel.into_iter().map(Option::unwrap).collect();
+    let parallel: Vec<squish::OwnedFrame> = parallel.into_iter().map(Option::unwrap).collect();
     assert_eq!(parallel, sequential);
     assert_ne!(sequential[0].objects[0].mesh, sequential[30].objects[0].mesh);
 }

@@ -14,10 +14,11 @@ use pyo3::types::{PyDict, PyTuple};
 use squish::params::Articulation;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
+use squish::pipeline::{OwnedFrame, OwnedObject};
 use squish_cli::frame_quality::MeasureCache;
 use squish_cli::params::PairSettings;
 use squish_cli::quality::FrameEntry;
-use squish_cli::shot::{ShotFrame, ShotObject, frame_record, worker_pool};
+use squish_cli::shot::{frame_record, worker_pool};
 
 use crate::errors::{cli_error, input_error, parameter_error, pipeline_error, to_python};
 use crate::mesh::{Mesh, positions_array, vertices_from};
@@ -141,7 +142,7 @@ type FrameOutput<'py> = (Vec<Bound<'py, PyArray2<f64>>>, Bound<'py, PyAny>);
 #[pyclass(module = "squish", subclass)]
 #[derive(Clone, Debug, Default)]
 pub struct Frame {
-    pub frame: ShotFrame,
+    pub frame: OwnedFrame,
 }
 
 impl Frame {
@@ -184,7 +185,7 @@ impl Frame {
         let prefix = name.clone();
         let params: ObjectParams = from_python(&prefix, params, kwargs)?;
         check_per_vertex(&params, &prefix, mesh.mesh.num_vertices())?;
-        self.frame.objects.push(ShotObject { name, mesh: mesh.mesh.clone(), params });
+        self.frame.objects.push(OwnedObject { name, mesh: mesh.mesh.clone(), params });
         Ok(self.frame.objects.len() - 1)
     }
 

@@ -19,7 +19,6 @@ use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use squish_cli::cmd_run::{RunPlan, RunRequest};
 use squish_cli::interrupt::Interrupt;
-use squish_cli::scene_shot::library_frame;
 use squish_io::Scene as SceneFile;
 use squish_io::scene::{MeshSource, OutputFormat};
 
@@ -126,7 +125,7 @@ impl Scene {
         let spec = py.detach(|| scene.evaluate(frame)).map_err(io_error)?;
         // The package's `squish.Frame` (the subclass with the documented methods).
         let object = py.import("squish")?.getattr("Frame")?.call0()?;
-        object.cast::<Frame>()?.borrow_mut().frame = library_frame(spec);
+        object.cast::<Frame>()?.borrow_mut().frame = spec;
         Ok(object)
     }
 

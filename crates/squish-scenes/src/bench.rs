@@ -26,7 +26,8 @@ use squish::params::{ObjectParams, PairParams, RegionChoice};
 use squish::pipeline::FramePair;
 use squish::stage::{PerStage, Stage};
 
-use crate::procedural::{ProceduralScene, SceneObject};
+use crate::procedural::ProceduralScene;
+use squish::OwnedObject;
 
 /// Full thesis-size scenes, or smaller ones for a quick smoke run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -228,7 +229,7 @@ impl BenchScene {
     }
 
     /// The non-rigid object with the most vertices: the largest system factorized per frame.
-    pub fn largest_deformable(&self) -> Option<&SceneObject> {
+    pub fn largest_deformable(&self) -> Option<&OwnedObject> {
         self.rest.objects.iter().filter(|o| !o.params.rigid).max_by_key(|o| o.mesh.num_vertices())
     }
 }
@@ -245,7 +246,7 @@ impl Builder {
     }
 
     fn object(&mut self, name: &str, mesh: TriMesh, params: ObjectParams) -> usize {
-        self.scene.objects.push(SceneObject { name: name.to_string(), mesh, params });
+        self.scene.objects.push(OwnedObject { name: name.to_string(), mesh, params });
         self.scene.objects.len() - 1
     }
 
@@ -568,8 +569,8 @@ mod tests {
             .map(|k| {
                 let mut mesh = shapes::icosphere(1.0, 1);
                 mesh.map_positions(|p| p + DVec3::X * f64::from(k));
-                let object = SceneObject { name: "ball".into(), mesh, params: ObjectParams::default() };
-                ProceduralScene { name: format!("pose {k}"), objects: vec![object], pairs: Vec::new() }
+                let object = OwnedObject { name: "ball".into(), mesh, params: ObjectParams::default() };
+                ProceduralScene::new(format!("pose {k}"), vec![object], Vec::new())
             })
             .collect();
         assert!(BenchScene::from_poses("none", Vec::new()).is_none());

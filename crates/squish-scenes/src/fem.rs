@@ -34,7 +34,8 @@ use squish::params::ObjectParams;
 use squish::pipeline::FramePair;
 use squish::spatial::TriangleBvh;
 
-use crate::procedural::{ProceduralScene, SceneObject};
+use crate::procedural::ProceduralScene;
+use squish::OwnedObject;
 
 /// The displacement, as a fraction of a body's largest, down to which a vertex counts in its spread.
 pub const SPREAD_FRACTION: f64 = 0.1;
@@ -277,20 +278,20 @@ impl FemReference {
         let a = &self.bodies[0];
         let mut sphere = a.rest.clone();
         sphere.map_positions(|p| p - DVec3::Z * approach);
-        let mut objects = vec![SceneObject { name: "A".into(), mesh: sphere, params: params(0) }];
+        let mut objects = vec![OwnedObject { name: "A".into(), mesh: sphere, params: params(0) }];
         match self.scene {
             FemScene::Plane => {
                 let edge = squish::mesh::mean_edge_length(&a.rest, &squish::Topology::new(&a.rest));
                 let cells = (4.0 * a.radius / edge).ceil().clamp(2.0, 400.0) as u32;
                 let plane = shapes::grid(4.0 * a.radius, 4.0 * a.radius, cells, cells);
-                objects.push(SceneObject { name: "plane".into(), mesh: plane, params: ObjectParams::rigid() });
+                objects.push(OwnedObject { name: "plane".into(), mesh: plane, params: ObjectParams::rigid() });
             }
             FemScene::Spheres => {
-                objects.push(SceneObject { name: "B".into(), mesh: self.bodies[1].rest.clone(), params: params(1) });
+                objects.push(OwnedObject { name: "B".into(), mesh: self.bodies[1].rest.clone(), params: params(1) });
             }
         }
         let pairs = vec![FramePair { objects: [0, 1], params: Default::default() }];
-        ProceduralScene { name: self.name.clone(), objects, pairs }
+        ProceduralScene::new(self.name.clone(), objects, pairs)
     }
 
     /// The deformer's figures at `step` against the simulation's (see the module doc):

@@ -8,44 +8,37 @@ use glam::{DQuat, DVec3};
 
 use squish::mesh::{TriMesh, shapes};
 use squish::params::{ObjectParams, PairParams, RegionChoice};
-use squish::pipeline::{Frame, FrameObject, FramePair};
+use squish::pipeline::{FramePair, OwnedFrame, OwnedObject};
 
-/// An object of a procedural scene.
-#[derive(Clone, Debug)]
-pub struct SceneObject {
-    pub name: String,
-    pub mesh: TriMesh,
-    pub params: ObjectParams,
-}
-
-/// A scene: objects and the pairs that may touch.
+/// A scene: a named frame, its objects and the pairs that may touch (it derefs to the
+/// [`OwnedFrame`], whose [`OwnedFrame::frame`] the deformer takes).
 #[derive(Clone, Debug, Default)]
 pub struct ProceduralScene {
     pub name: String,
-    pub objects: Vec<SceneObject>,
-    pub pairs: Vec<FramePair>,
+    pub contents: OwnedFrame,
+}
+
+impl std::ops::Deref for ProceduralScene {
+    type Target = OwnedFrame;
+    fn deref(&self) -> &OwnedFrame {
+        &self.contents
+    }
+}
+
+impl std::ops::DerefMut for ProceduralScene {
+    fn deref_mut(&mut self) -> &mut OwnedFrame {
+        &mut self.contents
+    }
 }
 
 impl ProceduralScene {
-    /// The scene as a frame for the [`squish::pipeline::Deformer`].
-    pub fn frame(&self) -> Frame<'_> {
-        Frame {
-            objects: self
-                .objects
-                .iter()
-                .map(|o| FrameObject { name: &o.name, mesh: &o.mesh, params: &o.params })
-                .collect(),
-            pairs: self.pairs.clone(),
-        }
-    }
-
-    /// The object called `name`.
-    pub fn object_mut(&mut self, name: &str) -> Option<&mut SceneObject> {
-        self.objects.iter_mut().find(|o| o.name == name)
+    /// A scene of these objects and pairs.
+    pub fn new(name: String, objects: Vec<OwnedObject>, pairs: Vec<FramePair>) -> Self {
+        Self { name, contents: OwnedFrame { objects, pairs } }
     }
 
     fn push(&mut self, name: &str, mesh: TriMesh) -> usize {
-        self.objects.push(SceneObject { name: name.to_string(), mesh, params: ObjectParams::default() });
+        self.objects.push(OwnedObject { name: name.to_string(), mesh, params: ObjectParams::default() });
         self.objects.len() - 1
     }
 
@@ -170,11 +163,7 @@ pub fn bent_arm(degrees: f64, segments: u32) -> ProceduralScene {
         rest_positions: Some(rest.positions),
         ..ObjectParams::default()
     };
-    ProceduralScene {
-        name: "bent arm".into(),
-        objects: vec![SceneObject { name: "arm".into(), mesh, params }],
-        pairs: Vec::new(),
-    }
+    ProceduralScene::new("bent arm".into(), vec![OwnedObject { name: "arm".into(), mesh, params }], Vec::new())
 }
 
 /// Radius of the fingers of [`fingers_on_ball`] and [`fingers_on_slab`].

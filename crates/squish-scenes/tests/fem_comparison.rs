@@ -193,14 +193,14 @@ fn spread_row(name: &str, mesh: &squish::TriMesh, at: usize, ball_radius: f64, d
             Some(e) => ObjectParams::default().with_extent(e[k]),
             None => ObjectParams::default(),
         };
-        let scene = squish_scenes::procedural::ProceduralScene {
-            name: name.to_string(),
-            objects: vec![
-                squish_scenes::procedural::SceneObject { name: "ball".into(), mesh: ball.clone(), params: params(0) },
-                squish_scenes::procedural::SceneObject { name: name.into(), mesh: mesh.clone(), params: params(1) },
+        let scene = squish_scenes::procedural::ProceduralScene::new(
+            name.to_string(),
+            vec![
+                squish::OwnedObject { name: "ball".into(), mesh: ball.clone(), params: params(0) },
+                squish::OwnedObject { name: name.into(), mesh: mesh.clone(), params: params(1) },
             ],
-            pairs: vec![squish::FramePair { objects: [0, 1], params: Default::default() }],
-        };
+            vec![squish::FramePair { objects: [0, 1], params: Default::default() }],
+        );
         let result = Deformer::new().deform(&scene.frame()).unwrap();
         let area = result.contacts[0].as_ref().map_or(0.0, |c| c.contact_area);
         let extent = result.stats.objects[1].extent;

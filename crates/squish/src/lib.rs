@@ -34,4 +34,4 @@ pub mod stage;
 pub use glam::DVec3;
 pub use mesh::{MeshError, SubMesh, Topology, TriMesh};
 pub use params::{ArticulationParams, ObjectParams, PairParams, ParamError, Params};
-pub use pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats};
+pub use pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult, FrameStats, OwnedFrame, OwnedObject};

@@ -7,7 +7,10 @@
 //! submatrices). The columns of the thesis' tables 7.1–7.2 are the stages
 //! [`in_thesis_tables`](Stage::in_thesis_tables).
 //!
-//! [`PerStage`] holds one value per stage, indexed by [`Stage`]; [`StageTimes`] is its durations.
+//! [`PerStage`] holds one value per stage, indexed by [`Stage`]; [`StageTimes`] is its durations
+//! and [`StageWork`] its [`Work`]: a deterministic count of what each stage did (queries,
+//! triangle tests, rounds, rows, factorization flops), the same on every machine and thread count,
+//! which lets tests guard a stage's cost without a clock.
 //! Serde writes it as a map from [`Stage::name`] to the value, in the order of [`Stage::ALL`]
 //! (missing names read as the default value, unknown ones are an error).
 
@@ -41,6 +44,8 @@ pub enum Stage {
     Guide,
     /// Bulge map, profiles, volume cubic and final positions.
     Deformation,
+    /// The separation pass: region pairs with a contact gap pushed apart, volumes solved again.
+    Separation,
     /// Of parametrization, directions and guide: assembling and numerically factorizing systems.
     Factorization,
     /// Of the factorizations: symbolic analyses of coupled-row submatrices.
@@ -49,7 +54,7 @@ pub enum Stage {
 
 impl Stage {
     /// Number of stages.
-    pub const COUNT: usize = 11;
+    pub const COUNT: usize = 12;
 
     /// Every stage, in pipeline order.
     pub const ALL: [Stage; Self::COUNT] = [
@@ -62,6 +67,7 @@ impl Stage {
         Self::Directions,
         Self::Guide,
         Self::Deformation,
+        Self::Separation,
         Self::Factorization,
         Self::Analysis,
     ];
@@ -78,6 +84,7 @@ impl Stage {
             Self::Directions => "directions",
             Self::Guide => "guide",
             Self::Deformation => "deformation",
+            Self::Separation => "separation",
             Self::Factorization => "factorization",
             Self::Analysis => "analysis",
         }
@@ -95,6 +102,7 @@ impl Stage {
             Self::Directions => "di.",
             Self::Guide => "g.",
             Self::Deformation => "de.",
+            Self::Separation => "sep.",
             Self::Factorization => "s.",
             Self::Analysis => "an.",
         }
@@ -112,6 +120,7 @@ impl Stage {
             Self::Directions => "§5.2",
             Self::Guide => "§5.3",
             Self::Deformation => "§5.4–5.5",
+            Self::Separation => "§4.3, App. C",
             Self::Factorization | Self::Analysis => "App. B",
         }
     }
@@ -125,7 +134,7 @@ impl Stage {
 
     /// True for the columns of the thesis' tables 7.1–7.2 (table 7.2's s. is the factorizations).
     pub const fn in_thesis_tables(self) -> bool {
-        !matches!(self, Self::Setup | Self::Regions | Self::Analysis)
+        !matches!(self, Self::Setup | Self::Regions | Self::Separation | Self::Analysis)
     }
 
     /// The stage of a report key.
@@ -176,6 +185,55 @@ impl<T> PerStage<T> {
         PerStage::from_fn(|stage| f(stage, &self[stage]))
     }
 }
+
+/// A deterministic count of one stage's work in a frame: what a change that makes a stage do
+/// more multiplies, whatever the machine, the load or the thread count. Each field counts one
+/// kind of work where it is done; a stage leaves the kinds it does not do at zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Work {
+    /// Traversals of a spatial tree (ray casts, closest points, winding numbers, box queries).
+    #[serde(default)]
+    pub queries: u64,
+    /// Exact primitive tests: triangle–triangle, segment–triangle.
+    #[serde(default)]
+    pub triangle_tests: u64,
+    /// Rounds of an iteration that runs until it converges (separation, untangling, volume
+    /// Gauss–Seidel).
+    #[serde(default)]
+    pub rounds: u64,
+    /// Rows of the linear systems solved (one per unknown per solve).
+    #[serde(default)]
+    pub rows: u64,
+    /// Floating-point operations of the numeric factorizations (from their symbolic analyses).
+    #[serde(default)]
+    pub flops: u64,
+}
+
+impl AddAssign for Work {
+    fn add_assign(&mut self, other: Work) {
+        self.queries += other.queries;
+        self.triangle_tests += other.triangle_tests;
+        self.rounds += other.rounds;
+        self.rows += other.rows;
+        self.flops += other.flops;
+    }
+}
+
+impl Work {
+    /// The kinds of work with their report names, in a fixed order.
+    pub fn fields(&self) -> [(&'static str, u64); 5] {
+        [
+            ("queries", self.queries),
+            ("triangle_tests", self.triangle_tests),
+            ("rounds", self.rounds),
+            ("rows", self.rows),
+            ("flops", self.flops),
+        ]
+    }
+}
+
+/// The work of each stage in a frame (summed like [`StageTimes`]).
+pub type StageWork = PerStage<Work>;
 
 impl StageTimes {
     /// The times in milliseconds.

@@ -21,8 +21,7 @@ use squish_io::scene::{ObjectSpec, PairSpec, ParamTracks, RawParams, param_value
 use toml::Value;
 
 use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
-use crate::scene_shot::library_frame;
-use crate::shot::ShotFrame;
+use squish::pipeline::OwnedFrame;
 
 /// What a parameter edit applies to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, Serialize)]
@@ -55,7 +54,7 @@ pub struct Session {
 
 /// A frame computed for the page.
 pub struct Computed {
-    pub shot: ShotFrame,
+    pub shot: OwnedFrame,
     pub result: FrameResult,
     pub objects: Vec<ObjectQuality>,
     pub pairs: Vec<PairQuality>,
@@ -77,7 +76,7 @@ impl Session {
 
     /// The frame `edits` ask for: the scene's frame with every edit applied. Errors name the
     /// object or pair and the key.
-    pub fn frame(&self, edits: &Edits) -> Result<ShotFrame, String> {
+    pub fn frame(&self, edits: &Edits) -> Result<OwnedFrame, String> {
         let range = self.scene.frames();
         if !range.contains(&edits.frame) {
             return Err(format!(
@@ -97,12 +96,13 @@ impl Session {
                 object.params.bulge_map = Some(map.clone());
             }
         }
-        for (i, pair) in spec.pairs.iter_mut().enumerate() {
+        for i in 0..spec.pairs.len() {
             let raw = edits.pairs.get(i).cloned().unwrap_or_default();
-            apply::<PairParams>(&mut pair.params, &raw, at)
-                .map_err(|m| format!("pair (\"{}\", \"{}\"): {m}", pair.names[0], pair.names[1]))?;
+            let [a, b] = spec.pair_names(&spec.pairs[i]).map(str::to_string);
+            apply::<PairParams>(&mut spec.pairs[i].params, &raw, at)
+                .map_err(|m| format!("pair (\"{a}\", \"{b}\"): {m}"))?;
         }
-        Ok(library_frame(spec))
+        Ok(spec)
     }
 
     /// Sets `key` of `target` to `value` at the current frame: the constant value, or with
@@ -197,7 +197,7 @@ impl Session {
 
     /// The edits' value of every key as the page shows it: per object and pair, key → the
     /// value at the current frame and the frames of its keys (none for a constant).
-    pub fn values(&self, frame: &ShotFrame) -> (Vec<ShownValues>, Vec<ShownValues>) {
+    pub fn values(&self, frame: &OwnedFrame) -> (Vec<ShownValues>, Vec<ShownValues>) {
         let objects = frame
             .objects
             .iter()
@@ -289,7 +289,7 @@ fn apply<P: Params>(params: &mut P, raw: &RawParams, frame: f64) -> Result<(), S
 }
 
 /// Computes `frame` on `deformer` and measures it.
-pub fn compute(deformer: &mut Deformer, shot: ShotFrame, cache: &mut MeasureCache) -> Result<Computed, String> {
+pub fn compute(deformer: &mut Deformer, shot: OwnedFrame, cache: &mut MeasureCache) -> Result<Computed, String> {
     let frame = shot.frame();
     let result = deformer.deform(&frame).map_err(|e| e.to_string())?;
     let (objects, pairs) = frame_quality::measure(&frame, &result, cache);

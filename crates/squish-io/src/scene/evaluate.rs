@@ -1,46 +1,16 @@
-//! A scene evaluated at one frame: for every object its mesh (posed, transformed) and the
-//! library's parameters at that frame; for every pair its parameters. This is all the deformer needs
+//! A scene evaluated at one frame ([`OwnedFrame`]): for every object its mesh (posed,
+//! transformed) and the library's parameters at that frame; for every pair, disabled ones
+//! included, its parameters. This is all the deformer needs
 //! for that frame, with no reference to other frames (the method is time-independent).
 
 use glam::{DQuat, DVec3};
-use serde::Serialize;
-use squish::TriMesh;
-use squish::params::{Articulation, ObjectParams, PairParams};
+use squish::params::Articulation;
+use squish::pipeline::{FramePair, OwnedFrame, OwnedObject};
 
 use super::Scene;
 use super::source::{SourceAssets, source_mesh};
 use super::types::{AxisAngle, Scale, Transform};
 use crate::IoError;
-
-/// Everything about one frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FrameSpec {
-    /// The frame (fractional for sub-frames).
-    pub frame: f64,
-    /// In scene order.
-    pub objects: Vec<ObjectFrame>,
-    /// In scene order.
-    pub pairs: Vec<PairFrame>,
-}
-
-/// An object at a frame: its mesh and the library's parameters (articulations and rest pose
-/// included).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ObjectFrame {
-    pub name: String,
-    /// Posed and transformed; same vertex count, order and triangles on every frame.
-    pub mesh: TriMesh,
-    pub params: ObjectParams,
-}
-
-/// A pair at a frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PairFrame {
-    /// Indices into [`FrameSpec::objects`].
-    pub objects: [usize; 2],
-    pub names: [String; 2],
-    pub params: PairParams,
-}
 
 /// The affine map T·R·S of a transform at `frame`, as a function on points. Errors (zero
 /// scale, zero rotation axis) are returned as text for the caller to place.
@@ -68,7 +38,7 @@ impl Scene {
     /// keys interpolate, glTF animations are sampled, and sequences interpolate linearly
     /// between their two neighbouring files). Errors name the file at fault (a missing or
     /// mismatched sequence frame) or the scene file and the frame.
-    pub fn evaluate(&self, frame: f64) -> Result<FrameSpec, IoError> {
+    pub fn evaluate(&self, frame: f64) -> Result<OwnedFrame, IoError> {
         if !frame.is_finite() {
             return Err(IoError::format(
                 &self.path,
@@ -94,7 +64,7 @@ impl Scene {
             params.self_contact = self.articulations_at(assets, frame, &place).map_err(|m| err(name, m))?;
             params.self_contact_parts = assets.parts.as_deref().cloned();
             params.rest_positions = assets.rest_positions.as_deref().map(<[DVec3]>::to_vec);
-            objects.push(ObjectFrame { name: name.clone(), mesh, params });
+            objects.push(OwnedObject { name: name.clone(), mesh, params });
         }
         let mut pairs = Vec::with_capacity(self.description.pairs.len());
         for ((pair, ids), tracks) in self.description.pairs.iter().zip(&self.pair_objects).zip(&self.pair_params) {
@@ -104,9 +74,9 @@ impl Scene {
                     format!("frame {frame}: [[pairs]] [\"{}\", \"{}\"]: {e}", pair.objects[0], pair.objects[1]),
                 )
             })?;
-            pairs.push(PairFrame { objects: *ids, names: pair.objects.clone(), params });
+            pairs.push(FramePair { objects: *ids, params });
         }
-        Ok(FrameSpec { frame, objects, pairs })
+        Ok(OwnedFrame { objects, pairs })
     }
 
     /// The articulations of an object at `frame`; `place` is the object's transform at this

@@ -5,7 +5,7 @@
 //! ```text
 //! Scene::load("shot.toml")          parse → check → resolve paths → load meshes once
 //!   .frames()                       the scene's whole frames, start..=end
-//!   .evaluate(frame) -> FrameSpec   meshes posed and placed, parameters as numbers
+//!   .evaluate(frame) -> OwnedFrame  meshes posed and placed, parameters as numbers
 //! ```
 //!
 //! Every frame is independent (the deformer is time-independent), so a [`Scene`] is immutable
@@ -32,7 +32,6 @@ use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use evaluate::{FrameSpec, ObjectFrame, PairFrame};
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
 pub use keys::Keyed;
 pub use tracks::{ParamTracks, RawParams, Track, TrackError, names_vertex_data, param_value, toml_value};

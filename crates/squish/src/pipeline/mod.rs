@@ -91,7 +91,7 @@ pub struct FrameObject<'a> {
 
 /// A pair of objects that may be in contact. It stands for every pair of their working regions
 /// whose boxes overlap (see the module doc).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct FramePair {
     /// Indices of the two objects in [`Frame::objects`]. The mapping direction is oriented along
     /// the second object's normals. Both indices may be the same object when it has several
@@ -107,6 +107,50 @@ pub struct FramePair {
 pub struct Frame<'a> {
     pub objects: Vec<FrameObject<'a>>,
     pub pairs: Vec<FramePair>,
+}
+
+/// An object of a frame, owned: what [`FrameObject`] borrows.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OwnedObject {
+    /// Name used in messages and reports.
+    pub name: String,
+    /// The mesh at this frame (see [`FrameObject::mesh`]).
+    pub mesh: TriMesh,
+    /// Its parameters at this frame.
+    pub params: ObjectParams,
+}
+
+/// A frame that owns its objects: what a scene evaluates to, what a shot's workers and the
+/// procedural scenes hold. [`OwnedFrame::frame`] is the deformer's borrowed view of it.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct OwnedFrame {
+    pub objects: Vec<OwnedObject>,
+    /// Every pair, disabled ones included (the deformer leaves those out).
+    pub pairs: Vec<FramePair>,
+}
+
+impl OwnedFrame {
+    /// The deformer's view of this frame.
+    pub fn frame(&self) -> Frame<'_> {
+        Frame {
+            objects: self
+                .objects
+                .iter()
+                .map(|o| FrameObject { name: &o.name, mesh: &o.mesh, params: &o.params })
+                .collect(),
+            pairs: self.pairs.clone(),
+        }
+    }
+
+    /// The object called `name`.
+    pub fn object_mut(&mut self, name: &str) -> Option<&mut OwnedObject> {
+        self.objects.iter_mut().find(|o| o.name == name)
+    }
+
+    /// The names of a pair's two objects.
+    pub fn pair_names(&self, pair: &FramePair) -> [&str; 2] {
+        pair.objects.map(|i| self.objects.get(i).map_or("?", |o| o.name.as_str()))
+    }
 }
 
 /// The result of one frame.
@@ -292,7 +336,7 @@ impl Deformer {
         } else {
             separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?.1
         };
-        stages[Stage::Deformation] += timer.elapsed();
+        stages[Stage::Separation] += timer.elapsed();
 
         // Results: positions written back, figures per pair, object, region and stage.
         let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
@@ -309,6 +353,7 @@ impl Deformer {
             stats: FrameStats {
                 total: start.elapsed(),
                 stages,
+                work: Default::default(),
                 objects: objects.stats,
                 pairs,
                 regions: objects.regions,
@@ -338,7 +383,7 @@ impl Deformer {
         // The contact stage's times are the kept frame's: not this frame's work.
         let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
         let mut stages = StageTimes::default();
-        stages[Stage::Deformation] += timer.elapsed();
+        stages[Stage::Separation] += timer.elapsed();
         let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
         let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
         let mut warnings =
@@ -353,6 +398,7 @@ impl Deformer {
             stats: FrameStats {
                 total: start.elapsed(),
                 stages,
+                work: Default::default(),
                 objects: objects.stats,
                 pairs,
                 regions: objects.regions,

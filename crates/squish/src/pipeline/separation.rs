@@ -44,8 +44,8 @@
 //! sorted, and parallel maps collect in order. Continuous: every move is a continuous function
 //! of the outputs of chapter 5 (measured: the largest step of a vertex between frames of a
 //! sliding contact is unchanged, `tests/pipeline/gap.rs`), up to the stopping rule (a round
-//! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is counted in
-//! [`crate::stage::Stage::Deformation`]. It extends the thesis' §4.3–§5.4 (not in it).
+//! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is its own stage,
+//! [`crate::stage::Stage::Separation`]. It extends the thesis' §4.3–§5.4 (not in it).
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 #[cfg(doc)]
 use super::FramePair;
-use crate::stage::StageTimes;
+use crate::stage::{StageTimes, StageWork};
 
 /// Figures of one object for one frame. For an object of several regions, the per-region
 /// figures are in [`FrameStats::regions`]; here counts are summed over its regions and
@@ -148,6 +148,9 @@ pub struct FrameStats {
     pub total: Duration,
     /// Per-stage times (summed over pairs and regions).
     pub stages: StageTimes,
+    /// Per-stage counts of work (summed like the times; see [`crate::stage::Work`]).
+    #[serde(default)]
+    pub work: StageWork,
     pub objects: Vec<ObjectStats>,
     /// One entry per region pair (see [`PairStats`]); for objects of one region each, one entry
     /// per [`FramePair`] in order.

@@ -77,8 +77,8 @@ fn bunny_scene() -> Option<ProceduralScene> {
     let mut slab = shapes::cuboid(DVec3::new(0.4, 2.0, 2.0), 64);
     slab.map_positions(|p| p + DVec3::new(extreme - 0.1 + 0.2, 0.0, 0.0));
     let mut scene = ProceduralScene { name: "bunny against a rigid box".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "bunny".into(), mesh: bunny, params: ObjectParams::default() });
-    scene.objects.push(scenes::SceneObject { name: "box".into(), mesh: slab, params: ObjectParams::rigid() });
+    scene.objects.push(squish::OwnedObject { name: "bunny".into(), mesh: bunny, params: ObjectParams::default() });
+    scene.objects.push(squish::OwnedObject { name: "box".into(), mesh: slab, params: ObjectParams::rigid() });
     scene.pairs.push(FramePair { objects: [0, 1], params: PairParams::default() });
     Some(scene)
 }
@@ -102,8 +102,8 @@ fn spot_scene() -> Option<ProceduralScene> {
     let mut ball = shapes::icosphere(0.3, 4);
     ball.map_positions(|p| p + side + DVec3::new(0.3 - 0.08, 0.0, 0.0));
     let mut scene = ProceduralScene { name: "spot and a sphere".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "ball".into(), mesh: ball, params: ObjectParams::default() });
-    scene.objects.push(scenes::SceneObject { name: "spot".into(), mesh: spot, params: ObjectParams::default() });
+    scene.objects.push(squish::OwnedObject { name: "ball".into(), mesh: ball, params: ObjectParams::default() });
+    scene.objects.push(squish::OwnedObject { name: "spot".into(), mesh: spot, params: ObjectParams::default() });
     scene.pairs.push(FramePair { objects: [0, 1], params: PairParams::default() });
     Some(scene)
 }

@@ -134,8 +134,8 @@ fn bunny_in_box(bunny: squish::TriMesh) -> ProceduralScene {
     let mut slab = squish::mesh::shapes::cuboid(glam::DVec3::new(0.4, 2.0, 2.0), 64);
     slab.map_positions(|p| p + glam::DVec3::new(extreme - 0.1 + 0.2, 0.0, 0.0));
     let mut scene = ProceduralScene { name: "bunny in a box".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "bunny".into(), mesh: bunny, params: Default::default() });
-    scene.objects.push(scenes::SceneObject { name: "box".into(), mesh: slab, params: Default::default() });
+    scene.objects.push(squish::OwnedObject { name: "bunny".into(), mesh: bunny, params: Default::default() });
+    scene.objects.push(squish::OwnedObject { name: "box".into(), mesh: slab, params: Default::default() });
     scene.pairs.push(squish::pipeline::FramePair { objects: [0, 1], params: PairParams::default() });
     scene
 }
@@ -155,8 +155,8 @@ fn bumpy_ball_on_coarse_slab(depth: f64, shift: f64) -> ProceduralScene {
     let mut slab = squish::mesh::shapes::cuboid(glam::DVec3::new(3.0, 3.0, 0.5), 12);
     slab.map_positions(|p| p - glam::DVec3::new(0.0, 0.0, 0.25));
     let mut scene = ProceduralScene { name: "bumpy ball on a coarse slab".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "bumpy ball".into(), mesh: ball, params: ObjectParams::rigid() });
-    scene.objects.push(scenes::SceneObject { name: "slab".into(), mesh: slab, params: Default::default() });
+    scene.objects.push(squish::OwnedObject { name: "bumpy ball".into(), mesh: ball, params: ObjectParams::rigid() });
+    scene.objects.push(squish::OwnedObject { name: "slab".into(), mesh: slab, params: Default::default() });
     scene.pairs.push(squish::pipeline::FramePair { objects: [0, 1], params: PairParams::default() });
     scene
 }

@@ -9,7 +9,7 @@ use squish::mesh::{TriMesh, shapes};
 use squish::params::{ObjectParams, PairParams};
 use squish::pipeline::{Deformer, FramePair, FrameResult};
 use squish::{SubMesh, Topology};
-use squish_scenes::procedural::{self as scenes, ProceduralScene};
+use squish_scenes::procedural::ProceduralScene;
 
 use crate::common::rigid_motion_difference;
 
@@ -39,8 +39,8 @@ fn ball_on_sheet(sheet: TriMesh, top: f64, radius: f64, depth: f64) -> Procedura
     let mut ball = shapes::icosphere(radius, 4);
     ball.map_positions(|p| p + DVec3::Z * (top + radius - depth));
     let mut scene = ProceduralScene { name: "ball on an open sheet".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "ball".into(), mesh: ball, params: ObjectParams::rigid() });
-    scene.objects.push(scenes::SceneObject { name: "sheet".into(), mesh: sheet, params: ObjectParams::default() });
+    scene.objects.push(squish::OwnedObject { name: "ball".into(), mesh: ball, params: ObjectParams::rigid() });
+    scene.objects.push(squish::OwnedObject { name: "sheet".into(), mesh: sheet, params: ObjectParams::default() });
     scene.pairs.push(FramePair { objects: [0, 1], params: PairParams::default() });
     scene
 }

@@ -483,9 +483,9 @@ fn scanned_hand_scene(hand_region: RegionChoice, hand_extent: Option<f64>) -> Op
     let mut scene = ProceduralScene { name: "scanned hand and a ball".into(), ..Default::default() };
     let mut params = ObjectParams::default().with_region(hand_region);
     params.extent = hand_extent;
-    scene.objects.push(scenes::SceneObject { name: "hand".into(), mesh: hand, params });
+    scene.objects.push(squish::OwnedObject { name: "hand".into(), mesh: hand, params });
     let ball_params = ObjectParams::default().with_region_distance(0.0);
-    scene.objects.push(scenes::SceneObject { name: "ball".into(), mesh: ball, params: ball_params });
+    scene.objects.push(squish::OwnedObject { name: "ball".into(), mesh: ball, params: ball_params });
     scene.pairs.push(FramePair { objects: [0, 1], params: PairParams::default() });
     Some(scene)
 }

@@ -6,7 +6,7 @@ use glam::DVec3;
 use squish::mesh::shapes;
 use squish::params::{ObjectParams, PairParams};
 use squish::pipeline::*;
-use squish_scenes::procedural::{self as scenes, ProceduralScene};
+use squish_scenes::procedural::ProceduralScene;
 
 use crate::common::{deepest_penetration, deformed};
 
@@ -17,8 +17,8 @@ fn ball_in_slab(radius: f64, depth: f64, thickness: f64, pair: PairParams, ball:
     let mut sphere = shapes::icosphere(radius, 4);
     sphere.map_positions(|p| p + DVec3::Z * (radius - depth));
     let mut scene = ProceduralScene { name: "ball in slab".into(), ..Default::default() };
-    scene.objects.push(scenes::SceneObject { name: "ball".into(), mesh: sphere, params: ball });
-    scene.objects.push(scenes::SceneObject { name: "slab".into(), mesh: slab, params: ObjectParams::default() });
+    scene.objects.push(squish::OwnedObject { name: "ball".into(), mesh: sphere, params: ball });
+    scene.objects.push(squish::OwnedObject { name: "slab".into(), mesh: slab, params: ObjectParams::default() });
     scene.pairs.push(FramePair { objects: [0, 1], params: pair });
     scene
 }
