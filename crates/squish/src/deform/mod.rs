@@ -274,7 +274,7 @@ pub fn deform_region(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
     deform_region_with(mesh, topology, solver, zones, params, &RegionOverrides::default())
@@ -285,7 +285,7 @@ pub fn deform_region_with(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionDeformation, DeformError> {
@@ -301,7 +301,7 @@ pub fn deform_region_with(
 pub fn deform_with_fields(
     mesh: &TriMesh,
     topology: &Topology,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     fields: RegionFields,
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
@@ -441,7 +441,7 @@ pub fn plan_region(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionPlan, DeformError> {
@@ -487,7 +487,7 @@ pub fn region_fields(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionFields, DeformError> {
@@ -601,7 +601,12 @@ impl RegionFields {
     /// profiles, as a [`RegionPlan`]. Reads, of `params`, only what §5.4–5.5 read (see the type's
     /// doc) and the extent (the anisotropic map's scale), which must be the one the fields were
     /// computed with; the mesh and zones must be theirs too.
-    pub fn plan(self, mesh: &TriMesh, zones: &[ContactZone], params: &DeformParams) -> Result<RegionPlan, DeformError> {
+    pub fn plan(
+        self,
+        mesh: &TriMesh,
+        zones: &[&ContactZone],
+        params: &DeformParams,
+    ) -> Result<RegionPlan, DeformError> {
         let start = Instant::now();
         params.validate()?;
         let n = mesh.num_vertices();
