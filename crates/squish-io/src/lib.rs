@@ -24,6 +24,7 @@ mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
 mod gltf_write;
+mod morph;
 mod obj;
 mod pc2;
 mod ply;
@@ -42,7 +43,10 @@ pub use gltf_read::{GltfReadOptions, read_gltf};
 pub use gltf_scene::{
     GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
 };
-pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
+pub use gltf_write::{
+    AnimatedMesh, GltfWriteOptions, NamedMesh, read_animated_glb, write_animated_glb, write_gltf, write_gltf_meshes,
+};
+pub use morph::{MorphFrame, MorphKeys, SparseDisplacement};
 pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj};
 pub use pc2::{PointCache, read_pc2, write_pc2};
 pub use ply::{

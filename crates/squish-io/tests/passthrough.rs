@@ -528,17 +528,28 @@ fn shared_characters_keep_their_documents() {
 }
 
 /// The deformation of a shot as morph targets: re-posing the output with its animation at each
-/// frame's time gives back the deformed posed positions.
+/// frame's time gives back the deformed posed positions; the frames read back from the file are
+/// the ones written, bit for bit.
 fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) {
     let doc = GltfDocument::read(input).unwrap();
     let scene = doc.scene();
     let node = scene.instances()[0].node;
     let frames: Vec<Vec<DVec3>> =
         times.iter().map(|&t| deform(&scene.posed_mesh(node, animation, t).unwrap().positions)).collect();
-    let names: Vec<String> = (0..times.len()).map(|k| format!("frame_{k:04}")).collect();
+    let morphs: Vec<MorphFrame> = times
+        .iter()
+        .zip(&frames)
+        .enumerate()
+        .map(|(k, (&time, posed))| MorphFrame {
+            name: format!("frame_{k:04}"),
+            time,
+            displacement: doc.morph_displacement(node, animation, time, posed, &vec![true; posed.len()]).unwrap(),
+        })
+        .collect();
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("animated.glb");
-    doc.write_animated(&output, &MorphAnimation { node, animation, times, frames: &frames, names: &names }).unwrap();
+    doc.write_animated(&output, &MorphAnimation { node, animation, frames: &morphs, keys: MorphKeys::default() })
+        .unwrap();
     let _ = open_with_gltf_crate(&output);
     let back = GltfDocument::read(&output).unwrap();
     let back_scene = back.scene();
@@ -553,6 +564,11 @@ fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) 
     }
     let scale = squish::mesh::bounding_box(&doc.mesh().unwrap()).diagonal();
     assert!(worst < 2e-6 * scale.max(1.0), "{}: re-posed within {worst} (scale {scale})", input.display());
+    let read: Vec<(String, SparseDisplacement)> = doc.shot_frames(&output, node).unwrap();
+    assert_eq!(read.len(), morphs.len());
+    for (m, (name, displacement)) in morphs.iter().zip(&read) {
+        assert_eq!((&m.name, &m.displacement), (name, displacement));
+    }
     // Materials, skins and the original channels are still there.
     let (a, b) = (json_of(input), json_of(&output));
     for key in ["skins", "materials", "textures", "images", "scenes"] {
@@ -563,6 +579,41 @@ fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) 
         assert_eq!(ca.as_array().unwrap()[..], cb.as_array().unwrap()[..ca.as_array().unwrap().len()]);
     }
     assert_eq!(primitive_data(input).len(), primitive_data(&output).len());
+}
+
+/// Vertices that do not move get no displacement, and their normals none: the targets hold only
+/// the vertices around the deformation, as sparse accessors.
+#[test]
+fn morph_targets_store_only_what_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = textured_cylinder().write_glb(dir.path(), "cylinder");
+    let doc = GltfDocument::read(&input).unwrap();
+    let scene = doc.scene();
+    let node = scene.instances()[0].node;
+    let posed = scene.posed_mesh(node, Some(0), 0.5).unwrap().positions;
+    // A dent in a few vertices.
+    let moved: Vec<bool> = (0..posed.len()).map(|v| v % 17 == 3).collect();
+    let dented: Vec<DVec3> =
+        posed.iter().zip(&moved).map(|(p, &m)| if m { *p + DVec3::new(0.0, 0.0, 0.01) } else { *p }).collect();
+    let displacement = doc.morph_displacement(node, Some(0), 0.5, &dented, &moved).unwrap();
+    let count = moved.iter().filter(|&&m| m).count();
+    assert_eq!(displacement.indices.len(), count);
+    let frame = MorphFrame { name: "dent".into(), time: 0.5, displacement };
+    let output = dir.path().join("dented.glb");
+    doc.write_animated(
+        &output,
+        &MorphAnimation { node, animation: Some(0), frames: &[frame], keys: MorphKeys::default() },
+    )
+    .unwrap();
+    let json = json_of(&output);
+    let target = &json["meshes"][0]["primitives"][0]["targets"][0];
+    let position = &json["accessors"][target["POSITION"].as_u64().unwrap() as usize];
+    assert_eq!(position["sparse"]["count"], count);
+    assert!(position.get("bufferView").is_none());
+    let normal = &json["accessors"][target["NORMAL"].as_u64().unwrap() as usize];
+    let changed = normal["sparse"]["count"].as_u64().unwrap() as usize;
+    assert!(changed >= count && changed < posed.len() / 2, "{changed} normals change for {count} moved vertices");
+    assert!(std::fs::metadata(&output).unwrap().len() < std::fs::metadata(&input).unwrap().len() * 3 / 2);
 }
 
 #[test]
@@ -586,12 +637,17 @@ fn morph_animation_refuses_repeated_times() {
     let dir = tempfile::tempdir().unwrap();
     let input = textured_cylinder().write_glb(dir.path(), "cylinder");
     let doc = GltfDocument::read(&input).unwrap();
-    let frames = vec![doc.mesh().unwrap().positions; 2];
-    let names = vec!["a".to_string(), "b".to_string()];
+    let count = doc.mesh().unwrap().positions.len();
+    let frame = |name: &str| MorphFrame {
+        name: name.into(),
+        time: 0.5,
+        displacement: SparseDisplacement { count, ..Default::default() },
+    };
+    let frames = [frame("a"), frame("b")];
     let err = doc
         .write_animated(
             &dir.path().join("x.glb"),
-            &MorphAnimation { node: 0, animation: Some(0), times: &[0.5, 0.5], frames: &frames, names: &names },
+            &MorphAnimation { node: 0, animation: Some(0), frames: &frames, keys: MorphKeys::default() },
         )
         .unwrap_err()
         .to_string();

@@ -39,9 +39,9 @@ use squish_io::Scene;
 use tokio::sync::watch;
 
 use crate::error::CliError;
-use crate::frame_quality::MeasureCache;
 use messages::{Reply, Request};
 use session::{BrushFrame, Computed, Session};
+use squish_shot::frame_quality::MeasureCache;
 use view::{FrameView, SceneView};
 
 /// Largest request body or WebSocket message (a message is an edit, never a mesh).
