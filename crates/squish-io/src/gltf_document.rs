@@ -196,6 +196,81 @@ impl GltfDocument {
         edit.finish(path, binary)
     }
 
+    /// Writes `positions` — one per vertex of [`Self::mesh`] (`node: None`) or of node `node`'s
+    /// mesh, in any space — as an OBJ or PLY file (by `path`'s extension), atomically, with what
+    /// those formats hold of the glTF file: the first UV set (`TEXCOORD_0`, turned to their
+    /// convention: `v` = 1 − glTF's `v`) and normals recomputed for `positions` per the file's
+    /// splits (seam copies share theirs; a hard edge keeps one per side), when the file has
+    /// them. Faces are the file's triangles.
+    pub fn write_converted(&self, path: &Path, node: Option<usize>, positions: &[DVec3]) -> Result<(), IoError> {
+        let meshes: Vec<&GltfMesh> = match node {
+            Some(node) => vec![self.node_mesh(node)?],
+            None => {
+                let instances = self.scene.instances();
+                if instances.is_empty() {
+                    self.scene.meshes.iter().collect()
+                } else {
+                    instances.iter().map(|i| &self.scene.meshes[i.mesh]).collect()
+                }
+            }
+        };
+        let count: usize = meshes.iter().map(|m| m.positions.len()).sum();
+        if positions.len() != count {
+            return Err(IoError::invalid_input(
+                path,
+                format!("{} positions for the {count} vertices of {}", positions.len(), self.path.display()),
+            ));
+        }
+        let mut rest = Vec::with_capacity(count);
+        let mut triangles = Vec::new();
+        for mesh in &meshes {
+            let offset = rest.len() as u32;
+            triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
+            rest.extend_from_slice(&mesh.positions);
+        }
+        let normals: Option<Vec<DVec3>> = meshes
+            .iter()
+            .map(|m| m.normals.as_deref())
+            .collect::<Option<Vec<_>>>()
+            .map(|all| all.concat())
+            .map(|old| split_normals(&rest, &old, &triangles, positions));
+        let texcoords: Option<Vec<[f64; 2]>> = meshes.iter().any(|m| m.texcoords.is_some()).then(|| {
+            meshes
+                .iter()
+                .flat_map(|m| match &m.texcoords {
+                    Some(uv) => uv.clone(),
+                    None => vec![[0.0, 0.0]; m.positions.len()],
+                })
+                .map(|[u, v]| [u, 1.0 - v])
+                .collect()
+        });
+        let mesh = TriMesh { positions: positions.to_vec(), triangles };
+        match crate::MeshFormat::from_path(path)? {
+            crate::MeshFormat::Obj => crate::write_obj_with(path, &mesh, texcoords.as_deref(), normals.as_deref()),
+            crate::MeshFormat::Ply => {
+                use crate::{ScalarType, VertexProperty};
+                let mut properties = Vec::new();
+                if let Some(normals) = &normals {
+                    for (c, name) in ["nx", "ny", "nz"].into_iter().enumerate() {
+                        properties.push(VertexProperty::new(
+                            name,
+                            ScalarType::F32,
+                            normals.iter().map(|n| n[c]).collect(),
+                        ));
+                    }
+                }
+                if let Some(uv) = &texcoords {
+                    for (c, name) in ["u", "v"].into_iter().enumerate() {
+                        properties.push(VertexProperty::new(name, ScalarType::F32, uv.iter().map(|t| t[c]).collect()));
+                    }
+                }
+                mesh.check_structure().map_err(|e| IoError::mesh(path, e))?;
+                crate::write_ply_with(path, &mesh.positions, Some(&mesh.triangles), &properties, &Default::default())
+            }
+            crate::MeshFormat::Gltf | crate::MeshFormat::Glb => self.write_with_positions(path, positions),
+        }
+    }
+
     /// The displacement, in the mesh's own (bind) space, of node `node`'s mesh posed by
     /// `animation` at `time` into `posed` (its file vertices, world space): the posed positions
     /// un-posed and taken from the mesh's base positions, for the vertices `moved` marks (the

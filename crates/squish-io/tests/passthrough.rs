@@ -373,6 +373,60 @@ fn textured_cylinder() -> Fixture {
     f
 }
 
+/// A glTF asset written as OBJ or PLY carries what those formats hold of it: its first UV set
+/// (in their convention, v = 1 − glTF's v) and normals recomputed for the new positions.
+#[test]
+fn gltf_written_as_obj_or_ply_keeps_its_uvs_and_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = textured_cylinder().write_glb(dir.path(), "cylinder");
+    let document = MeshDocument::read(&input).unwrap();
+    let rest = document.mesh().unwrap();
+    let moved = deform(&rest.positions);
+    let n = rest.num_vertices();
+    // The fixture's UVs, as f32 in the file.
+    let uv = |v: usize| [(v as f64 / n as f64) as f32 as f64, 1.0 - ((v % 7) as f64 / 7.0) as f32 as f64];
+    // Unit normals, which on the rings between the rims (9 rings of 12) point away from the
+    // cylinder's axis (x); the rims' lean over the caps.
+    let radial = |v: usize, normal: DVec3| {
+        let p = moved[v];
+        let away = DVec3::new(0.0, p.y, p.z).normalize_or_zero();
+        (normal.length() - 1.0).abs() < 1e-6 && (!(12..8 * 12).contains(&v) || normal.dot(away) > 0.8)
+    };
+
+    let obj = dir.path().join("cylinder.obj");
+    document.write_with_positions(&obj, &moved).unwrap();
+    let back = ObjDocument::read(&obj).unwrap();
+    assert_eq!(back.mesh().positions, moved);
+    assert_eq!(back.mesh().triangles, rest.triangles);
+    let (texcoords, corners) = back.texcoords();
+    assert_eq!(texcoords.len(), n);
+    for (v, t) in texcoords.iter().enumerate() {
+        assert_eq!(*t, uv(v), "vt of vertex {v}");
+    }
+    for (face, vt) in back.faces().iter().zip(corners) {
+        for ((vertex, vn), t) in face.iter().zip(vt) {
+            assert_eq!((Some(*vertex), *vn), (*t, Some(*vertex)), "corners name the vertex's own vt and vn");
+        }
+    }
+    assert_eq!(back.normals().len(), n);
+    for (v, normal) in back.normals().iter().enumerate() {
+        assert!(radial(v, *normal), "vertex {v} at {}: normal {normal}", moved[v]);
+    }
+
+    let ply = dir.path().join("cylinder.ply");
+    document.write_with_positions(&ply, &moved).unwrap();
+    let data = read_ply_data(&ply).unwrap();
+    assert_eq!((data.positions.as_slice(), data.triangles.as_slice()), (moved.as_slice(), rest.triangles.as_slice()));
+    let column = |name: &str| data.property(name).unwrap_or_else(|| panic!("no {name}")).values.clone();
+    let (u, v) = (column("u"), column("v"));
+    for k in 0..n {
+        assert!((u[k] - uv(k)[0]).abs() < 1e-7 && (v[k] - uv(k)[1]).abs() < 1e-7, "u, v of vertex {k}");
+        let normal = DVec3::new(column("nx")[k], column("ny")[k], column("nz")[k]);
+        // Stored as f32.
+        assert!(radial(k, normal.normalize()) && (normal.length() - 1.0).abs() < 1e-6, "vertex {k}: normal {normal}");
+    }
+}
+
 #[test]
 fn gltf_keeps_the_document_procedural() {
     let dir = tempfile::tempdir().unwrap();

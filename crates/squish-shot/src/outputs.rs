@@ -3,7 +3,9 @@
 //! - `obj` / `ply`: one file per frame. When the source is a file of the same format (a static
 //!   file or a sequence), each frame's file is a copy of the source (of that frame's file, for a
 //!   sequence) with the deformed positions and normals: UVs, materials, groups, colours and
-//!   extra properties are kept. Other sources give positions and faces;
+//!   extra properties are kept. A glTF source gives its node's mesh with its first UV set and
+//!   its normals, recomputed per frame ([`squish_io::GltfDocument::write_converted`]); other
+//!   sources give positions and faces;
 //! - `glb` / `gltf`: one file per object with every frame. A glTF source's whole document (rig,
 //!   materials, textures, the original animation) with the deformation as one morph target per
 //!   frame, keyed on the frames' animation times ([`squish_io::GltfDocument::write_animated`]);
@@ -44,6 +46,8 @@ enum Target {
     Document(Box<MeshDocument>),
     /// Each frame's own file of a sequence.
     Sequence(FramePattern),
+    /// A glTF node's mesh written as OBJ or PLY, with its UVs and normals.
+    Converted { document: Box<GltfDocument>, node: usize },
     /// Positions and faces only.
     Plain,
 }
@@ -141,6 +145,13 @@ impl<'a> ShotOutputs<'a> {
                             .map_err(|message| ShotError::Pattern { pattern: text.into_owned(), message })?,
                     )
                 }
+                (MeshSource::Gltf(g), false) if output.format.per_frame() && n.note.is_none() => {
+                    let node = scene.gltf_pose(targets.len(), scene.frame_range().start as f64).map(|p| p.node);
+                    match node {
+                        Some(node) => Target::Converted { document: Box::new(GltfDocument::read(&g.file)?), node },
+                        None => Target::Plain,
+                    }
+                }
                 _ => Target::Plain,
             };
             targets.push(target);
@@ -185,6 +196,9 @@ impl<'a> ShotOutputs<'a> {
                 Target::Sequence(pattern) => {
                     let document = MeshDocument::read(&pattern.path(frame))?;
                     document.write_with_positions(&path, &n.positions(p))?;
+                }
+                Target::Converted { document, node } => {
+                    document.write_converted(&path, Some(*node), &n.positions(p))?
                 }
                 Target::Plain => squish_io::write_mesh(&path, &n.file_mesh(p))?,
             }

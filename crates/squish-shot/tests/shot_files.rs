@@ -1,7 +1,9 @@
-//! Shots split into parts (`--frames A:B`, Ray tasks) in the formats holding every frame: each
-//! part shows nothing outside its frames, and the parts merge into the file an unsplit run
-//! writes, byte for byte and frame by frame. On a procedural skinned glTF (always), and on the
-//! glTF sample CesiumMan when `../shared/data` is present.
+//! The files of a scene run from a glTF source:
+//! - shots split into parts (`--frames A:B`, Ray tasks) in the formats holding every frame: each
+//!   part shows nothing outside its frames, and the parts merge into the file an unsplit run
+//!   writes, byte for byte and frame by frame. On a procedural skinned glTF (always), and on the
+//!   glTF sample CesiumMan when `../shared/data` is present;
+//! - OBJ and PLY frames carry the asset's UVs and normals.
 
 #![allow(clippy::unwrap_used)] // tests may unwrap: a panic is the failure report
 
@@ -211,4 +213,48 @@ fn a_split_cesium_man_shot_merges_into_the_unsplit_asset() {
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.frame_range().start, 19);
     check_gltf_split(&scene, dir.path(), &[(19, 21), (22, 24), (25, 27)], 2e-5);
+}
+
+/// OBJ and PLY frames of a glTF source carry its first UV set (v turned to their convention) and
+/// normals recomputed for each frame.
+#[test]
+fn obj_and_ply_frames_of_a_gltf_source_keep_its_uvs_and_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::load(&bending_arm(dir.path())).unwrap();
+    let source = read_gltf(&dir.path().join("arm.glb"), &GltfReadOptions::default()).unwrap();
+    let (uvs, vertices) = (source.meshes[0].texcoords.clone().unwrap(), source.meshes[0].positions.len());
+    for format in [OutputFormat::Obj, OutputFormat::Ply] {
+        let out = dir.path().join(format.extension());
+        let computed = run(&scene, &out, format, Some((12, 12)));
+        let deformed = &computed.file_positions[&12];
+        let file = out.join(format!("arm/0012.{}", format.extension()));
+        let (texcoords, normals): (Vec<[f64; 2]>, Vec<DVec3>) = match format {
+            OutputFormat::Obj => {
+                let obj = squish_io::ObjDocument::read(&file).unwrap();
+                assert_eq!(&obj.mesh().positions, deformed);
+                (obj.texcoords().0.to_vec(), obj.normals().to_vec())
+            }
+            _ => {
+                let ply = squish_io::read_ply_data(&file).unwrap();
+                assert_eq!(&ply.positions, deformed);
+                let column = |name: &str| ply.property(name).unwrap().values.clone();
+                let (u, v, x, y, z) = (column("u"), column("v"), column("nx"), column("ny"), column("nz"));
+                (
+                    (0..vertices).map(|k| [u[k], v[k]]).collect(),
+                    (0..vertices).map(|k| DVec3::new(x[k], y[k], z[k])).collect(),
+                )
+            }
+        };
+        assert_eq!(texcoords.len(), vertices);
+        for (k, (written, file)) in texcoords.iter().zip(&uvs).enumerate() {
+            assert!((written[0] - file[0]).abs() < 1e-7 && (written[1] - (1.0 - file[1])).abs() < 1e-7, "uv {k}");
+        }
+        // Unit normals, facing out of the deformed surface: along the deformed mesh's own.
+        let mesh = squish::TriMesh { positions: deformed.clone(), triangles: source.meshes[0].triangles.clone() };
+        let expected = squish::mesh::vertex_normals(&mesh);
+        assert_eq!(normals.len(), vertices);
+        for (k, (n, e)) in normals.iter().zip(&expected).enumerate() {
+            assert!((n.length() - 1.0).abs() < 1e-6 && n.dot(*e) > 0.9, "normal {k}: {n} vs {e}");
+        }
+    }
 }
