@@ -40,7 +40,7 @@ use squish::TriMesh;
 use crate::gltf_read::{GltfReadOptions, read_gltf, read_gltf_file};
 use crate::gltf_scene::{GltfMesh, GltfScene};
 use crate::gltf_write::write_glb_container;
-use crate::morph::{MorphFrame, MorphKeys, SparseDisplacement};
+use crate::morph::{MorphFrame, MorphKeys, SparseDisplacement, sparse_accessor};
 use crate::{IoError, write_atomically};
 
 const FLOAT: u64 = 5126;
@@ -940,59 +940,6 @@ impl<'a> Edit<'a> {
             write_atomically(path, |w| w.write_all(&text))
         }
     }
-}
-
-/// The accessor of a displacement (`VEC3`, float): sparse — the moving vertices' indices and
-/// values, in buffer views made by `view`; an accessor without a buffer view holds zeros — when
-/// that is smaller than storing every vertex, dense otherwise. When nothing moves it holds one
-/// zero entry (a sparse accessor needs one, and readers such as the `gltf` crate's validation
-/// refuse an accessor with neither a buffer view nor sparse data). `with_bounds`: `min`/`max`
-/// over every vertex (required for `POSITION`).
-pub(crate) fn sparse_accessor(
-    displacement: &SparseDisplacement,
-    with_bounds: bool,
-    mut view: impl FnMut(&[u8]) -> usize,
-) -> Value {
-    let SparseDisplacement { count, indices, values } = displacement;
-    let mut accessor = json!({ "componentType": FLOAT, "count": count, "type": "VEC3" });
-    if with_bounds {
-        let mut flat: Vec<f32> = values.iter().flatten().copied().collect();
-        if indices.len() < *count {
-            flat.extend([0.0; 3]);
-        }
-        let (min, max) = if flat.is_empty() { (vec![0.0; 3], vec![0.0; 3]) } else { bounds(&flat, 3) };
-        accessor["min"] = json!(min);
-        accessor["max"] = json!(max);
-    }
-    let (indices, values) = if indices.is_empty() { (&vec![0], &vec![[0.0; 3]]) } else { (indices, values) };
-    let last = indices.last().copied().unwrap_or(0);
-    let (index_type, index_size) = if last <= u32::from(u8::MAX) {
-        (5121, 1)
-    } else if last <= u32::from(u16::MAX) {
-        (5123, 2)
-    } else {
-        (5125, 4)
-    };
-    let value_bytes: Vec<u8> = values.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
-    if indices.len() * (12 + index_size) < count * 12 {
-        let index_bytes: Vec<u8> = match index_size {
-            1 => indices.iter().map(|&i| i as u8).collect(),
-            2 => indices.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect(),
-            _ => indices.iter().flat_map(|&i| i.to_le_bytes()).collect(),
-        };
-        let index_view = view(&index_bytes);
-        let value_view = view(&value_bytes);
-        accessor["sparse"] = json!({
-            "count": indices.len(),
-            "indices": { "bufferView": index_view, "componentType": index_type },
-            "values": { "bufferView": value_view },
-        });
-    } else {
-        let dense: Vec<u8> =
-            displacement.dense().iter().flat_map(|d| d.as_vec3().to_array()).flat_map(f32::to_le_bytes).collect();
-        accessor["bufferView"] = json!(view(&dense));
-    }
-    accessor
 }
 
 /// Appends `value` to the array `json[key]` (created if missing); returns its index.

@@ -245,8 +245,7 @@ pub fn write_animated_glb(
     let targets: Vec<Value> = frames
         .iter()
         .map(|frame| {
-            let accessor =
-                crate::gltf_document::sparse_accessor(&frame.displacement, true, |bytes| builder.view(bytes, None));
+            let accessor = crate::morph::sparse_accessor(&frame.displacement, true, |bytes| builder.view(bytes, None));
             builder.accessors.push(accessor);
             json!({ "POSITION": builder.accessors.len() - 1 })
         })
