@@ -61,6 +61,9 @@ impl Wording for CommandLine {
     fn frames_option(&self) -> &'static str {
         "--frames"
     }
+    fn frames_given(&self, text: &str) -> String {
+        format!("--frames {text}")
+    }
     fn frames(&self, first: i64, last: i64) -> String {
         format!("--frames {first}:{last}")
     }

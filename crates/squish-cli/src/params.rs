@@ -16,7 +16,6 @@ use std::path::{Path, PathBuf};
 
 use squish::params::{ObjectParams, PairParams, ParamError, ParamKind, ParamValue, Params};
 use squish_io::scene::{VertexData, param_value, read_vertex_map};
-
 use squish_shot::two_objects::PairParameters;
 
 use crate::error::CliError;

@@ -29,7 +29,17 @@ pub struct PythonWords;
 
 impl Wording for PythonWords {
     fn frames_option(&self) -> &'static str {
-        "frames="
+        "the frames= argument"
+    }
+    fn frames_given(&self, text: &str) -> String {
+        // `Scene.run` reads a tuple, a range or a frame as the text `A:B`: show the tuple.
+        let pair = text
+            .split_once(':')
+            .and_then(|(a, b)| Some((a.trim().parse::<i64>().ok()?, b.trim().parse::<i64>().ok()?)));
+        match pair {
+            Some((a, b)) => format!("frames=({a}, {b})"),
+            None => format!("frames={text:?}"),
+        }
     }
     fn frames(&self, first: i64, last: i64) -> String {
         format!("frames=({first}, {last})")

@@ -52,6 +52,8 @@ impl fmt::Display for SettingValue<'_> {
 pub trait Wording {
     /// The option that selects frames, as a message names it (`--frames`).
     fn frames_option(&self) -> &'static str;
+    /// The frame selection the user gave, read as `text` (`--frames 40:60`).
+    fn frames_given(&self, text: &str) -> String;
     /// The setting that runs frames `first..=last` (`--frames 3:4`).
     fn frames(&self, first: i64, last: i64) -> String;
     /// The thread count set to `n` (`--threads 0`).
@@ -70,6 +72,9 @@ pub struct Neutral;
 impl Wording for Neutral {
     fn frames_option(&self) -> &'static str {
         "frames"
+    }
+    fn frames_given(&self, text: &str) -> String {
+        format!("frames {text}")
     }
     fn frames(&self, first: i64, last: i64) -> String {
         format!("frames {first}:{last}")
@@ -210,7 +215,7 @@ impl ShotError {
         match self {
             Self::Io(e) => e.to_string(),
             Self::Frames { scene, error } => {
-                format!("{}: {} {}: {}", scene.display(), words.frames_option(), error.text, error.message)
+                format!("{}: {}: {}", scene.display(), words.frames_given(&error.text), error.message)
             }
             Self::Frame { frame, error } => format!("frame {frame}: {error}"),
             Self::Pipeline(e) => match e.as_ref() {
@@ -362,6 +367,9 @@ mod tests {
     impl Wording for Flags {
         fn frames_option(&self) -> &'static str {
             "--frames"
+        }
+        fn frames_given(&self, text: &str) -> String {
+            format!("--frames {text}")
         }
         fn frames(&self, first: i64, last: i64) -> String {
             format!("--{}", Neutral.frames(first, last))

@@ -127,7 +127,7 @@ impl<'a> ShotOutputs<'a> {
         part: Option<(i64, i64)>,
     ) -> Result<Self, ShotError> {
         let mut targets = Vec::new();
-        for (spec, n) in scene.description().objects.iter().zip(numbering) {
+        for (i, (spec, n)) in scene.description().objects.iter().zip(numbering).enumerate() {
             let source_format = MeshFormat::from_path(spec.mesh.file()).ok();
             let same_format = matches!(
                 (output.format, source_format),
@@ -146,7 +146,7 @@ impl<'a> ShotOutputs<'a> {
                     )
                 }
                 (MeshSource::Gltf(g), false) if output.format.per_frame() && n.note.is_none() => {
-                    let node = scene.gltf_pose(targets.len(), scene.frame_range().start as f64).map(|p| p.node);
+                    let node = scene.gltf_pose(i, scene.frame_range().start as f64).map(|p| p.node);
                     match node {
                         Some(node) => Target::Converted { document: Box::new(GltfDocument::read(&g.file)?), node },
                         None => Target::Plain,
@@ -156,7 +156,7 @@ impl<'a> ShotOutputs<'a> {
             };
             targets.push(target);
         }
-        let over_time = |t: &Target| !matches!(t, Target::Document(d) if matches!(d.as_ref(), MeshDocument::Gltf(_)));
+        let over_time = |t: &Target| !matches!(t, Target::Document(d) if matches!(**d, MeshDocument::Gltf(_)));
         let animated_mesh = matches!(output.format, OutputFormat::Glb | OutputFormat::Gltf);
         let bases = if animated_mesh && targets.iter().any(over_time) {
             let start = SceneShot { scene }.frame(scene.frame_range().start)?;
@@ -214,10 +214,9 @@ impl<'a> ShotOutputs<'a> {
         let mut samples = Vec::with_capacity(positions.len());
         for (i, ((object, p), n)) in shot.objects.iter().zip(positions).zip(self.numbering).enumerate() {
             let file_positions = n.positions(p);
-            let sample = match (self.output.format, &self.targets[i], &self.bases[i]) {
+            let sample = match (self.output.format, self.gltf_document(i), &self.bases[i]) {
                 (OutputFormat::Pc2, ..) => Sample::Positions(file_positions),
-                (_, Target::Document(document), _) if matches!(document.as_ref(), MeshDocument::Gltf(_)) => {
-                    let MeshDocument::Gltf(gltf) = document.as_ref() else { unreachable!() };
+                (_, Some(gltf), _) => {
                     // Only the vertices the deformer moved get a displacement.
                     let moved: Vec<bool> = p.iter().zip(&object.mesh.positions).map(|(a, b)| a != b).collect();
                     let moved = match &n.vertex_map {
@@ -226,15 +225,26 @@ impl<'a> ShotOutputs<'a> {
                     };
                     Sample::Displacement(self.morph_displacement(gltf, i, frame, &file_positions, &moved)?)
                 }
-                (_, _, Some(base)) => {
+                (_, None, Some(base)) => {
                     let delta: Vec<DVec3> = file_positions.iter().zip(base).map(|(a, b)| *a - *b).collect();
                     Sample::Displacement(SparseDisplacement::from_dense(&delta).map_err(displacement_error)?)
                 }
-                (_, _, None) => return Err(ShotError::Internal(format!("object #{}: no base mesh", i + 1))),
+                (_, None, None) => return Err(ShotError::Internal(format!("object #{}: no base mesh", i + 1))),
             };
             samples.push(sample);
         }
         Ok(samples)
+    }
+
+    /// Object `i`'s glTF source document, when its frames are written into it.
+    fn gltf_document(&self, i: usize) -> Option<&GltfDocument> {
+        match &self.targets[i] {
+            Target::Document(document) => match document.as_ref() {
+                MeshDocument::Gltf(gltf) => Some(gltf),
+                _ => None,
+            },
+            _ => None,
+        }
     }
 
     /// Object `i`'s deformation at `frame` (`posed`: the scene's space) as a displacement of its
@@ -278,14 +288,8 @@ impl<'a> ShotOutputs<'a> {
                         .collect();
                     squish_io::write_pc2(&path, &positions, first as f64, 1.0)?;
                 }
-                (_, target, base) => {
-                    let document = match target {
-                        Target::Document(d) => match d.as_ref() {
-                            MeshDocument::Gltf(gltf) => Some(gltf.as_ref()),
-                            _ => None,
-                        },
-                        _ => None,
-                    };
+                (_, _, base) => {
+                    let document = self.gltf_document(i);
                     let morphs: Vec<MorphFrame> = frames
                         .filter_map(|(frame, s)| match s {
                             Sample::Displacement(d) => Some(MorphFrame {
