@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use squish::params::{ObjectParams, PairParams, ParamError, ParamKind, ParamValue, Params};
 use squish_io::scene::{VertexData, param_value, read_vertex_map};
+use squish_shot::two_objects::PairParameters;
 
 use crate::error::CliError;
 use crate::input::InputMesh;
@@ -36,6 +37,11 @@ fn set_error(context: &str, e: ParamError) -> CliError {
 }
 
 impl PairSettings {
+    /// The parameters set, for the one-frame calls of the shot machinery.
+    pub fn parameters(&self) -> PairParameters {
+        PairParameters { a: self.a.clone(), b: self.b.clone(), pair: self.pair }
+    }
+
     /// The object of a prefix (`a` → 0, `b` → 1).
     fn object(&mut self, which: usize) -> &mut ObjectParams {
         if which == 0 { &mut self.a } else { &mut self.b }
@@ -212,34 +218,6 @@ impl PairSettings {
             ));
         }
         Ok(())
-    }
-}
-
-/// The fix of a contact error as the two-object commands spell it: the library names the pair
-/// parameter to set (`its \`direction\` parameter`), the command line sets it with `--set pair.…`.
-pub fn contact_error(error: &squish::contact::ContactError) -> CliError {
-    use squish::contact::ContactError;
-    let fix = match error {
-        ContactError::DirectionUndefined => {
-            "; on the command line: --set pair.direction=0,0,1 (the direction from A toward B)"
-        }
-        ContactError::BallTestingNeedsOneRigid => {
-            "; on the command line: --set pair.contact_method=geometric, or --set a.rigid=true"
-        }
-        _ => "",
-    };
-    CliError::input(format!("{error}{fix}"))
-}
-
-/// A pipeline error of a two-object command, with the command line's spelling of the fix (see
-/// [`contact_error`]).
-pub fn pipeline_error(error: &squish::pipeline::PipelineError) -> CliError {
-    match error {
-        squish::pipeline::PipelineError::Contact { a, b, source } => {
-            let fixed = contact_error(source);
-            CliError::input(format!("pair (\"{a}\", \"{b}\"): {fixed}"))
-        }
-        _ => CliError::input(error.to_string()),
     }
 }
 

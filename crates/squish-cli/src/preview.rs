@@ -19,9 +19,11 @@ use squish_render::{
     orbit_direction, render, scalar_colors, srgb8, text_size,
 };
 
+use squish_shot::ShotError;
+use squish_shot::files::{create_dir, write_bytes};
+use squish_shot::shot::{PreviewFrame, ShotOutcome};
+
 use crate::error::CliError;
-use crate::input::{create_dir, write_bytes};
-use crate::shot::{PreviewFrame, ShotOutcome};
 
 /// How to colour the output meshes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -279,7 +281,7 @@ pub fn render_frame(
     view: &ShotView,
     settings: &PictureSettings,
     caption: &str,
-) -> Result<Image, CliError> {
+) -> Result<Image, ShotError> {
     let meshes = coloured_meshes(p, side, settings.color, section.then_some(view.section));
     let scene: Vec<RenderMesh> =
         meshes.iter().map(|s| RenderMesh::new(&s.mesh).with_vertex_colors(&s.colors)).collect();
@@ -292,7 +294,7 @@ pub fn render_frame(
         options.lighting.back_tint_amount = 0.55;
     }
     let mut image = render(&scene, &view.camera, &options)
-        .map_err(|e| CliError::failure(format!("frame {frame}: picture: {e}")))?;
+        .map_err(|e| ShotError::Internal(format!("frame {frame}: picture: {e}")))?;
     draw_profiles(&mut image, &meshes, &view.camera);
     label(&mut image, caption);
     let entries: Vec<(Rgb, &str)> = match (side, settings.color) {
@@ -505,7 +507,7 @@ pub fn frame_pictures(
     p: &PreviewFrame,
     view: &ShotView,
     settings: &PictureSettings,
-) -> Result<FramePictures, CliError> {
+) -> Result<FramePictures, ShotError> {
     let title = frame.map_or_else(String::new, |f| format!("frame {f}: "));
     let frame = frame.unwrap_or(0);
     let input = render_frame(frame, p, Side::Input, false, view, settings, &format!("{title}input"))?;
@@ -550,7 +552,7 @@ pub fn write_previews(
     dir: &Path,
     outcome: &ShotOutcome,
     settings: &PictureSettings,
-) -> Result<(Vec<PathBuf>, BTreeMap<i64, FramePictures>), CliError> {
+) -> Result<(Vec<PathBuf>, BTreeMap<i64, FramePictures>), ShotError> {
     let mut written = Vec::new();
     let mut outputs = BTreeMap::new();
     if outcome.previews.is_empty() {
@@ -559,7 +561,7 @@ pub fn write_previews(
     create_dir(dir)?;
     let view = shot_view(outcome, settings);
     // Frames in parallel: PNG encoding is sequential within a picture.
-    let done: Vec<Result<WrittenFrame, CliError>> = outcome
+    let done: Vec<Result<WrittenFrame, ShotError>> = outcome
         .previews
         .par_iter()
         .map(|(&frame, p)| {
@@ -622,7 +624,7 @@ impl PictureArgs {
 
 /// Writes the "input | output" picture of a single frame (whole, and cut through the contact)
 /// to `path`.
-pub fn write_frame_preview(path: &Path, p: &PreviewFrame, settings: &PictureSettings) -> Result<PathBuf, CliError> {
+pub fn write_frame_preview(path: &Path, p: &PreviewFrame, settings: &PictureSettings) -> Result<PathBuf, ShotError> {
     let view = view_of(&[p], Vec::new(), settings);
     let pictures = frame_pictures(None, p, &view, settings)?;
     write_png(path, &pictures.compare)
@@ -643,8 +645,8 @@ pub fn strip(pictures: &BTreeMap<i64, FramePictures>) -> Option<Image> {
 }
 
 /// Encodes and writes a PNG atomically.
-pub fn write_png(path: &Path, image: &Image) -> Result<PathBuf, CliError> {
-    let bytes = encode_png(image).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+pub fn write_png(path: &Path, image: &Image) -> Result<PathBuf, ShotError> {
+    let bytes = encode_png(image).map_err(|e| ShotError::Internal(format!("{}: {e}", path.display())))?;
     write_bytes(path, &bytes)?;
     Ok(path.to_path_buf())
 }
@@ -661,7 +663,7 @@ pub fn preview_frames(text: &str, range: &std::ops::RangeInclusive<i64>) -> Resu
     let mut frames = BTreeSet::new();
     for item in text.split(',') {
         let selection = squish_io::parse_frame_selection(item.trim(), &bounds)
-            .map_err(|e| CliError::input(format!("--preview: {e}")))?;
+            .map_err(|e| CliError::input(format!("--preview={}: {}", e.text, e.message)))?;
         frames.extend(selection);
     }
     Ok(frames)

@@ -68,6 +68,27 @@ fn articulations(report: &Value, name: &str, object: &str) -> Vec<Value> {
         .collect()
 }
 
+/// `--dry-run` says what a scene with self-contact and no pair will compute, rather than that
+/// its objects are copied unchanged.
+#[test]
+fn a_dry_run_lists_the_self_contact_it_will_compute() {
+    let dir = tempfile::tempdir().unwrap();
+    let dry_run = |scene: &Path| {
+        let output = squish().arg("run").arg(scene).arg("--dry-run").output().unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    };
+    let scene = write_bending_cylinder(
+        dir.path(),
+        "\n[[objects.self_contact]]\nname = \"elbow\"\njoints = [\"root\", \"elbow\"]\n",
+    );
+    let text = dry_run(&scene);
+    assert!(text.contains("self-contact \"elbow\"") && text.contains("the self-contact of arm"), "{text}");
+    assert!(!text.contains("copied unchanged"), "{text}");
+    let still = write_bending_cylinder(dir.path(), "");
+    assert!(dry_run(&still).contains("none (the objects are copied unchanged)"));
+}
+
 #[test]
 fn a_bending_skinned_cylinder_runs_with_self_contact() {
     let dir = tempfile::tempdir().unwrap();

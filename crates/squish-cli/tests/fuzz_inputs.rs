@@ -36,12 +36,12 @@ use glam::DVec3;
 use squish::mesh::shapes;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::Deformer;
-use squish_cli::cmd_deform::deform_pair;
 use squish_cli::input::{InputMesh, WeldChoice};
 use squish_cli::params::pair_settings;
-use squish_cli::scene_shot::SceneShot;
-use squish_cli::shot::ShotSource;
 use squish_io::Scene;
+use squish_shot::scene_shot::SceneShot;
+use squish_shot::shot::ShotSource;
+use squish_shot::two_objects::deform_pair;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
@@ -123,7 +123,8 @@ fn exercise_set(dir: &Path, text: &str) -> bool {
     if settings.complete(&inputs).is_err() {
         return false;
     }
-    let _ = deform_pair(["ball", "slab"], [&inputs[0].mesh, &inputs[1].mesh], &settings, &mut Deformer::new());
+    let _ =
+        deform_pair(["ball", "slab"], [&inputs[0].mesh, &inputs[1].mesh], &settings.parameters(), &mut Deformer::new());
     true
 }
 

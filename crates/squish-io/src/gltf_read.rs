@@ -14,8 +14,9 @@
 //! - positions (float or quantized), indices (u8/u16/u32, or none), skin attributes
 //!   (`JOINTS_n` u8/u16, `WEIGHTS_n` float or normalized u8/u16; with more than one set, the
 //!   four largest influences are kept), morph-target position displacements, normals and
-//!   tangents (for writing back, [`crate::GltfDocument`]). Texture coordinates and colours are
-//!   left in the file (checked to hold one element per vertex, like every attribute);
+//!   tangents (for writing back, [`crate::GltfDocument`]), the first texture coordinates
+//!   (`TEXCOORD_0`, for writing OBJ and PLY files). Other UV sets and colours are left in the
+//!   file (checked to hold one element per vertex, like every attribute);
 //! - nodes (names, hierarchy, TRS or matrix), skins (joints as node ids, inverse bind matrices,
 //!   identity when absent, skeleton root), animations (translation / rotation / scale channels
 //!   as [`AnimationClip`]s, morph-target weight channels as [`MorphWeightsTrack`]s).
@@ -331,6 +332,7 @@ impl<'a> Reader<'a> {
         let mut primitive_vertices = Vec::new();
         let mut normals: Vec<DVec3> = Vec::new();
         let mut tangents: Vec<[f64; 4]> = Vec::new();
+        let mut texcoords: Vec<[f64; 2]> = Vec::new();
         for primitive in mesh.primitives() {
             let element = format!("mesh {} '{name}' primitive {}", mesh.index(), primitive.index());
             let mode = primitive.mode();
@@ -442,6 +444,13 @@ impl<'a> Reader<'a> {
                 tangents.resize(offset, [0.0; 4]);
                 tangents.extend(d.rows::<4>());
             }
+            // The first UV set, for writing into formats that hold one (OBJ `vt`, PLY `u, v`).
+            if let Some(acc) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+                let what = format!("TEXCOORD_0 of {element}");
+                let d = self.data.accessor_with(acc.index(), &what, 2, "VEC2")?;
+                texcoords.resize(offset, [0.0; 2]);
+                texcoords.extend(d.rows::<2>());
+            }
 
             // Skin attributes: every set JOINTS_k/WEIGHTS_k, the four largest influences kept.
             let mut influences: Vec<Vec<(u32, f64)>> = Vec::new();
@@ -544,9 +553,14 @@ impl<'a> Reader<'a> {
             tangents.resize(file_vertex_count, [0.0; 4]);
             tangents
         });
+        let texcoords = (!texcoords.is_empty()).then(|| {
+            texcoords.resize(file_vertex_count, [0.0; 2]);
+            texcoords
+        });
         let mut out = GltfMesh {
             normals,
             tangents,
+            texcoords,
             name,
             positions,
             triangles,
@@ -577,8 +591,9 @@ impl<'a> Reader<'a> {
                 *normals =
                     average_rows(normals, &welded.vertex_map, kept).iter().map(|n| n.normalize_or_zero()).collect();
             }
-            // Tangents follow the UV layout, which welding across seams does not keep.
+            // Tangents and UVs follow the UV layout, which welding across seams does not keep.
             out.tangents = None;
+            out.texcoords = None;
             out.positions = welded.positions;
             out.triangles = welded.triangles;
             out.vertex_map = Some(welded.vertex_map);

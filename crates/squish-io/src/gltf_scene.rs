@@ -61,6 +61,9 @@ pub struct GltfMesh {
     /// Tangents (`TANGENT`, xyz and the handedness w), when a primitive has them (zero
     /// elsewhere); dropped by welding.
     pub tangents: Option<Vec<[f64; 4]>>,
+    /// Texture coordinates (`TEXCOORD_0`, glTF's convention: origin at the image's top left),
+    /// when a primitive has them (zero elsewhere); dropped by welding, which joins UV seams.
+    pub texcoords: Option<Vec<[f64; 2]>>,
     /// Skin weights, when the primitives have `JOINTS_0` / `WEIGHTS_0`.
     pub skin_weights: Option<SkinWeights>,
     /// Position displacements of each morph target (one per vertex).

@@ -24,6 +24,7 @@ mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
 mod gltf_write;
+mod morph;
 mod obj;
 mod pc2;
 mod ply;
@@ -42,8 +43,11 @@ pub use gltf_read::{GltfReadOptions, read_gltf};
 pub use gltf_scene::{
     GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
 };
-pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
-pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj};
+pub use gltf_write::{
+    AnimatedMesh, GltfWriteOptions, NamedMesh, read_animated_glb, write_animated_glb, write_gltf, write_gltf_meshes,
+};
+pub use morph::{MorphFrame, MorphKeys, SparseDisplacement};
+pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj, write_obj_with};
 pub use pc2::{PointCache, read_pc2, write_pc2};
 pub use ply::{
     PlyColumn, PlyData, PlyDocument, PlyElement, PlyFormat, PlyProperty, PlyWriteOptions, ScalarType, VertexProperty,
@@ -162,8 +166,9 @@ impl MeshDocument {
     }
 
     /// Writes `positions` (one per vertex of [`Self::mesh`]) to `path`, atomically: into a copy
-    /// of the document when [`Self::passes_through_to`] holds, else as a plain mesh of the
-    /// output's format (positions and faces).
+    /// of the document when [`Self::passes_through_to`] holds, else as a mesh of the output's
+    /// format: positions and faces, and for a glTF document its first UV set and normals
+    /// ([`GltfDocument::write_converted`]).
     pub fn write_with_positions(&self, path: &Path, positions: &[DVec3]) -> Result<(), IoError> {
         if self.passes_through_to(path) {
             return match self {
@@ -174,6 +179,10 @@ impl MeshDocument {
                 Self::Ply(d) => d.write_with_positions(path, positions),
                 Self::Gltf(d) => d.write_with_positions(path, positions),
             };
+        }
+        if let Self::Gltf(d) = self {
+            // UVs and normals, which OBJ and PLY hold too.
+            return d.write_converted(path, None, positions);
         }
         let mesh = self.mesh()?;
         if positions.len() != mesh.num_vertices() {

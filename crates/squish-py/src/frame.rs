@@ -1,8 +1,8 @@
 //! One frame: `squish.deform` and `squish.contact` (two meshes, as `squish deform` and `squish
 //! contact`), and `squish.Frame` (any number of objects, pairs and self-contact articulations).
 //!
-//! The two-mesh calls build their frame with the command line's own functions
-//! ([`squish_cli::cmd_deform::deform_pair`], [`squish_cli::cmd_contact::define_contact`]), so the
+//! The two-mesh calls build their frame with the functions `squish deform` and `squish contact` use
+//! ([`squish_shot::two_objects::deform_pair`], [`squish_shot::two_objects::define_contact`]), so the
 //! results are those of the command on the same meshes and parameters, bit for bit, and the
 //! report dicts hold the figures of its report files. `Frame.deform` reports the figures of a
 //! `report.json` frame entry. The GIL is released while computing.
@@ -15,11 +15,11 @@ use squish::params::Articulation;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
 use squish::pipeline::{OwnedFrame, OwnedObject};
-use squish_cli::params::PairSettings;
-use squish_cli::quality::FrameEntry;
-use squish_cli::shot::{frame_record, worker_pool};
+use squish_shot::quality::FrameEntry;
+use squish_shot::shot::{frame_record, worker_pool};
+use squish_shot::two_objects::PairParameters as PairSettings;
 
-use crate::errors::{cli_error, input_error, parameter_error, pipeline_error, to_python};
+use crate::errors::{input_error, parameter_error, pipeline_error, shot_error, to_python};
 use crate::mesh::{Mesh, positions_array, vertices_from};
 use crate::params::{apply, check_per_vertex, from_python};
 
@@ -87,8 +87,10 @@ pub fn deform<'py>(
 ) -> PyResult<(Bound<'py, PyTuple>, Bound<'py, PyAny>)> {
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let (result, figures) = py
-        .detach(|| squish_cli::cmd_deform::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new()))
-        .map_err(cli_error)?;
+        .detach(|| {
+            squish_shot::two_objects::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new())
+        })
+        .map_err(shot_error)?;
     let vertices =
         PyTuple::new(py, [positions_array(py, &result.positions[0])?, positions_array(py, &result.positions[1])?])?;
     Ok((vertices, to_python(py, &figures)?))
@@ -110,8 +112,8 @@ pub fn contact<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let definition = py
-        .detach(|| squish_cli::cmd_contact::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None]))
-        .map_err(cli_error)?;
+        .detach(|| squish_shot::two_objects::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None]))
+        .map_err(shot_error)?;
     let report = to_python(py, &definition.figures)?;
     let labels = definition.labels.map(|l| PyArray1::from_vec(py, l));
     report.set_item("labels", PyTuple::new(py, labels)?)?;
@@ -298,7 +300,7 @@ impl Frame {
     /// every core).
     #[pyo3(signature = (threads=None))]
     fn deform<'py>(&self, py: Python<'py>, threads: Option<usize>) -> PyResult<FrameOutput<'py>> {
-        let pool = worker_pool(threads).map_err(cli_error)?;
+        let pool = worker_pool(threads).map_err(shot_error)?;
         let shot = &self.frame;
         let (result, record) = py
             .detach(|| {

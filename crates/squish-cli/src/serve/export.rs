@@ -16,7 +16,7 @@ use squish_io::write_obj;
 use toml::Value;
 
 use super::session::{Computed, Session, relative_to};
-use crate::scene_shot::file_numbering;
+use squish_shot::scene_shot::file_numbering;
 
 /// Longest export name.
 const MAX_NAME_LEN: usize = 64;

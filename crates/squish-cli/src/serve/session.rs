@@ -20,8 +20,8 @@ use squish_io::Scene;
 use squish_io::scene::{ObjectSpec, PairSpec, ParamTracks, RawParams, param_value, toml_value};
 use toml::Value;
 
-use crate::frame_quality::{self, ObjectQuality, PairQuality};
 use squish::pipeline::OwnedFrame;
+use squish_shot::frame_quality::{self, ObjectQuality, PairQuality};
 
 /// What a parameter edit applies to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, Serialize)]

@@ -86,7 +86,7 @@ pub struct FrameView {
     /// Per stage, milliseconds.
     pub stages: std::collections::BTreeMap<String, f64>,
     pub objects: Vec<ObjectFrameView>,
-    pub pairs: Vec<crate::frame_quality::PairQuality>,
+    pub pairs: Vec<squish_shot::frame_quality::PairQuality>,
     /// Per object and pair, the value of every parameter at this frame.
     pub values: ValuesView,
     pub warnings: Vec<String>,
@@ -104,7 +104,7 @@ pub struct ObjectFrameView {
     /// Flat x, y, z of the input and of the output.
     pub input: Vec<f64>,
     pub output: Vec<f64>,
-    pub quality: crate::frame_quality::ObjectQuality,
+    pub quality: squish_shot::frame_quality::ObjectQuality,
     /// Overlays, per vertex (absent when the object was not deformed): u in [0, 1] inside the
     /// deformable region and −1 elsewhere; contact and deformable as 0/1; η.
     pub overlays: Option<Overlays>,
@@ -153,7 +153,7 @@ fn intersecting_vertices(meshes: &[&TriMesh]) -> Vec<Vec<u8>> {
     meshes
         .iter()
         .zip(&faces)
-        .map(|(mesh, faces)| crate::shot::face_vertex_flags(mesh, faces).into_iter().map(u8::from).collect())
+        .map(|(mesh, faces)| squish_shot::shot::face_vertex_flags(mesh, faces).into_iter().map(u8::from).collect())
         .collect()
 }
 

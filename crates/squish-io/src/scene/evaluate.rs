@@ -9,7 +9,7 @@ use squish::pipeline::{FramePair, OwnedFrame, OwnedObject};
 
 use super::Scene;
 use super::source::{SourceAssets, source_mesh};
-use super::types::{AxisAngle, Scale, Transform};
+use super::transform::{AxisAngle, Scale, Transform};
 use crate::IoError;
 
 /// The affine map T·R·S of a transform at `frame`, as a function on points. Errors (zero

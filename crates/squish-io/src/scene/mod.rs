@@ -24,6 +24,7 @@ mod frames;
 mod keys;
 mod source;
 mod tracks;
+mod transform;
 mod types;
 mod validate;
 mod vertex_data;
@@ -35,9 +36,10 @@ use std::sync::Arc;
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
 pub use keys::Keyed;
 pub use tracks::{ParamTracks, RawParams, Track, TrackError, names_vertex_data, param_value, toml_value};
+pub use transform::{AxisAngle, Scale, Transform};
 pub use types::{
-    AxisAngle, FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreviewCamera,
-    PreviewSpec, Scale, SceneDescription, SelfContactSpec, Transform, UpAxisName, VertexData, Weld,
+    FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreviewCamera, PreviewSpec,
+    SceneDescription, SelfContactSpec, UpAxisName, VertexData, Weld,
 };
 pub use vertex_data::read_vertex_map;
 

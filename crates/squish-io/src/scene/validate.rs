@@ -18,7 +18,8 @@ use toml::Value;
 use super::diagnostics::{Seg, SourceText};
 use super::frames::FramePattern;
 use super::tracks::{ParamTracks, RawParams, TrackError};
-use super::types::{MeshSource, ObjectSpec, Scale, SceneDescription, SelfContactSpec, VertexData};
+use super::transform::Scale;
+use super::types::{MeshSource, ObjectSpec, SceneDescription, SelfContactSpec, VertexData};
 use crate::IoError;
 
 /// Longest accepted shot: beyond this a frame range is surely a typo, and checking every frame

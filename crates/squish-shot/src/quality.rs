@@ -19,9 +19,9 @@ use serde::Serialize;
 use squish::stage::Stage;
 use squish_render::{Plot, Series, encode_png, grid, plot_image, svg_line_plot};
 
-use crate::error::CliError;
+use crate::error::ShotError;
+use crate::files::{write_bytes, write_text};
 use crate::frame_quality::{ObjectQuality, PairQuality};
-use crate::input::{write_bytes, write_text};
 use crate::report::FrameReport;
 use crate::shot::{FrameRecord, ShotOutcome};
 
@@ -681,7 +681,7 @@ pub fn write_report<S: Serialize>(
     scene: &S,
     outputs: &serde_json::Value,
     outcome: &ShotOutcome,
-) -> Result<ShotSummary, CliError> {
+) -> Result<ShotSummary, ShotError> {
     let summary = ShotSummary::of(outcome);
     let per_frame = outcome.records.iter().map(FrameEntry::of).collect();
     let report = Report {
@@ -704,7 +704,7 @@ pub fn write_report<S: Serialize>(
         let images: Vec<_> = plots.iter().map(plot_image).collect();
         let refs: Vec<_> = images.iter().collect();
         let png = encode_png(&grid(&refs, 2, 0, [255, 255, 255, 255]))
-            .map_err(|e| CliError::failure(format!("quality plot: {e}")))?;
+            .map_err(|e| ShotError::Internal(format!("quality plot: {e}")))?;
         write_bytes(&dir.join("quality.png"), &png)?;
     }
     Ok(summary)
