@@ -26,7 +26,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DMat4, DQuat, DVec3};
+use glam::{DMat4, DQuat, DVec2, DVec3};
 use gltf::json::validation::Checked;
 use squish::animation::{
     AnimationClip, Channel, ChannelValues, Interpolation, NodeTransform, Sampler, Skeleton, SkeletonNode, Trs,
@@ -331,6 +331,8 @@ impl<'a> Reader<'a> {
         let mut primitive_vertices = Vec::new();
         let mut normals: Vec<DVec3> = Vec::new();
         let mut tangents: Vec<[f64; 4]> = Vec::new();
+        // TEXCOORD_0 per file vertex; `None` once a primitive has none (the mesh then has no UVs).
+        let mut texcoords: Option<Vec<DVec2>> = Some(Vec::new());
         for primitive in mesh.primitives() {
             let element = format!("mesh {} '{name}' primitive {}", mesh.index(), primitive.index());
             let mode = primitive.mode();
@@ -435,6 +437,17 @@ impl<'a> Reader<'a> {
                 let d = self.data.accessor_with(acc.index(), &what, 3, "VEC3")?;
                 normals.resize(offset, DVec3::ZERO);
                 normals.extend(d.rows::<3>().map(DVec3::from_array));
+            }
+            match (primitive.get(&gltf::Semantic::TexCoords(0)), texcoords.as_mut()) {
+                (Some(acc), Some(uvs)) => {
+                    let what = format!("TEXCOORD_0 of {element}");
+                    let d = self.data.accessor_with(acc.index(), &what, 2, "VEC2")?;
+                    if d.values.iter().any(|x| !x.is_finite()) {
+                        return Err(self.err(format!("accessor {} ({what})", acc.index()), "has a non-finite UV"));
+                    }
+                    uvs.extend(d.rows::<2>().map(DVec2::from_array));
+                }
+                _ => texcoords = None,
             }
             if let Some(acc) = primitive.get(&gltf::Semantic::Tangents) {
                 let what = format!("TANGENT of {element}");
@@ -544,7 +557,9 @@ impl<'a> Reader<'a> {
             tangents.resize(file_vertex_count, [0.0; 4]);
             tangents
         });
+        let texcoords = texcoords.map(|uvs| triangles.iter().map(|t| t.map(|v| uvs[v as usize])).collect());
         let mut out = GltfMesh {
+            texcoords,
             normals,
             tangents,
             name,
@@ -579,6 +594,19 @@ impl<'a> Reader<'a> {
             }
             // Tangents follow the UV layout, which welding across seams does not keep.
             out.tangents = None;
+            // The corners' UVs stay those of their triangles; collapsed triangles are dropped.
+            if let Some(corners) = &mut out.texcoords {
+                let mut kept = corners.iter();
+                *corners = out
+                    .triangles
+                    .iter()
+                    .filter_map(|t| {
+                        let corner = kept.next().copied();
+                        let w = t.map(|v| welded.vertex_map[v as usize]);
+                        (w[0] != w[1] && w[1] != w[2] && w[0] != w[2]).then_some(corner).flatten()
+                    })
+                    .collect();
+            }
             out.positions = welded.positions;
             out.triangles = welded.triangles;
             out.vertex_map = Some(welded.vertex_map);

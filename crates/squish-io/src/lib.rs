@@ -23,11 +23,13 @@ mod gltf_binary;
 mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
+mod gltf_texture;
 mod gltf_write;
 mod obj;
 mod pc2;
 mod ply;
 pub mod scene;
+mod uvs;
 mod weld;
 
 use std::path::Path;
@@ -42,6 +44,7 @@ pub use gltf_read::{GltfReadOptions, read_gltf};
 pub use gltf_scene::{
     GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
 };
+pub use gltf_texture::{GltfImage, base_color_image};
 pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
 pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj};
 pub use pc2::{PointCache, read_pc2, write_pc2};
@@ -50,6 +53,7 @@ pub use ply::{
     read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply,
 };
 pub use scene::{Scene, SceneDescription, parse_frame_selection};
+pub use uvs::{document_uvs, welded_uvs};
 pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).

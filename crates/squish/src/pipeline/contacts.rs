@@ -10,13 +10,14 @@
 //! A cut region lying wholly inside a closed object it is paired with crosses no edge, so the
 //! contact definition sees nothing: that is [`PipelineError::RegionTooSmall`].
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::cache::{ObjectCache, RegionCache};
 use super::{Frame, PipelineError};
 use crate::contact::{ContactZone, PairContact, contact_pair};
 use crate::mesh::vertex_normals;
+use crate::params::Uvs;
 
 /// A region pair of this frame.
 #[derive(Clone, Copy, Debug)]
@@ -36,8 +37,8 @@ pub(super) struct RegionInputs {
     /// Per object and region: the name used in messages.
     pub names: Vec<Vec<String>>,
     /// Per object and region: the UVs of the shared-parametrization mapping (gathered for cut
-    /// regions).
-    pub uvs: Vec<Vec<Option<Vec<DVec2>>>>,
+    /// regions: per vertex or per face, as the object gives them).
+    pub uvs: Vec<Vec<Option<Uvs>>>,
 }
 
 impl RegionInputs {
@@ -66,7 +67,13 @@ impl RegionInputs {
                     .iter()
                     .map(|region| {
                         let uvs = o.params.uvs.as_ref()?;
-                        Some(region.sub.as_deref().map_or_else(|| uvs.clone(), |sub| sub.sub.gather(uvs)))
+                        Some(match (region.sub.as_deref(), uvs) {
+                            (None, _) => uvs.clone(),
+                            (Some(sub), Uvs::PerVertex(values)) => Uvs::PerVertex(sub.sub.gather(values)),
+                            (Some(sub), Uvs::PerCorner(corners)) => {
+                                Uvs::PerCorner(sub.sub.parent_face.iter().map(|&f| corners[f as usize]).collect())
+                            }
+                        })
                     })
                     .collect()
             })
@@ -119,8 +126,8 @@ pub(super) fn contact_region_pairs(
             let pair = &frame.pairs[rp.pair];
             let [ia, ib] = pair.objects;
             let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
-            let side_a = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra], uvs[ia][ra].as_deref());
-            let side_b = caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb], uvs[ib][rb].as_deref());
+            let side_a = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra], uvs[ia][ra].as_ref());
+            let side_b = caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb], uvs[ib][rb].as_ref());
             let sides = side_a.zip(side_b);
             let Some((side_a, side_b)) = sides else { return Ok(None) };
             let contact = contact_pair(&side_a, &side_b, &pair.params).map_err(|source| PipelineError::Contact {
