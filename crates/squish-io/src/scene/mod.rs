@@ -18,6 +18,7 @@
 //! data file name that file (and the frame, for sequences).
 
 mod articulations;
+pub use articulations::{AutomaticArticulation, AutomaticSelfContact, JointPoints, automatic_self_contact};
 mod diagnostics;
 mod evaluate;
 mod frames;
