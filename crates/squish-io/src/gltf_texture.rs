@@ -21,15 +21,16 @@ pub struct GltfImage {
     pub texcoord: u64,
 }
 
-/// The base-colour image of mesh `mesh` of the glTF file at `path`, or `None` when its first
-/// primitive has no material with a base-colour texture. A texture whose image cannot be read
-/// is an error naming it.
-pub fn base_color_image(path: &Path, mesh: usize) -> Result<Option<GltfImage>, IoError> {
+/// The base-colour image of the mesh of node `node` of the glTF file at `path`, or `None` when
+/// the node has no mesh or its first primitive no material with a base-colour texture. A texture
+/// whose image cannot be read is an error naming it.
+pub fn base_color_image(path: &Path, node: usize) -> Result<Option<GltfImage>, IoError> {
     let file = read_gltf_file(path, &crate::GltfReadOptions::default())?;
     let json: Value =
         serde_json::from_slice(&file.json).map_err(|e| IoError::format(path, format!("invalid glTF JSON: {e}")))?;
     let at = |key: &str, index: Option<u64>| index.and_then(|i| json.get(key)?.get(usize::try_from(i).ok()?));
-    let primitive = json.get("meshes").and_then(|m| m.get(mesh)).and_then(|m| m.get("primitives")?.get(0));
+    let mesh = json.get("nodes").and_then(|n| n.get(node)?.get("mesh")?.as_u64());
+    let primitive = at("meshes", mesh).and_then(|m| m.get("primitives")?.get(0));
     let material = at("materials", primitive.and_then(|p| p.get("material")?.as_u64()));
     let Some(texture_info) = material.and_then(|m| m.get("pbrMetallicRoughness")?.get("baseColorTexture")) else {
         return Ok(None);
