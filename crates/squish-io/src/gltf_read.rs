@@ -27,7 +27,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DMat4, DQuat, DVec3};
+use glam::{DMat4, DQuat, DVec2, DVec3};
 use gltf::json::validation::Checked;
 use squish::animation::{
     AnimationClip, Channel, ChannelValues, Interpolation, NodeTransform, Sampler, Skeleton, SkeletonNode, Trs,
@@ -333,6 +333,8 @@ impl<'a> Reader<'a> {
         let mut normals: Vec<DVec3> = Vec::new();
         let mut tangents: Vec<[f64; 4]> = Vec::new();
         let mut texcoords: Vec<[f64; 2]> = Vec::new();
+        // The per-corner UVs of the shared parametrization need TEXCOORD_0 on every primitive.
+        let mut every_primitive_has_uvs = true;
         for primitive in mesh.primitives() {
             let element = format!("mesh {} '{name}' primitive {}", mesh.index(), primitive.index());
             let mode = primitive.mode();
@@ -448,8 +450,13 @@ impl<'a> Reader<'a> {
             if let Some(acc) = primitive.get(&gltf::Semantic::TexCoords(0)) {
                 let what = format!("TEXCOORD_0 of {element}");
                 let d = self.data.accessor_with(acc.index(), &what, 2, "VEC2")?;
+                if d.values.iter().any(|x| !x.is_finite()) {
+                    return Err(self.err(format!("accessor {} ({what})", acc.index()), "has a non-finite UV"));
+                }
                 texcoords.resize(offset, [0.0; 2]);
                 texcoords.extend(d.rows::<2>());
+            } else {
+                every_primitive_has_uvs = false;
             }
 
             // Skin attributes: every set JOINTS_k/WEIGHTS_k, the four largest influences kept.
@@ -553,11 +560,14 @@ impl<'a> Reader<'a> {
             tangents.resize(file_vertex_count, [0.0; 4]);
             tangents
         });
+        let corner_uvs = (every_primitive_has_uvs && !texcoords.is_empty())
+            .then(|| triangles.iter().map(|t| t.map(|v| DVec2::from_array(texcoords[v as usize]))).collect());
         let texcoords = (!texcoords.is_empty()).then(|| {
             texcoords.resize(file_vertex_count, [0.0; 2]);
             texcoords
         });
         let mut out = GltfMesh {
+            corner_uvs,
             normals,
             tangents,
             texcoords,
@@ -594,6 +604,19 @@ impl<'a> Reader<'a> {
             // Tangents and UVs follow the UV layout, which welding across seams does not keep.
             out.tangents = None;
             out.texcoords = None;
+            // The corners' UVs stay those of their triangles; collapsed triangles are dropped.
+            if let Some(corners) = &mut out.corner_uvs {
+                let mut kept = corners.iter();
+                *corners = out
+                    .triangles
+                    .iter()
+                    .filter_map(|t| {
+                        let corner = kept.next().copied();
+                        let w = t.map(|v| welded.vertex_map[v as usize]);
+                        (w[0] != w[1] && w[1] != w[2] && w[0] != w[2]).then_some(corner).flatten()
+                    })
+                    .collect();
+            }
             out.positions = welded.positions;
             out.triangles = welded.triangles;
             out.vertex_map = Some(welded.vertex_map);

@@ -23,12 +23,14 @@ mod gltf_binary;
 mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
+mod gltf_texture;
 mod gltf_write;
 mod morph;
 mod obj;
 mod pc2;
 mod ply;
 pub mod scene;
+mod uvs;
 mod weld;
 
 use std::path::Path;
@@ -43,6 +45,7 @@ pub use gltf_read::{GltfReadOptions, read_gltf};
 pub use gltf_scene::{
     GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
 };
+pub use gltf_texture::{GltfImage, base_color_image};
 pub use gltf_write::{
     AnimatedMesh, GltfWriteOptions, NamedMesh, read_animated_glb, write_animated_glb, write_gltf, write_gltf_meshes,
 };
@@ -54,6 +57,7 @@ pub use ply::{
     read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply,
 };
 pub use scene::{Scene, SceneDescription, parse_frame_selection};
+pub use uvs::{document_uvs, welded_uvs};
 pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).

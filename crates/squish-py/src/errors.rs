@@ -1,7 +1,7 @@
 //! Rust errors as the package's Python exceptions (declared in `python/squish/_errors.py`, so
 //! that they share the base `squish.SquishError` and are also `ValueError`s), and JSON reports as
 //! Python objects. The shot machinery's errors ([`ShotError`], data) are worded here, once, in
-//! Python's terms ([`PythonWords`]: `frames=(3, 4)`, `threads=0`, `output=`,
+//! Python's terms ([`PythonWords`]: `frames=range(3, 5)`, `threads=0`, `output=`,
 //! `pair_direction=(0, 0, 1)`), and given their exception class by their kind.
 
 use pyo3::exceptions::PyKeyboardInterrupt;
@@ -32,17 +32,17 @@ impl Wording for PythonWords {
         "the frames= argument"
     }
     fn frames_given(&self, text: &str) -> String {
-        // `Scene.run` reads a tuple, a range or a frame as the text `A:B`: show the tuple.
+        // `Scene.run` reads a range, a list or a frame as the text `A:B` (inclusive): show the range.
         let pair = text
             .split_once(':')
             .and_then(|(a, b)| Some((a.trim().parse::<i64>().ok()?, b.trim().parse::<i64>().ok()?)));
         match pair {
-            Some((a, b)) => format!("frames=({a}, {b})"),
+            Some((a, b)) => format!("frames=range({a}, {})", b + 1),
             None => format!("frames={text:?}"),
         }
     }
     fn frames(&self, first: i64, last: i64) -> String {
-        format!("frames=({first}, {last})")
+        format!("frames=range({first}, {})", last + 1)
     }
     fn threads(&self, n: usize) -> String {
         format!("threads={n}")

@@ -21,6 +21,7 @@ mod frame;
 mod mesh;
 mod params;
 mod scene;
+mod skin;
 
 use pyo3::prelude::*;
 
@@ -50,6 +51,7 @@ fn _squish(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(frame::deform, m)?)?;
     m.add_function(wrap_pyfunction!(frame::contact, m)?)?;
     m.add_class::<frame::Frame>()?;
+    m.add_class::<skin::Skin>()?;
     m.add_class::<scene::Scene>()?;
     m.add_class::<scene::ShotResult>()?;
     m.add_function(wrap_pyfunction!(scene::merge_reports, m)?)?;

@@ -34,34 +34,55 @@ pub struct Scene {
     scene: Arc<SceneFile>,
 }
 
-/// Frames as the user gives them: `None` (the scene's), `(a, b)` inclusive, a `range`, an int, or
-/// text `"A:B"` as `squish run --frames`.
+/// Frames as the user gives them, by Python's conventions (docs/python.md, "Frames"): `None` (the
+/// scene's), an int (that frame), a `range` (half-open, as Python's: `range(1, 4)` is frames 1, 2
+/// and 3), a list, tuple or array of frames (those frames, which must follow each other: `[1, 2,
+/// 3]`), or text `"A:B"` (inclusive, as `squish run --frames`). A sequence that skips frames —
+/// `(1, 3)`, which once meant 1 to 3 — is refused with the spellings that say what was meant.
 fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyResult<Option<RangeInclusive<i64>>> {
     let Some(frames) = frames else { return Ok(None) };
-    let invalid = || {
+    let shown = frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+    let invalid = |why: &str| {
         input_error(format!(
-            "frames: {}: give (first, last), a range, a frame, or \"A:B\"",
-            frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+            "frames={shown}: {why}; give a frame (12), a range (range(1, 25) is frames 1 to 24), consecutive frames ([1, 2, 3]) or \"1:24\" (inclusive, as --frames)"
         ))
     };
     let text = if let Ok(text) = frames.extract::<String>() {
         text
+    } else if frames.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(invalid("a boolean is not a frame"));
     } else if let Ok(frame) = frames.extract::<i64>() {
         format!("{frame}")
-    } else if let Ok((a, b)) = frames.extract::<(i64, i64)>() {
-        format!("{a}:{b}")
     } else if frames.get_type().name()? == "range" {
         let (start, stop, step): (i64, i64, i64) = (
             frames.getattr("start")?.extract()?,
             frames.getattr("stop")?.extract()?,
             frames.getattr("step")?.extract()?,
         );
-        if step != 1 || stop <= start {
-            return Err(invalid());
+        if step != 1 {
+            return Err(invalid("a run computes consecutive frames (step 1)"));
+        }
+        if stop <= start {
+            return Err(invalid("the range is empty"));
         }
         format!("{start}:{}", stop - 1)
+    } else if let Ok(list) = frames.extract::<Vec<i64>>() {
+        let (Some(&first), Some(&last)) = (list.first(), list.last()) else {
+            return Err(invalid("no frame"));
+        };
+        if list.windows(2).any(|w| w[1] != w[0] + 1) {
+            let hint = if list.len() == 2 && last > first {
+                format!(" (for frames {first} to {last}: range({first}, {}) or \"{first}:{last}\")", last + 1)
+            } else {
+                String::new()
+            };
+            return Err(invalid(&format!(
+                "a list gives the frames themselves, and these do not follow each other{hint}"
+            )));
+        }
+        format!("{first}:{last}")
     } else {
-        return Err(invalid());
+        return Err(invalid("not a frame selection"));
     };
     squish_io::parse_frame_selection(&text, &scene.frame_range())
         .map(Some)
@@ -94,11 +115,18 @@ impl Scene {
         self.scene.path().to_path_buf()
     }
 
-    /// The scene's frames, `(first, last)` inclusive.
+    /// The scene's frames, `(first, last)` inclusive (the scene file's `frames`).
     #[getter]
     fn frame_range(&self) -> (i64, i64) {
         let r = self.scene.frame_range();
         (r.start, r.end)
+    }
+
+    /// The scene's frames as a Python `range` (`range(first, last + 1)`).
+    #[getter]
+    fn frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let r = self.scene.frame_range();
+        py.import("builtins")?.getattr("range")?.call1((r.start, r.end + 1))
     }
 
     /// Frames per second.
@@ -134,8 +162,9 @@ impl Scene {
     /// Runs the shot as `squish run` does: frames in parallel, each frame's files written
     /// atomically as it is done, `report.A-B.json` for the frames run and `report.json` merging
     /// every part in the folder. `output`: the folder (default: the scene's); `frames`: the frames
-    /// to run, as `(first, last)`, a range or `"A:B"` (default: every frame; a selection writes a
-    /// part, like `--frames`); `threads`: worker threads (default: every core); `format`: "obj",
+    /// to run — a frame, a `range` (half-open: `range(1, 25)` is 1 to 24), consecutive frames
+    /// `[1, 2, 3]`, or `"A:B"` (inclusive, as `--frames`); default every frame; a selection writes
+    /// a part, like `--frames`; `threads`: worker threads (default: every core); `format`: "obj",
     /// "ply", "glb", "gltf" or "pc2" (default: the scene's); `keep_points`: keep every frame's
     /// output vertices in the result (`ShotResult.points`, `squish.usd.write_shot`).
     ///

@@ -171,14 +171,14 @@ def test_scene_errors_are_input_errors(example_scene, tmp_path):
     with pytest.raises(squish.InputError, match='did you mean "stiffness"'):
         squish.Scene.load(bad)
     scene = squish.Scene.load(example_scene)
-    for frames in ((40, 60), "a:b", (5, 2), 3.5):
+    for frames in (range(40, 61), (40, 60), "a:b", (5, 2), 3.5):
         with pytest.raises(squish.InputError, match="frames") as caught:
             scene.run(tmp_path / "out", frames=frames)
         assert "--frames" not in str(caught.value), caught.value
     with pytest.raises(squish.InputError, match='"stl"'):
-        scene.run(tmp_path / "out", frames=(1, 1), format="stl")
+        scene.run(tmp_path / "out", frames=1, format="stl")
     with pytest.raises(squish.InputError, match="threads=0: give at least 1") as caught:
-        scene.run(tmp_path / "out", frames=(1, 1), threads=0)
+        scene.run(tmp_path / "out", frames=1, threads=0)
     assert "--threads" not in str(caught.value)
 
 

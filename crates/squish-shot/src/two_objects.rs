@@ -124,10 +124,10 @@ pub struct ContactDefinition {
 /// Computes the contact definition of `meshes` (named `names` in messages) with `settings`
 /// (validated); `labelled_meshes` are the files the labels are written to, if any (for the
 /// figures).
-pub fn define_contact(
+pub fn define_contact<'a>(
     names: [&str; 2],
     meshes: [&TriMesh; 2],
-    settings: &PairParameters,
+    settings: &'a PairParameters,
     labelled_meshes: [Option<String>; 2],
 ) -> Result<ContactDefinition, ShotError> {
     let mut prepared = Vec::new();
@@ -138,11 +138,12 @@ pub fn define_contact(
         let bvh = TriangleBvh::new(mesh).map_err(|e| mesh_error(&e))?;
         prepared.push((topology, vertex_normals(mesh), bvh));
     }
-    let side = |i: usize, params: &squish::ObjectParams| {
+    let side = |i: usize, params: &'a squish::ObjectParams| {
         let (topology, normals, bvh): &(Topology, _, TriangleBvh) = &prepared[i];
         ContactSide::new(meshes[i], topology, normals, bvh)
             .with_name(names[i])
             .with_stiffness(squish::contact::Stiffness::of(params))
+            .with_uvs(params.uvs.as_ref())
     };
     let result =
         contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair).map_err(ShotError::Contact)?;

@@ -86,6 +86,27 @@ pub fn export(session: &Session, computed: &Computed, name: &str) -> Result<Expo
             pair.params.insert(key.clone(), value.clone());
         }
     }
+    // Articulations: an entry's own table, or `[objects.articulations."name"]` for the automatic.
+    for (i, object) in description.objects.iter_mut().enumerate() {
+        let names = session.articulations.get(i).map(Vec::as_slice).unwrap_or(&[]);
+        for (k, edited) in session.edits.articulations.get(i).into_iter().flatten().enumerate() {
+            let Some((name, automatic)) = names.get(k) else { continue };
+            let table = if *automatic {
+                if edited.is_empty() {
+                    continue;
+                }
+                object.articulations.entry(name.clone()).or_default()
+            } else {
+                match object.self_contact.get_mut(k) {
+                    Some(entry) => &mut entry.params,
+                    None => continue,
+                }
+            };
+            for (key, value) in edited {
+                table.insert(key.clone(), value.clone());
+            }
+        }
+    }
     description.output.dir = PathBuf::from(format!("{name}-out"));
     // Per-vertex files the scene already named keep their (absolute) paths, except the maps
     // written above, which sit beside the scene file.

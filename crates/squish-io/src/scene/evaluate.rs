@@ -4,7 +4,7 @@
 //! for that frame, with no reference to other frames (the method is time-independent).
 
 use glam::{DQuat, DVec3};
-use squish::params::Articulation;
+use squish::params::{Articulation, MappingMethod};
 use squish::pipeline::{FramePair, OwnedFrame, OwnedObject};
 
 use super::Scene;
@@ -74,6 +74,13 @@ impl Scene {
                     format!("frame {frame}: [[pairs]] [\"{}\", \"{}\"]: {e}", pair.objects[0], pair.objects[1]),
                 )
             })?;
+            if params.mapping == MappingMethod::SharedParametrization {
+                for i in *ids {
+                    if objects[i].params.uvs.is_none() {
+                        objects[i].params.uvs = Some((*self.object_uvs(i)?).clone());
+                    }
+                }
+            }
             pairs.push(FramePair { objects: *ids, params });
         }
         Ok(OwnedFrame { objects, pairs })

@@ -221,6 +221,11 @@ pub struct ObjectSpec {
     /// Default none.
     #[serde(default, skip_serializing_if = "SelfContactList::is_none")]
     pub self_contact: SelfContactList,
+    /// With `self_contact = "auto"`: the parameters of automatic articulations, by name
+    /// (`[objects.articulations."parent / child"]`, articulation keys, constant or keyframed);
+    /// the others keep the defaults.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub articulations: std::collections::BTreeMap<String, RawParams>,
     /// Every other key: the object's parameters, as written.
     #[serde(flatten)]
     pub params: RawParams,
@@ -228,7 +233,7 @@ pub struct ObjectSpec {
 
 impl ObjectSpec {
     /// The keys of the table that are not parameters.
-    pub const TABLE_KEYS: &[&str] = &["name", "mesh", "transform", "self_contact"];
+    pub const TABLE_KEYS: &[&str] = &["name", "mesh", "transform", "self_contact", "articulations"];
 }
 
 /// An `[[objects.self_contact]]` entry: one articulation of the object (a knee, an elbow, lips)

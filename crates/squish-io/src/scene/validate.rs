@@ -103,6 +103,21 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
                 ),
             ));
         }
+        if !object.articulations.is_empty() && !object.self_contact.auto {
+            return Err(err(
+                "articulations",
+                "[objects.articulations] sets the parameters of automatic articulations; it needs self_contact = \"auto\" (explicit [[objects.self_contact]] entries hold their own parameters)".to_string(),
+            ));
+        }
+        for (name, raw) in &object.articulations {
+            let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("articulations"), Seg::Key(name)];
+            let located = |key: &str, m: String| {
+                let mut at = path.to_vec();
+                at.push(Seg::Key(key));
+                src.error_at_key(&at, m)
+            };
+            check_params::<ArticulationParams>(raw, &[], shot(), located)?;
+        }
         validate_self_contact(object, params.rigid, shot, |k, key, m| {
             let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)];
             src.error_at_key(&path, m)

@@ -2,9 +2,9 @@
 
 ``run_shot(scene_path, output)`` cuts the scene's frames into chunks of ``chunk`` consecutive
 frames and runs each chunk as a Ray task. A task is ``Scene.load(scene_path).run(output,
-frames=(first, last))``: the code of ``squish run --frames first:last``, so it writes each frame's
-files atomically (for glb, gltf and pc2, its part ``<object>.first-last.<ext>`` holding its frames)
-and its report part ``report.first-last.json``. The driver then merges the parts exactly as
+frames=range(first, last + 1))``: the code of ``squish run --frames first:last``, so it writes each
+frame's files atomically (for glb, gltf and pc2, its part ``<object>.first-last.<ext>`` holding its
+frames) and its report part ``report.first-last.json``. The driver then merges the parts exactly as
 ``squish run`` does (``Scene.merge``): the reports into ``report.json``, and the parts of the files
 holding every frame into ``<object>.<ext>`` — morph targets for every frame and one animation, or
 one point cache. The files are the same, byte for byte, as ``squish run`` of the same scene:
@@ -78,7 +78,7 @@ def chunks_of(frames: list[int], chunk: int) -> list[tuple[int, int]]:
 def _run_chunk(scene_path: str, output: str, first: int, last: int, threads: int) -> dict:
     """One task: frames ``first..last`` written into ``output``; never raises (its error is data)."""
     try:
-        result = squish.Scene.load(scene_path).run(output, frames=(first, last), threads=threads)
+        result = squish.Scene.load(scene_path).run(output, frames=range(first, last + 1), threads=threads)
         return {"frames": (first, last), "ok": True, "computed": result.frames, "error": None}
     except Exception as error:  # the driver retries and reports; the part says which frame failed
         return {"frames": (first, last), "ok": False, "computed": [], "error": f"{type(error).__name__}: {error}"}
