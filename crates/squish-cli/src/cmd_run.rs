@@ -145,7 +145,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if let Some(error) = run.failed_error() {
         print_failures(&run.outcome);
         print_shot_warnings(&run.outcome);
-        for articulation in &run.summary.articulations {
+        for articulation in run.summary.articulations_to_show() {
             eprintln!("  {}", articulation.line());
         }
         for object in &run.summary.self_contact {
@@ -158,7 +158,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     say!("{}", run.summary.one_line());
     let warnings = print_shot_warnings(&run.outcome);
-    for articulation in &run.summary.articulations {
+    for articulation in run.summary.articulations_to_show() {
         say!("  {}", articulation.line());
     }
     for object in &run.summary.self_contact {

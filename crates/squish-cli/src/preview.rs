@@ -180,7 +180,15 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let mut contact_count = 0usize;
     // Vertices of the contacts, of what deforms around them and of the input's overlaps.
     let mut near_contact: Vec<DVec3> = Vec::new();
+    // Where objects with self-contact cross themselves in the input (beyond the rest pose's own).
+    let mut self_crossing: Vec<DVec3> = Vec::new();
     for p in previews {
+        for (i, input) in p.inputs.iter().enumerate() {
+            if p.self_intersection_left.get(i).is_some_and(|left| !left.is_empty()) {
+                let flags = &p.intersection[i];
+                self_crossing.extend(input.positions.iter().zip(flags).filter(|(_, f)| **f).map(|(q, _)| *q));
+            }
+        }
         for mesh in p.inputs.iter().chain(&p.outputs) {
             points.extend_from_slice(&mesh.positions);
         }
@@ -203,6 +211,8 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let up = settings.up.rotated_from_z_up(DVec3::Z);
     let aspect = f64::from(settings.width) / f64::from(settings.height);
     let framed = match settings.framing {
+        // A character's self-contacts move much of it: frame where it crosses itself.
+        Framing::Contact if !self_crossing.is_empty() => contact_neighbourhood(&self_crossing, &points),
         Framing::Contact if !near_contact.is_empty() => contact_neighbourhood(&near_contact, &points),
         _ => points,
     };
@@ -221,8 +231,44 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let view = (camera.target - camera.eye).normalize_or_zero();
     let horizontal = (view - up * view.dot(up)).normalize_or_zero();
     let normal = if horizontal == DVec3::ZERO { view } else { horizontal };
-    let point = if contact_count > 0 { contact_sum / contact_count as f64 } else { camera.target };
+    // A character crosses itself in several places at once (both armpits, both knees): the
+    // section goes through the densest of them rather than through their mean, the body's middle.
+    let point = match densest_cluster(&self_crossing) {
+        Some(centre) => centre,
+        None if contact_count > 0 => contact_sum / contact_count as f64,
+        None => camera.target,
+    };
     ShotView { camera, section: (point, normal) }
+}
+
+/// The mean of the points in the cell of a grid over their box (8 cells along its longest side)
+/// that holds the most of them (ties: the first cell in x, y, z order); `None` without points.
+fn densest_cluster(points: &[DVec3]) -> Option<DVec3> {
+    if points.is_empty() {
+        return None;
+    }
+    let region = squish::mesh::Aabb3::from_points(points.iter().copied());
+    let size = region.extent().max_element() / 8.0;
+    if !size.is_finite() || size <= 0.0 {
+        return Some(points[0]);
+    }
+    let cell = |q: DVec3| {
+        let c = ((q - region.min) / size).floor().min(DVec3::splat(7.0));
+        (c.x as u32, c.y as u32, c.z as u32)
+    };
+    let mut cells: std::collections::BTreeMap<(u32, u32, u32), (usize, DVec3)> = std::collections::BTreeMap::new();
+    for &q in points {
+        let entry = cells.entry(cell(q)).or_insert((0, DVec3::ZERO));
+        entry.0 += 1;
+        entry.1 += q;
+    }
+    let mut best: Option<(usize, DVec3)> = None;
+    for &(count, sum) in cells.values() {
+        if best.is_none_or(|(n, _)| count > n) {
+            best = Some((count, sum));
+        }
+    }
+    best.map(|(count, sum)| sum / count as f64)
 }
 
 /// The points to frame around a contact: the box of the contact's points, grown about its
@@ -728,5 +774,21 @@ mod tests {
         assert_eq!(UpAxis::Y.rotated_from_z_up(DVec3::Z), DVec3::Y);
         // The front view (looking along +y in z-up) looks along −z in y-up.
         assert_eq!(UpAxis::Y.rotated_from_z_up(DVec3::Y), -DVec3::Z);
+    }
+
+    /// Two armpits crossing themselves and one knee: the section goes through the armpit with
+    /// the most crossing vertices, not through the middle of the three.
+    #[test]
+    fn the_section_goes_through_the_densest_self_crossing() {
+        let cloud = |centre: DVec3, n: usize| (0..n).map(move |k| centre + DVec3::splat(0.001 * k as f64));
+        let left = DVec3::new(-1.0, 0.0, 1.5);
+        let points: Vec<DVec3> = cloud(left, 30)
+            .chain(cloud(DVec3::new(1.0, 0.0, 1.5), 20))
+            .chain(cloud(DVec3::new(0.3, 0.0, 0.5), 10))
+            .collect();
+        let centre = densest_cluster(&points).unwrap();
+        assert!((centre - left).length() < 0.05, "{centre}");
+        assert_eq!(densest_cluster(&[]), None);
+        assert_eq!(densest_cluster(&[left, left]), Some(left));
     }
 }

@@ -263,6 +263,31 @@ fn cesium_man_walks_with_automatic_self_contact() {
             assert_eq!(a["self_intersecting_faces_after"], 0, "{knee}: {a}");
         }
     }
+    // Every frame traced through the plan (issue 35): one self-contact job per articulation and
+    // per touching part pair, each with the stages it ran, none taking more of a stage than the
+    // frame spent on it.
+    for f in report["per_frame"].as_array().unwrap() {
+        let stats = &f["stats"];
+        let jobs = stats["jobs"].as_array().unwrap();
+        let of_kind = |kind: &str| jobs.iter().filter(|j| j["kind"] == kind && j["level"] == "self_contact").count();
+        assert_eq!(of_kind("articulation"), f["articulations"].as_array().unwrap().len(), "frame {}", f["frame"]);
+        assert_eq!(of_kind("parts"), f["part_pairs"].as_array().unwrap().len(), "frame {}", f["frame"]);
+        let frame_stages = stats["stages_ms"].as_object().unwrap();
+        let mut summed: std::collections::BTreeMap<&str, f64> = Default::default();
+        for job in jobs {
+            for (stage, ms) in job["stages_ms"].as_object().unwrap() {
+                *summed.entry(stage.as_str()).or_default() += ms.as_f64().unwrap();
+            }
+        }
+        for (stage, ms) in summed {
+            let total = frame_stages[stage].as_f64().unwrap();
+            assert!(
+                ms <= total * (1.0 + 1e-9) + 1e-6,
+                "frame {}: jobs spent {ms} ms on {stage}, the frame {total}",
+                f["frame"]
+            );
+        }
+    }
 }
 
 /// examples/fox_walk.toml and fox_run.toml: the Fox's coarse skin (576 faces) walking and
