@@ -44,7 +44,7 @@ fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyRe
     let shown = frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
     let invalid = |why: &str| {
         input_error(format!(
-            "frames={shown}: {why}; give a frame (12), a range (range(1, 25) is frames 1 to 24), consecutive frames ([1, 2, 3]) or \"1:24\" (inclusive, as --frames)"
+            "frames={shown}: {why}; give a frame (12), a range (range(1, 25) is frames 1 to 24), consecutive frames ([1, 2, 3]) or \"1:24\" (inclusive)"
         ))
     };
     let text = if let Ok(text) = frames.extract::<String>() {
