@@ -60,6 +60,7 @@ use crate::linalg::{
 };
 use crate::mesh::{Aabb3, SubMesh, Topology, TriMesh};
 use crate::spatial::{AabbTree, closest_point_on_triangle};
+use crate::stage::SharedWork;
 
 /// Checks that both sides have UVs (their lengths are checked by [`ContactSide::validate`]).
 pub(crate) fn check_uvs(sides: [&ContactSide; 2]) -> Result<(), ContactError> {
@@ -483,7 +484,10 @@ fn map_side_uv(
         correction: g,
         locator,
     };
-    let located: Vec<(Match, bool)> = param.vertex_targets.par_iter().map(|&q| param.locate(other, q)).collect();
+    let work = SharedWork::default();
+    let located: Vec<(Match, bool)> =
+        param.vertex_targets.par_iter().map(|&q| work.measure(|| param.locate(other, q))).collect();
+    work.record();
     let mut fallbacks = located.iter().filter(|(_, f)| *f).count();
     let vertex_matches: Vec<Match> = located.into_iter().map(|(m, _)| m).collect();
     let point_matches: Vec<Match> = sources
@@ -534,8 +538,12 @@ pub fn map_regions_uv(
     points: &[IntersectionPoint],
 ) -> Result<([SideMapping; 2], MappingStats, SharedParametrization), ContactError> {
     check_uvs(sides)?;
-    let (a, b) =
-        rayon::join(|| map_side_uv(0, sides, intersections, points), || map_side_uv(1, sides, intersections, points));
+    let work = SharedWork::default();
+    let (a, b) = rayon::join(
+        || work.measure(|| map_side_uv(0, sides, intersections, points)),
+        || work.measure(|| map_side_uv(1, sides, intersections, points)),
+    );
+    work.record();
     let ((ma, sa, pa), (mb, sb, pb)) = (a?, b?);
     let stats = MappingStats {
         closest_point_matches: sa.closest_point_matches + sb.closest_point_matches,

@@ -32,7 +32,7 @@ use crate::deform::{
 };
 use crate::linalg::FillOrder;
 use crate::mesh::Topology;
-use crate::stage::Stage;
+use crate::stage::{Stage, Work};
 
 /// The deformation of one region.
 pub(super) struct RegionOutcome {
@@ -291,6 +291,7 @@ pub(super) fn finish_kept_regions(
                         [Stage::Parametrization, Stage::Directions, Stage::Guide, Stage::Factorization, Stage::Analysis]
                     {
                         stats.timings[stage] = Duration::ZERO;
+                        stats.work[stage] = Work::ZERO;
                     }
                     stats.time = start.elapsed();
                     Ok(Some(RegionOutcome {
@@ -374,6 +375,7 @@ pub(super) fn combine(
         t.recomputed_rows += s.recomputed_rows;
         t.reduced_analyses += s.reduced_analyses;
         t.timings += &s.timings;
+        t.work += &s.work;
         t.time += s.time;
         t.fallbacks.direction_blend += s.fallbacks.direction_blend;
         t.fallbacks.bulge_map += s.fallbacks.bulge_map;

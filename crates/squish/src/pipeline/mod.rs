@@ -72,7 +72,7 @@ use crate::mesh::TriMesh;
 #[cfg(doc)]
 use crate::params::RegionChoice;
 use crate::params::{ObjectParams, PairParams};
-use crate::stage::{Stage, StageTimes};
+use crate::stage::{Stage, StageTimes, StageWork, Work};
 use cache::ObjectCache;
 use contacts::{RegionContacts, RegionInputs};
 use edits::EditState;
@@ -231,6 +231,12 @@ impl Deformer {
 
     /// Deforms one frame. See the module doc.
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
+        // The frame's own span of work: what its stages do not measure stays out of the spans of
+        // another frame this thread may be computing (`Work`).
+        Work::measure(|| self.deform_frame(frame)).0
+    }
+
+    fn deform_frame(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
         if frame.pairs.iter().any(|p| !p.params.enabled) {
             let pairs = frame.pairs.iter().filter(|p| p.params.enabled).copied().collect();
@@ -329,12 +335,20 @@ impl Deformer {
             ));
         }
 
+        // Work per stage: the contact stage's and chapter 5's (`Work`).
+        let mut work = StageWork::default();
+        contacts.iter().flatten().for_each(|c| work += &c.stats.work);
+        outcomes.iter().flatten().flatten().for_each(|o| work += &o.deformation.stats.work);
+
         // The separation pass on the outputs (issue 29).
         let timer = Instant::now();
         let unseparated = if self.skip_separation {
             Vec::new()
         } else {
-            separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?.1
+            let (_, warnings, separation_work) =
+                separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?;
+            work[Stage::Separation] = separation_work;
+            warnings
         };
         stages[Stage::Separation] += timer.elapsed();
 
@@ -353,7 +367,7 @@ impl Deformer {
             stats: FrameStats {
                 total: start.elapsed(),
                 stages,
-                work: Default::default(),
+                work,
                 objects: objects.stats,
                 pairs,
                 regions: objects.regions,
@@ -374,11 +388,16 @@ impl Deformer {
         drop(caches);
         let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
         region_contacts.give_back(&mut contacts);
+        let mut work = StageWork::default();
+        outcomes.iter().flatten().flatten().for_each(|o| work += &o.deformation.stats.work);
         let timer = Instant::now();
         let unseparated = if self.skip_separation {
             Vec::new()
         } else {
-            separation::separate(frame, &self.caches, &state.region_pairs, &contacts, &mut outcomes)?.1
+            let (_, warnings, separation_work) =
+                separation::separate(frame, &self.caches, &state.region_pairs, &contacts, &mut outcomes)?;
+            work[Stage::Separation] = separation_work;
+            warnings
         };
         // The contact stage's times are the kept frame's: not this frame's work.
         let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
@@ -398,7 +417,7 @@ impl Deformer {
             stats: FrameStats {
                 total: start.elapsed(),
                 stages,
-                work: Default::default(),
+                work,
                 objects: objects.stats,
                 pairs,
                 regions: objects.regions,
