@@ -316,7 +316,7 @@ struct Run {
 }
 
 fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
-    let mut deformer = Deformer::new();
+    let mut deformer = Deformer::new().without_quality();
     let warm_up = scene.pose(0.0);
     let start = Instant::now();
     deformer.deform(&warm_up.frame()).map_err(|e| format!("warm-up frame: {e}"))?;
@@ -446,7 +446,7 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
 /// Every pose of a scene given frame by frame, on one deformer after a warm-up frame (the last
 /// pose), in the caller's pool: per frame its time and its self-contact figures.
 fn measure_self_contact(scene: &BenchScene) -> Result<SelfContactReport, String> {
-    let mut deformer = Deformer::new();
+    let mut deformer = Deformer::new().without_quality();
     let warm_up = scene.poses.last().ok_or("no poses")?;
     deformer.deform(&warm_up.frame()).map_err(|e| format!("self-contact warm-up frame: {e}"))?;
     let mut frames = Vec::with_capacity(scene.poses.len());
@@ -490,7 +490,7 @@ fn measure_edit(scene: &BenchScene, frame: usize, frames: usize) -> Result<EditR
     let mut edits = Vec::with_capacity(EDITS);
     let mut full = Vec::with_capacity(EDITS);
     for k in 0..EDITS {
-        let mut deformer = Deformer::new().keep_for_edits();
+        let mut deformer = Deformer::new().without_quality().keep_for_edits();
         set_bulge(&mut pose, VALUES[0]);
         let start = Instant::now();
         deformer.deform(&pose.frame()).map_err(|e| format!("edit's frame: {e}"))?;
@@ -503,7 +503,8 @@ fn measure_edit(scene: &BenchScene, frame: usize, frames: usize) -> Result<EditR
             return Err("the edit of bulge was computed as a full frame".into());
         }
         if k == 0 {
-            let fresh = Deformer::new().deform(&pose.frame()).map_err(|e| format!("edit's check: {e}"))?;
+            let fresh =
+                Deformer::new().without_quality().deform(&pose.frame()).map_err(|e| format!("edit's check: {e}"))?;
             let bits = |r: &squish::pipeline::FrameResult| -> Vec<u64> {
                 r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
             };
@@ -527,7 +528,7 @@ fn measure_shot(scene: &BenchScene, frames: usize, threads: usize) -> Result<Sho
             chunks
                 .par_iter()
                 .map(|range| {
-                    let mut deformer = Deformer::new();
+                    let mut deformer = Deformer::new().without_quality();
                     for k in range.clone() {
                         let pose = scene.pose(BenchScene::frame_time(k, frames));
                         deformer.deform(&pose.frame()).map_err(|e| format!("shot frame {k}: {e}"))?;

@@ -9,7 +9,6 @@ use squish_io::MeshFormat;
 
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
-use crate::frame_quality::deepest_penetration;
 use crate::input::{
     FormatChoice, InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path,
     output_stems, write_text,
@@ -100,13 +99,10 @@ pub fn deform_pair(
         ],
         pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
     };
-    let mut result = deformer.deform(&frame).map_err(|e| pipeline_error(&e))?;
-    let deformed = [result.mesh(&frame, 0), result.mesh(&frame, 1)];
-    let penetration_before = deepest_penetration(meshes[0], meshes[1]);
-    let penetration_after = deepest_penetration(&deformed[0], &deformed[1]);
-    if let (Some(before), Some(after)) = (penetration_before, penetration_after) {
-        result.stats.note_residual_penetration(0, before, after);
-    }
+    let result = deformer.deform(&frame).map_err(|e| pipeline_error(&e))?;
+    let quality = result.stats.quality.first();
+    let penetration_before = quality.and_then(|q| q.penetration_before);
+    let penetration_after = quality.and_then(|q| q.penetration_after);
     let figures = DeformFigures {
         parameters: DeformParameters { a: settings.a.clone(), b: settings.b.clone(), pair: settings.pair },
         penetration_before,

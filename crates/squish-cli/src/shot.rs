@@ -28,7 +28,7 @@ use squish::pipeline::{Deformer, Frame, FrameResult, FrameStats, OwnedFrame};
 use squish::{ObjectParams, TriMesh};
 
 use crate::error::CliError;
-use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
+use crate::frame_quality::{self, ObjectQuality, PairQuality};
 use crate::interrupt::Interrupt;
 
 /// Where frames come from: a scene file, or a procedural animation. Must give the same objects
@@ -369,12 +369,11 @@ pub fn run_shot(
     Ok(outcome)
 }
 
-/// What a frame in progress owns: a deformer and the quality measure's trees, both caching
-/// connectivity-only data across the frames it computes.
+/// What a frame in progress owns: a deformer, caching connectivity-only data (and its quality
+/// pass's trees) across the frames it computes.
 #[derive(Default)]
 struct Worker {
     deformer: Deformer,
-    measure: MeasureCache,
 }
 
 fn compute_frame(
@@ -390,7 +389,7 @@ fn compute_frame(
     let result =
         worker.deformer.deform(&frame).map_err(|e| (CliError::input(format!("frame {f}: {e}")), Phase::Compute))?;
     write(f, &shot, &result.positions).map_err(|e| (e, Phase::Write))?;
-    let record = frame_record(f, &frame, &result, &mut worker.measure);
+    let record = frame_record(f, &frame, &result);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));
     let kept = settings.keep_outputs.then(|| result.positions.clone());
     let inputs = shot.objects.into_iter().map(|o| o.mesh.positions).collect();
@@ -399,17 +398,11 @@ fn compute_frame(
 }
 
 /// The figures of computed frame `frame` (its frame-to-frame steps, which need its neighbours,
-/// are left unset); `measure` keeps the quality measure's trees for the next frames.
-pub fn frame_record(frame: i64, shot: &Frame, result: &FrameResult, measure: &mut MeasureCache) -> FrameRecord {
-    let (objects, pairs) = frame_quality::measure(shot, result, measure);
+/// are left unset).
+pub fn frame_record(frame: i64, shot: &Frame, result: &FrameResult) -> FrameRecord {
+    let (objects, pairs) = frame_quality::measure(shot, result);
     let support = result.positions.iter().flat_map(|p| support_points(p)).collect();
-    let mut stats = result.stats.clone();
-    for (k, pair) in pairs.iter().enumerate() {
-        if let (Some(before), Some(after)) = (pair.penetration_before, pair.penetration_after) {
-            stats.note_residual_penetration(k, before, after);
-        }
-    }
-    FrameRecord { frame, stats, objects, pairs, support }
+    FrameRecord { frame, stats: result.stats.clone(), objects, pairs, support }
 }
 
 /// The vertices farthest along the 26 directions of a 3 × 3 × 3 stencil (axes, edge and corner

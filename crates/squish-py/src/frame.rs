@@ -15,7 +15,6 @@ use squish::params::Articulation;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
 use squish::pipeline::{OwnedFrame, OwnedObject};
-use squish_cli::frame_quality::MeasureCache;
 use squish_cli::params::PairSettings;
 use squish_cli::quality::FrameEntry;
 use squish_cli::shot::{frame_record, worker_pool};
@@ -306,7 +305,7 @@ impl Frame {
                 pool.install(|| {
                     let frame = shot.frame();
                     let result = Deformer::new().deform(&frame)?;
-                    let record = frame_record(0, &frame, &result, &mut MeasureCache::default());
+                    let record = frame_record(0, &frame, &result);
                     Ok::<_, squish::pipeline::PipelineError>((result, record))
                 })
             })

@@ -87,7 +87,7 @@ fn deformation_stages(c: &mut Criterion, scene: &BenchScene) {
     // The deformed object of the pair (the big sphere) with the zone of the contact.
     let (a, b, params) = pair_at(scene, 0.5);
     let contact = contact_pair(&a.contact(), &b.contact(), &params).expect("contact");
-    let zones = vec![contact.sides[1].zone.clone()];
+    let zones = vec![&contact.sides[1].zone];
     let (mesh, topology) = (&b.mesh, &b.topology);
     let object = &scene.rest.objects[scene.rest.pairs[0].objects[1]];
     let deform_params = squish::deform::DeformParams::of(&object.params, object.params.extent.unwrap_or(1.0), true);

@@ -32,6 +32,8 @@ pub enum Stage {
     Setup,
     /// Choosing the working regions and updating their caches.
     Regions,
+    /// Self-contact of skinned articulations: the crease cut of each shared region (§6.1.3).
+    CreaseCut,
     /// Intersection regions.
     Intersection,
     /// Mapping direction and mapping regions.
@@ -46,8 +48,18 @@ pub enum Stage {
     Guide,
     /// Bulge map, profiles, volume cubic and final positions.
     Deformation,
+    /// Self-contact of skinned articulations: the blend over each shared region and the bulge
+    /// heights of the object's volume (§6, App. C).
+    Blend,
+    /// Self-contact between the parts of a skinned mesh: the touching pairs and their contacts.
+    PartContacts,
+    /// Self-contact: what the contacts leave crossing, smoothed out.
+    Untangle,
     /// The separation pass: region pairs with a contact gap pushed apart, volumes solved again.
     Separation,
+    /// The quality and warnings pass: penetrations and intersecting faces before and after,
+    /// what the frame did not do.
+    Quality,
     /// Of parametrization, directions and guide: assembling and numerically factorizing systems.
     Factorization,
     /// Of the factorizations: symbolic analyses of coupled-row submatrices.
@@ -56,12 +68,13 @@ pub enum Stage {
 
 impl Stage {
     /// Number of stages.
-    pub const COUNT: usize = 12;
+    pub const COUNT: usize = 17;
 
     /// Every stage, in pipeline order.
     pub const ALL: [Stage; Self::COUNT] = [
         Self::Setup,
         Self::Regions,
+        Self::CreaseCut,
         Self::Intersection,
         Self::Mapping,
         Self::ContactZone,
@@ -69,7 +82,11 @@ impl Stage {
         Self::Directions,
         Self::Guide,
         Self::Deformation,
+        Self::Blend,
+        Self::PartContacts,
+        Self::Untangle,
         Self::Separation,
+        Self::Quality,
         Self::Factorization,
         Self::Analysis,
     ];
@@ -79,6 +96,7 @@ impl Stage {
         match self {
             Self::Setup => "setup",
             Self::Regions => "regions",
+            Self::CreaseCut => "crease_cut",
             Self::Intersection => "intersection",
             Self::Mapping => "mapping",
             Self::ContactZone => "contact_zone",
@@ -86,7 +104,11 @@ impl Stage {
             Self::Directions => "directions",
             Self::Guide => "guide",
             Self::Deformation => "deformation",
+            Self::Blend => "blend",
+            Self::PartContacts => "part_contacts",
+            Self::Untangle => "untangle",
             Self::Separation => "separation",
+            Self::Quality => "quality",
             Self::Factorization => "factorization",
             Self::Analysis => "analysis",
         }
@@ -97,6 +119,7 @@ impl Stage {
         match self {
             Self::Setup => "setup",
             Self::Regions => "reg.",
+            Self::CreaseCut => "cut",
             Self::Intersection => "i.",
             Self::Mapping => "m.",
             Self::ContactZone => "c.",
@@ -104,7 +127,11 @@ impl Stage {
             Self::Directions => "di.",
             Self::Guide => "g.",
             Self::Deformation => "de.",
+            Self::Blend => "bl.",
+            Self::PartContacts => "parts",
+            Self::Untangle => "unt.",
             Self::Separation => "sep.",
+            Self::Quality => "q.",
             Self::Factorization => "s.",
             Self::Analysis => "an.",
         }
@@ -115,6 +142,7 @@ impl Stage {
         match self {
             Self::Setup => "ch. 3",
             Self::Regions => "§4.5",
+            Self::CreaseCut => "§6.1.3",
             Self::Intersection => "§4.1",
             Self::Mapping => "§4.2",
             Self::ContactZone => "§4.3–4.4",
@@ -122,7 +150,10 @@ impl Stage {
             Self::Directions => "§5.2",
             Self::Guide => "§5.3",
             Self::Deformation => "§5.4–5.5",
+            Self::Blend => "§6, App. C",
+            Self::PartContacts | Self::Untangle => "ch. 6 (beyond)",
             Self::Separation => "§4.3, App. C",
+            Self::Quality => "§7.2",
             Self::Factorization | Self::Analysis => "App. B",
         }
     }
@@ -136,7 +167,18 @@ impl Stage {
 
     /// True for the columns of the thesis' tables 7.1–7.2 (table 7.2's s. is the factorizations).
     pub const fn in_thesis_tables(self) -> bool {
-        !matches!(self, Self::Setup | Self::Regions | Self::Separation | Self::Analysis)
+        !matches!(
+            self,
+            Self::Setup
+                | Self::Regions
+                | Self::CreaseCut
+                | Self::Blend
+                | Self::PartContacts
+                | Self::Untangle
+                | Self::Separation
+                | Self::Quality
+                | Self::Analysis
+        )
     }
 
     /// The stage of a report key.

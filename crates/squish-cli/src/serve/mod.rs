@@ -39,7 +39,6 @@ use squish_io::Scene;
 use tokio::sync::watch;
 
 use crate::error::CliError;
-use crate::frame_quality::MeasureCache;
 use messages::{Reply, Request};
 use session::{BrushFrame, Computed, Session};
 use view::{FrameView, SceneView};
@@ -81,7 +80,6 @@ struct App {
 /// The deformer and what it keeps between frames.
 struct Engine {
     deformer: Deformer,
-    measure: MeasureCache,
     last: Option<Computed>,
 }
 
@@ -147,11 +145,7 @@ async fn serve(session: Session, address: SocketAddr, open: bool) -> Result<(), 
     let (edits_version, versions) = watch::channel(0u64);
     let app = Arc::new(App {
         session: Mutex::new(session),
-        engine: Mutex::new(Engine {
-            deformer: Deformer::new().keep_for_edits(),
-            measure: MeasureCache::default(),
-            last: None,
-        }),
+        engine: Mutex::new(Engine { deformer: Deformer::new().keep_for_edits(), last: None }),
         edits_version,
         latest: watch::channel(None).0,
         shutdown: watch::channel(false).0,
@@ -348,8 +342,8 @@ fn compute_latest(app: &App, done: Option<u64>) -> Option<Outcome> {
         Err(message) => return fail(message),
     };
     let mut engine = lock(&app.engine);
-    let Engine { deformer, measure, last } = &mut *engine;
-    let computed = match session::compute(deformer, shot, measure) {
+    let Engine { deformer, last } = &mut *engine;
+    let computed = match session::compute(deformer, shot) {
         Ok(computed) => computed,
         Err(message) => {
             // The deformer keeps nothing of a failed frame; start the next one afresh.

@@ -20,7 +20,7 @@ use squish_io::Scene;
 use squish_io::scene::{ObjectSpec, PairSpec, ParamTracks, RawParams, param_value, toml_value};
 use toml::Value;
 
-use crate::frame_quality::{self, MeasureCache, ObjectQuality, PairQuality};
+use crate::frame_quality::{self, ObjectQuality, PairQuality};
 use squish::pipeline::OwnedFrame;
 
 /// What a parameter edit applies to.
@@ -289,10 +289,10 @@ fn apply<P: Params>(params: &mut P, raw: &RawParams, frame: f64) -> Result<(), S
 }
 
 /// Computes `frame` on `deformer` and measures it.
-pub fn compute(deformer: &mut Deformer, shot: OwnedFrame, cache: &mut MeasureCache) -> Result<Computed, String> {
+pub fn compute(deformer: &mut Deformer, shot: OwnedFrame) -> Result<Computed, String> {
     let frame = shot.frame();
     let result = deformer.deform(&frame).map_err(|e| e.to_string())?;
-    let (objects, pairs) = frame_quality::measure(&frame, &result, cache);
+    let (objects, pairs) = frame_quality::measure(&frame, &result);
     drop(frame);
     Ok(Computed { shot, result, objects, pairs })
 }

@@ -67,7 +67,7 @@ struct Emitter {
 /// ignored; [`super::deform_region`] validates the zones first.)
 pub fn anisotropic_bulge_map(
     mesh: &TriMesh,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     contact: &ContactSet,
     deformable: &[bool],
     params: &AnisotropyParams,
@@ -143,7 +143,7 @@ pub fn anisotropic_bulge_map(
 /// η = painted × anisotropic (each optional) on the region's vertices.
 pub fn bulge_map(
     mesh: &TriMesh,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     contact: &ContactSet,
     deformable: &[bool],
     painted: Option<&[f64]>,
@@ -178,7 +178,7 @@ mod tests {
         let topology = Topology::new(&mesh);
         let mut zone = sphere_zone(&mesh, &topology, DVec3::new(0.0, 0.0, 0.45), 0.5);
         zone.mapping_direction = mapping;
-        let contact = ContactSet::new(&mesh, &topology, std::slice::from_ref(&zone)).unwrap();
+        let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
         let deformable =
             (0..mesh.num_vertices()).map(|v| !contact.contains(v as u32) && mesh.positions[v].length() < 1.2).collect();
         (mesh, vec![zone], contact, deformable)
@@ -187,7 +187,8 @@ mod tests {
     #[test]
     fn a_normal_press_bulges_on_every_side_decreasing_with_distance() {
         let (mesh, zones, contact, deformable) = pressed_grid(DVec3::Z);
-        let (eta, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (eta, fallback) =
+            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
         assert!(!fallback);
         let at = |p: DVec3| eta[crate::deform::test_support::nearest_vertex(&mesh, p)];
         // Emitters on 𝒮 (below the grid plane): positive on all sides, although d̂·(x − p_j) = 0
@@ -205,7 +206,8 @@ mod tests {
     #[test]
     fn a_tilted_mapping_direction_puts_the_bulge_in_front() {
         let (mesh, zones, contact, deformable) = pressed_grid(DVec3::new(0.5, 0.0, 1.0).normalize());
-        let (eta, _) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (eta, _) =
+            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
         let (mut front, mut back) = (0.0, 0.0);
         for v in 0..mesh.num_vertices() {
             if deformable[v] {
@@ -221,9 +223,11 @@ mod tests {
         // d̂ is oriented along the second object's normals, so swapping the pair flips it; the
         // map orients each zone's d̂ towards its own 𝒟 and must give the same result.
         let (mesh, zones, contact, deformable) = pressed_grid(DVec3::Z);
-        let (up, _) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (up, _) =
+            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
         let (mesh, zones, contact, deformable) = pressed_grid(-DVec3::Z);
-        let (down, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (down, fallback) =
+            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
         assert!(!fallback);
         assert_eq!(up, down);
     }
@@ -238,10 +242,10 @@ mod tests {
         for mapping in [DVec3::Z, -DVec3::Z] {
             let mut zone = crate::deform::test_support::plane_zone(&mesh, &topology, DVec3::Z, -0.8);
             zone.mapping_direction = mapping;
-            let contact = ContactSet::new(&mesh, &topology, std::slice::from_ref(&zone)).unwrap();
+            let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
             let deformable: Vec<bool> =
                 (0..mesh.num_vertices()).map(|v| !contact.contains(v as u32) && mesh.positions[v].z < 0.0).collect();
-            let (eta, fallback) = anisotropic_bulge_map(&mesh, &[zone], &contact, &deformable, &PARAMS, 1.0);
+            let (eta, fallback) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
             assert!(!fallback, "{mapping}");
             let positive = (0..mesh.num_vertices()).filter(|&v| deformable[v] && eta[v] > 0.0).count();
             let total = deformable.iter().filter(|&&d| d).count();
@@ -253,12 +257,13 @@ mod tests {
     fn without_penetration_the_map_falls_back_to_uniform() {
         let (mesh, mut zones, contact, deformable) = pressed_grid(DVec3::Z);
         zones[0].targets = mesh.positions.clone();
-        let (eta, fallback) = anisotropic_bulge_map(&mesh, &zones, &contact, &deformable, &PARAMS, 1.0);
+        let (eta, fallback) =
+            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
         assert!(fallback && eta.iter().all(|&x| x == 1.0));
         // A painted map multiplies.
         let painted: Vec<f64> =
             (0..mesh.num_vertices()).map(|v| if mesh.positions[v].x < 0.0 { 0.0 } else { 2.0 }).collect();
-        let map = bulge_map(&mesh, &zones, &contact, &deformable, Some(&painted), None, 1.0);
+        let map = bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, Some(&painted), None, 1.0);
         assert_eq!(map.weights, painted);
     }
 }

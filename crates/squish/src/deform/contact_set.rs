@@ -140,7 +140,7 @@ fn check_zone(zone_index: usize, zone: &ContactZone, n: usize) -> Result<(DVec3,
 
 impl ContactSet {
     /// The union of `zones` on the region `mesh` (see the module doc). Empty zones are allowed.
-    pub fn new(mesh: &TriMesh, topology: &Topology, zones: &[ContactZone]) -> Result<Self, DeformError> {
+    pub fn new(mesh: &TriMesh, topology: &Topology, zones: &[&ContactZone]) -> Result<Self, DeformError> {
         let n = mesh.num_vertices();
         let mut directions = Vec::with_capacity(zones.len());
         let mut mapping_directions = Vec::with_capacity(zones.len());
@@ -247,7 +247,7 @@ mod tests {
         // Two half-spaces from below, tilted apart: their union is bounded by the farther plane.
         let a = plane_zone(&mesh, &topology, DVec3::new(0.3, 0.0, 1.0).normalize(), -0.7);
         let b = plane_zone(&mesh, &topology, DVec3::new(-0.3, 0.0, 1.0).normalize(), -0.7);
-        let set = ContactSet::new(&mesh, &topology, &[a.clone(), b.clone()]).unwrap();
+        let set = ContactSet::new(&mesh, &topology, &[&a.clone(), &b.clone()]).unwrap();
         let reference = a.region.union(&b.region, &topology);
         assert_eq!(set.region.inside(), reference.inside());
         assert_eq!(set.region.points(), reference.points());
@@ -263,7 +263,7 @@ mod tests {
         // Two presses along the same direction (nested half-spaces) need no diffusion.
         let deeper = plane_zone(&mesh, &topology, DVec3::Z, -0.6);
         let shallow = plane_zone(&mesh, &topology, DVec3::Z, -0.8);
-        let set = ContactSet::new(&mesh, &topology, &[shallow, deeper.clone()]).unwrap();
+        let set = ContactSet::new(&mesh, &topology, &[&shallow, &deeper.clone()]).unwrap();
         assert!(!set.has_several_directions());
         assert_eq!(set.region.points(), deeper.region.points());
         assert!(set.boundary.iter().all(|b| b.zone == 1));
@@ -276,10 +276,10 @@ mod tests {
         let other = shapes::icosphere(1.0, 2);
         let other_topology = Topology::new(&other);
         let zone = plane_zone(&other, &other_topology, DVec3::Z, -0.7);
-        let err = ContactSet::new(&mesh, &topology, &[zone]).unwrap_err();
+        let err = ContactSet::new(&mesh, &topology, &[&zone]).unwrap_err();
         assert!(matches!(err, DeformError::InvalidZone { zone: 0, .. }), "{err}");
         let mut zone = plane_zone(&mesh, &topology, DVec3::Z, -0.7);
         zone.direction = DVec3::ZERO;
-        assert!(matches!(ContactSet::new(&mesh, &topology, &[zone]), Err(DeformError::InvalidZone { .. })));
+        assert!(matches!(ContactSet::new(&mesh, &topology, &[&zone]), Err(DeformError::InvalidZone { .. })));
     }
 }

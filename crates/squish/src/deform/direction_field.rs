@@ -218,7 +218,7 @@ mod tests {
         mesh: &TriMesh,
         topology: &Topology,
         solver: &mut RegionSolver,
-        zones: &[crate::contact::ContactZone],
+        zones: &[&crate::contact::ContactZone],
         extent: f64,
         normalize_diffused: bool,
     ) -> (ContactSet, Parametrization, DirectionField) {
@@ -246,7 +246,7 @@ mod tests {
         let topology = Topology::new(&mesh);
         let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
         let zone = plane_zone(&mesh, &topology, DVec3::Z, -0.85);
-        let (_, p, field) = setup(&mesh, &topology, &mut solver, &[zone], 0.8, true);
+        let (_, p, field) = setup(&mesh, &topology, &mut solver, &[&zone], 0.8, true);
         assert!(!field.diffused);
         assert!(field.boundary.iter().all(|d| (*d - -DVec3::Z).length() < 1e-15));
         let normals = vertex_normals(&mesh);
@@ -277,7 +277,7 @@ mod tests {
         let bottom = plane_zone(&mesh, &topology, DVec3::Z, -0.9);
         let side = plane_zone(&mesh, &topology, DVec3::X, -0.9);
         let before = solver.numeric_factorizations();
-        let (contact, _, field) = setup(&mesh, &topology, &mut solver, &[bottom, side], 1.5, true);
+        let (contact, _, field) = setup(&mesh, &topology, &mut solver, &[&bottom, &side], 1.5, true);
         assert_eq!(solver.numeric_factorizations() - before, 2, "heat + Poisson only: the diffusion reuses Poisson");
         assert!(field.diffused);
         let mut worst_boundary = 0.0f64;
@@ -322,8 +322,8 @@ mod tests {
         let bottom = plane_zone(&mesh, &topology, DVec3::Z, -0.8);
         let top = plane_zone(&mesh, &topology, -DVec3::Z, -0.8);
         let zones = [bottom, top];
-        let (_, _, raw) = setup(&mesh, &topology, &mut solver, &zones, 1.5, false);
-        let (_, p, unit) = setup(&mesh, &topology, &mut solver, &zones, 1.5, true);
+        let (_, _, raw) = setup(&mesh, &topology, &mut solver, &zones.iter().collect::<Vec<_>>(), 1.5, false);
+        let (_, p, unit) = setup(&mesh, &topology, &mut solver, &zones.iter().collect::<Vec<_>>(), 1.5, true);
         let normals = vertex_normals(&mesh);
         let equator: Vec<usize> = (0..mesh.num_vertices()).filter(|&v| mesh.positions[v].z.abs() < 1e-9).collect();
         assert!(!equator.is_empty());

@@ -326,7 +326,7 @@ mod tests {
     use crate::mesh::{shapes, vertex_normals};
     use crate::params::DirectionFieldMethod;
 
-    fn run(mesh: &TriMesh, zones: &[ContactZone], extent: f64) -> (ContactSet, Parametrization, GuideFields) {
+    fn run(mesh: &TriMesh, zones: &[&ContactZone], extent: f64) -> (ContactSet, Parametrization, GuideFields) {
         let topology = Topology::new(mesh);
         let mut solver = RegionSolver::new(mesh, &topology).unwrap();
         let contact = ContactSet::new(mesh, &topology, zones).unwrap();
@@ -382,7 +382,7 @@ mod tests {
         let c = -0.8;
         let zone = plane_zone(&mesh, &topology, DVec3::Z, c);
         let extent = 0.6;
-        let (_, p, guide) = run(&mesh, &[zone], extent);
+        let (_, p, guide) = run(&mesh, &[&zone], extent);
         assert!(guide.boundary_amplitude.iter().all(|a| a.abs() < 1e-14), "boundary points lie on the plane");
         let a_max = guide.amplitude.iter().fold(0.0f64, |m, a| m.max(a.abs()));
         assert!(a_max < 1e-12, "{a_max}");
@@ -414,7 +414,7 @@ mod tests {
             for t in &mut zone.targets {
                 *t += offset * DVec3::Z;
             }
-            let (_, p, guide) = run(&mesh, &[zone], 0.7);
+            let (_, p, guide) = run(&mesh, &[&zone], 0.7);
             for a in &guide.boundary_amplitude {
                 assert!((a - offset).abs() < 1e-12, "{a} vs {offset}");
             }
@@ -437,7 +437,7 @@ mod tests {
             inside[centre as usize] = true;
             let region = EdgeRegion::from_inside(&topology, inside, |_, _, _| alpha);
             let zone = crate::deform::test_support::zone_of_region(&mesh, region, DVec3::Z);
-            let contact = ContactSet::new(&mesh, &topology, &[zone]).unwrap();
+            let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
             let values: Vec<f64> = (0..contact.boundary.len()).map(|k| k as f64).collect();
             let averages = boundary_averages(mesh.num_vertices(), &contact, &values);
             assert_eq!(averages.len(), contact.boundary.len(), "one boundary point per neighbour");

@@ -73,7 +73,7 @@ fn contact(a: &Object, b: &Object, params: &PairParams) -> PairContact {
     contact_pair(&a.side(), &b.side(), params).unwrap()
 }
 
-fn deform(object: &Object, zones: &[ContactZone], extent: f64, method: DirectionFieldMethod) -> RegionDeformation {
+fn deform(object: &Object, zones: &[&ContactZone], extent: f64, method: DirectionFieldMethod) -> RegionDeformation {
     let mut solver = RegionSolver::new(&object.mesh, &object.topology).unwrap();
     let params = DeformParams::new(extent).with_direction_field(method);
     deform_region(&object.mesh, &object.topology, &mut solver, zones, &params).unwrap()
@@ -144,7 +144,9 @@ fn methods_a_and_b_agree_where_both_apply() {
     let params_a = PairParams::default().with_ball(r);
     let a = contact(&sphere, &slab, &params_a);
     let extent = automatic_extent(object_size(&slab.mesh), target_area, mean_edge(&slab.mesh));
-    let zones = |c: &PairContact| vec![c.sides[1].zone.clone()];
+    fn zones(c: &PairContact) -> Vec<&ContactZone> {
+        vec![&c.sides[1].zone]
+    }
     let method_b = deform(&slab, &zones(&b), extent, DirectionFieldMethod::Blended);
     let method_a = deform(&slab, &zones(&a), extent, DirectionFieldMethod::ParallelTransport);
     let ball_blended = deform(&slab, &zones(&a), extent, DirectionFieldMethod::Blended);
@@ -177,7 +179,7 @@ fn methods_a_and_b_agree_where_both_apply() {
 
 /// The parallel-transport field's constraints on a deformation: the largest angle between the
 /// field (interpolated at the boundary points) and its targets at ∂𝒞, and the normal at ∂𝒟.
-fn transport_constraint_angles(object: &Object, zones: &[ContactZone], extent: f64) -> (f64, f64) {
+fn transport_constraint_angles(object: &Object, zones: &[&ContactZone], extent: f64) -> (f64, f64) {
     let mut solver = RegionSolver::new(&object.mesh, &object.topology).unwrap();
     let contact = ContactSet::new(&object.mesh, &object.topology, zones).unwrap();
     let params = ParametrizeParams::new(extent);
@@ -226,7 +228,7 @@ fn both_direction_fields_are_fold_free_on_deep_collisions() {
     ];
     for (name, rigid, elastic, pair_params) in &scenes {
         let c = contact(rigid, elastic, pair_params);
-        let zones = vec![c.sides[1].zone.clone()];
+        let zones = [&c.sides[1].zone];
         assert!(!zones[0].is_empty());
         let extent = automatic_extent(object_size(&elastic.mesh), c.contact_area, mean_edge(&elastic.mesh));
         for method in [DirectionFieldMethod::Blended, DirectionFieldMethod::ParallelTransport] {
@@ -260,7 +262,7 @@ fn direction_field_timings_on_a_ten_thousand_vertex_region() {
     let elastic = Object::new(shapes::icosphere(1.0, 5), Stiffness::default());
     let rigid = Object::new(translated(shapes::icosphere(1.0, 4), DVec3::new(0.02, -0.01, 1.7)), Stiffness::Rigid);
     let c = contact(&rigid, &elastic, &PairParams::default());
-    let zones = vec![c.sides[1].zone.clone()];
+    let zones = [&c.sides[1].zone];
     let extent = 1.5;
     for method in [DirectionFieldMethod::Blended, DirectionFieldMethod::ParallelTransport] {
         let mut solver = RegionSolver::new(&elastic.mesh, &elastic.topology).unwrap();

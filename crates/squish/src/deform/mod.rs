@@ -284,7 +284,7 @@ pub fn deform_region(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
     deform_region_with(mesh, topology, solver, zones, params, &RegionOverrides::default())
@@ -295,7 +295,7 @@ pub fn deform_region_with(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionDeformation, DeformError> {
@@ -311,7 +311,7 @@ pub fn deform_region_with(
 pub fn deform_with_fields(
     mesh: &TriMesh,
     topology: &Topology,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     fields: RegionFields,
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
@@ -451,7 +451,7 @@ pub fn plan_region(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionPlan, DeformError> {
@@ -497,7 +497,7 @@ pub fn region_fields(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionFields, DeformError> {
@@ -509,7 +509,7 @@ fn region_fields_measured(
     mesh: &TriMesh,
     topology: &Topology,
     solver: &mut RegionSolver,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionFields, DeformError> {
@@ -633,7 +633,12 @@ impl RegionFields {
     /// profiles, as a [`RegionPlan`]. Reads, of `params`, only what §5.4–5.5 read (see the type's
     /// doc) and the extent (the anisotropic map's scale), which must be the one the fields were
     /// computed with; the mesh and zones must be theirs too.
-    pub fn plan(self, mesh: &TriMesh, zones: &[ContactZone], params: &DeformParams) -> Result<RegionPlan, DeformError> {
+    pub fn plan(
+        self,
+        mesh: &TriMesh,
+        zones: &[&ContactZone],
+        params: &DeformParams,
+    ) -> Result<RegionPlan, DeformError> {
         let start = Instant::now();
         params.validate()?;
         let n = mesh.num_vertices();

@@ -381,7 +381,7 @@ mod tests {
         extent: f64,
     ) -> Parametrization {
         let zone = region_zone(mesh, topology, |p| (p - centre).length() - r, DVec3::Z);
-        let contact = ContactSet::new(mesh, topology, &[zone]).unwrap();
+        let contact = ContactSet::new(mesh, topology, &[&zone]).unwrap();
         parametrize(mesh, topology, solver, &contact, &params(extent)).unwrap()
     }
 
@@ -419,7 +419,7 @@ mod tests {
         let mesh = shapes::grid(4.0, 4.0, 40, 40);
         let topology = Topology::new(&mesh);
         let zone = region_zone(&mesh, &topology, |p| (p - DVec3::new(0.6, -0.3, 0.0)).length() - 0.45, DVec3::Z);
-        let contact = ContactSet::new(&mesh, &topology, &[zone]).unwrap();
+        let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
         let base: Vec<f64> = (0..mesh.num_triangles()).map(|f| 0.5 + 0.01 * (f % 7) as f64).collect();
         for (radius, bounded) in [(20.0, true), (6.0, true), (3.0, false), (1.2, false)] {
             let (mut by_bound, mut by_dijkstra) = (base.clone(), base.clone());
@@ -454,7 +454,7 @@ mod tests {
         let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
         let (centre, r, extent) = (DVec3::new(0.03, -0.02, 0.0), 0.31, 0.6);
         let zone = region_zone(&mesh, &topology, |p| (p - centre).length() - r, DVec3::Z);
-        let contact = ContactSet::new(&mesh, &topology, &[zone]).unwrap();
+        let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
         let solve = |solver: &mut RegionSolver, domain_radius: f64| {
             let params = ParametrizeParams { domain_radius, ..params(extent) };
             parametrize(&mesh, &topology, solver, &contact, &params).unwrap()
@@ -545,7 +545,7 @@ mod tests {
         let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
         let level = |p: DVec3| p.dot(DVec3::new(0.2, -0.1, 1.0).normalize()) + 0.71;
         let zone = region_zone(&mesh, &topology, level, -DVec3::Z);
-        let contact = ContactSet::new(&mesh, &topology, &[zone]).unwrap();
+        let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
         let reference = parametrize(&mesh, &topology, &mut solver, &contact, &params(0.9)).unwrap();
 
         let rotation = DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.4, -1.1, 2.3));
@@ -554,7 +554,7 @@ mod tests {
         moved.map_positions(|p| rotation * p + shift);
         let moved_level = |p: DVec3| level(rotation.transpose() * (p - shift));
         let zone = region_zone(&moved, &topology, moved_level, -(rotation * DVec3::Z));
-        let contact = ContactSet::new(&moved, &topology, &[zone]).unwrap();
+        let contact = ContactSet::new(&moved, &topology, &[&zone]).unwrap();
         let result = parametrize(&moved, &topology, &mut solver, &contact, &params(0.9)).unwrap();
         assert_eq!(result.deformable, reference.deformable);
         let worst = result.u.iter().zip(&reference.u).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);

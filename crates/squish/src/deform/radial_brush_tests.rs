@@ -194,7 +194,7 @@ fn pressed_grid() -> (TriMesh, Topology, RegionSolver, crate::contact::ContactZo
 #[test]
 fn on_the_deformers_u_the_selection_is_symmetric_and_the_painted_map_moves_only_the_selection() {
     let (mesh, topology, mut solver, zone, params) = pressed_grid();
-    let before = deform_region(&mesh, &topology, &mut solver, std::slice::from_ref(&zone), &params).unwrap();
+    let before = deform_region(&mesh, &topology, &mut solver, &[&zone], &params).unwrap();
     let fields = BrushFields { u: &before.u, contact: &before.contact, deformable: &before.deformable };
     let s = radial_brush(&mesh, &topology, &fields, DVec3::new(0.62, 0.0, 0.0), 0.25).unwrap();
     let count = s.selected.iter().filter(|&&x| x).count();
@@ -217,7 +217,7 @@ fn on_the_deformers_u_the_selection_is_symmetric_and_the_painted_map_moves_only_
     // An `add` stroke of strength 1: η = 1 + w.
     let map: Vec<f64> = s.weights.iter().map(|w| 1.0 + w).collect();
     let painted = params.clone().with_bulge_map(map);
-    let after = deform_region(&mesh, &topology, &mut solver, std::slice::from_ref(&zone), &painted).unwrap();
+    let after = deform_region(&mesh, &topology, &mut solver, &[&zone], &painted).unwrap();
     let mut moved_inside = 0;
     for v in 0..mesh.num_vertices() {
         if before.positions[v] != after.positions[v] {
@@ -239,7 +239,7 @@ fn on_a_sphere_pressed_by_a_plane_the_selection_closes() {
     let topology = Topology::new(&mesh);
     let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
     let zone = crate::deform::test_support::plane_zone(&mesh, &topology, DVec3::Z, -0.75);
-    let result = deform_region(&mesh, &topology, &mut solver, &[zone], &DeformParams::new(0.8)).unwrap();
+    let result = deform_region(&mesh, &topology, &mut solver, &[&zone], &DeformParams::new(0.8)).unwrap();
     let fields = BrushFields { u: &result.u, contact: &result.contact, deformable: &result.deformable };
     let mut failures = Vec::new();
     let mut tried = 0;

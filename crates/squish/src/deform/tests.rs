@@ -32,7 +32,7 @@ impl PlanePress {
         plane_zone(&self.mesh, &self.topology, DVec3::Z, c)
     }
 
-    fn deform(&mut self, zones: &[ContactZone], params: &DeformParams) -> RegionDeformation {
+    fn deform(&mut self, zones: &[&ContactZone], params: &DeformParams) -> RegionDeformation {
         deform_region(&self.mesh, &self.topology, &mut self.solver, zones, params).unwrap()
     }
 }
@@ -76,7 +76,7 @@ fn a_plane_pressing_a_closed_sphere_gives_a_clean_contact_a_preserved_volume_and
     let depth = 0.2;
     let c = -1.0 + depth;
     let params = DeformParams::new(0.8);
-    let result = press.deform(&[press.zone(c)], &params);
+    let result = press.deform(&[&press.zone(c)], &params);
     let stats = result.stats;
 
     let volume_error = relative_volume_change(&press.mesh, &result.positions);
@@ -125,8 +125,8 @@ fn a_zone_short_of_the_penetration_uses_amplitude_and_slope_to_reach_the_surface
     for t in zone.targets.iter_mut().chain(zone.boundary_targets.iter_mut()) {
         t.z = c + g;
     }
-    let plain = press.deform(std::slice::from_ref(&press.zone(c + g)), &DeformParams::new(0.8));
-    let result = press.deform(&[zone], &DeformParams::new(0.8));
+    let plain = press.deform(&[&press.zone(c + g)], &DeformParams::new(0.8));
+    let result = press.deform(&[&zone], &DeformParams::new(0.8));
     let deepest = result.positions.iter().map(|p| c + g - p.z).fold(f64::NEG_INFINITY, f64::max);
     let band: Vec<usize> =
         (0..press.mesh.num_vertices()).filter(|&v| result.deformable[v] && press.mesh.positions[v].z < c + g).collect();
@@ -172,7 +172,7 @@ fn a_rigid_sphere_pressing_a_closed_slab_and_an_open_grid() {
     let centre = DVec3::new(0.05, -0.03, top + radius - depth);
     let mut press = PlanePress::new(slab);
     let zone = sphere_zone(&press.mesh, &press.topology, centre, radius);
-    let result = press.deform(&[zone], &DeformParams::new(0.5));
+    let result = press.deform(&[&zone], &DeformParams::new(0.5));
     let volume_error = relative_volume_change(&press.mesh, &result.positions);
     let deepest = result.positions.iter().map(|p| radius - (*p - centre).length()).fold(f64::NEG_INFINITY, f64::max);
     let cosine = min_normal_cosine(&press.mesh, &result.positions);
@@ -196,7 +196,7 @@ fn a_rigid_sphere_pressing_a_closed_slab_and_an_open_grid() {
     let mut press = PlanePress::new(grid);
     let zone = sphere_zone(&press.mesh, &press.topology, centre, radius);
     let params = DeformParams::new(0.6).with_preserve_volume(false).with_bulge_height(0.03);
-    let result = press.deform(&[zone], &params);
+    let result = press.deform(&[&zone], &params);
     let deepest = result.positions.iter().map(|p| radius - (*p - centre).length()).fold(f64::NEG_INFINITY, f64::max);
     let cosine = min_normal_cosine(&press.mesh, &result.positions);
     let highest = result.positions.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
@@ -229,7 +229,7 @@ fn a_region_cut_from_a_closed_mesh_preserves_the_whole_object_volume() {
     let region = crate::SubMesh::from_vertex_mask(&sphere, &mask);
     let mut press = PlanePress::new(region.mesh.clone());
     assert!(!press.topology.is_closed());
-    let result = press.deform(&[press.zone(-0.8)], &DeformParams::new(0.5));
+    let result = press.deform(&[&press.zone(-0.8)], &DeformParams::new(0.5));
     let mut whole = sphere.clone();
     region.scatter(&result.positions, &mut whole.positions);
     let volume_error = relative_volume_change(&sphere, &whole.positions);
@@ -251,7 +251,7 @@ fn a_rigid_motion_of_the_scene_moves_the_result_rigidly() {
     use glam::{DMat3, DQuat};
     let mut press = PlanePress::icosphere(4);
     let params = DeformParams::new(0.8).with_anisotropic_bulge(true);
-    let reference = press.deform(&[press.zone(-0.8)], &params);
+    let reference = press.deform(&[&press.zone(-0.8)], &params);
     let rotation = DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.7, -0.4, 1.9));
     let shift = DVec3::new(-2.0, 5.0, 3.0);
     let mut moved = press.mesh.clone();
@@ -259,7 +259,7 @@ fn a_rigid_motion_of_the_scene_moves_the_result_rigidly() {
     let mut moved_press = PlanePress::new(moved);
     let m = rotation * DVec3::Z;
     let zone = plane_zone(&moved_press.mesh, &moved_press.topology, m, -0.8 + m.dot(shift));
-    let result = moved_press.deform(&[zone], &params);
+    let result = moved_press.deform(&[&zone], &params);
     assert_eq!(result.contact, reference.contact);
     assert_eq!(result.deformable, reference.deformable);
     let worst = result
@@ -277,7 +277,7 @@ fn two_identical_planes_give_a_mirror_symmetric_result() {
     let mut press = PlanePress::icosphere(4);
     let bottom = press.zone(-0.85);
     let top = plane_zone(&press.mesh, &press.topology, -DVec3::Z, -0.85);
-    let result = press.deform(&[bottom, top], &DeformParams::new(0.8));
+    let result = press.deform(&[&bottom, &top], &DeformParams::new(0.8));
     let partner = mirror_partners(&press.mesh);
     let mut worst = 0.0f64;
     for (v, &m) in partner.iter().enumerate() {
@@ -297,7 +297,7 @@ fn a_single_press_bulges_rotationally_symmetrically() {
     // The UV sphere is invariant under a rotation by one segment about z, as is the press.
     let segments = 64;
     let mut press = PlanePress::new(shapes::uv_sphere(1.0, segments, 48));
-    let result = press.deform(&[press.zone(-0.85)], &DeformParams::new(0.8));
+    let result = press.deform(&[&press.zone(-0.85)], &DeformParams::new(0.8));
     // Group the vertices of 𝒟 by ring (equal z): equal u and bulge heights within round-off.
     let mut worst_u = 0.0f64;
     let mut worst_height = 0.0f64;
@@ -324,7 +324,7 @@ fn a_single_press_bulges_rotationally_symmetrically() {
     // On an icosphere (no exact rotational symmetry), vertices of nearly equal u get nearly equal
     // bulge heights: the bulge is a function of u up to the discretization.
     let mut press = PlanePress::icosphere(5);
-    let result = press.deform(&[press.zone(-0.85)], &DeformParams::new(0.8));
+    let result = press.deform(&[&press.zone(-0.85)], &DeformParams::new(0.8));
     let mut samples: Vec<(f64, f64)> = (0..press.mesh.num_vertices())
         .filter(|&v| result.deformable[v])
         .map(|v| (result.u[v], result.heights[v]))
@@ -355,7 +355,7 @@ fn sweeping_the_plane_into_the_sphere_moves_vertices_continuously() {
     let mut first_contact = None;
     for k in 0..=steps {
         let c = start + k as f64 * step;
-        let result = press.deform(&[press.zone(c)], &params);
+        let result = press.deform(&[&press.zone(c)], &params);
         if first_contact.is_none() && result.stats.num_contact > 0 {
             first_contact = Some(k);
         }
@@ -405,7 +405,7 @@ fn a_rigid_sphere_sliding_over_a_closed_slab_moves_vertices_continuously() {
         .map(|k| {
             let centre = DVec3::new(-0.1 + k as f64 * step, 0.3 * k as f64 * step, 0.2 + radius - depth);
             let zone = sphere_zone(&press.mesh, &press.topology, centre, radius);
-            let result = press.deform(&[zone], &params);
+            let result = press.deform(&[&zone], &params);
             if previous_contact.as_ref().is_some_and(|c| *c != result.contact) {
                 crossings += 1;
             }
@@ -441,7 +441,7 @@ fn a_zone_short_of_the_penetration_moves_continuously_as_the_plane_rises() {
         for n in zone.boundary_normals.iter_mut() {
             *n = normal;
         }
-        press.deform(&[zone], &params).positions
+        press.deform(&[&zone], &params).positions
     });
     let (jump, at) = largest_jump(frames);
     println!("short zone rising: largest jump {:.2} × step (frame {at})", jump / step);
@@ -458,7 +458,7 @@ fn bulge_factor_cancels_preserves_and_exaggerates_the_volume() {
     let mut volumes = Vec::new();
     let mut cancelled = None;
     for gamma in [0.0, 0.5, 1.0, 1.5, 2.0] {
-        let result = press.deform(std::slice::from_ref(&zone), &DeformParams::new(0.8).with_bulge(gamma));
+        let result = press.deform(&[&zone], &DeformParams::new(0.8).with_bulge(gamma));
         let after = TriMesh { positions: result.positions.clone(), triangles: press.mesh.triangles.clone() };
         volumes.push(signed_volume(&after));
         if gamma == 0.0 {
@@ -487,9 +487,9 @@ fn bulge_factor_cancels_preserves_and_exaggerates_the_volume() {
 fn a_painted_bulge_map_moves_the_bulge_and_keeps_the_volume() {
     let mut press = PlanePress::icosphere(4);
     let zone = press.zone(-0.8);
-    let uniform = press.deform(std::slice::from_ref(&zone), &DeformParams::new(0.8));
+    let uniform = press.deform(&[&zone], &DeformParams::new(0.8));
     let painted: Vec<f64> = press.mesh.positions.iter().map(|p| if p.x < 0.0 { 0.0 } else { 1.0 }).collect();
-    let result = press.deform(std::slice::from_ref(&zone), &DeformParams::new(0.8).with_bulge_map(painted.clone()));
+    let result = press.deform(&[&zone], &DeformParams::new(0.8).with_bulge_map(painted.clone()));
     let volume_error = relative_volume_change(&press.mesh, &result.positions);
     let max_height = |r: &RegionDeformation, side: f64| {
         (0..press.mesh.num_vertices())
@@ -524,11 +524,11 @@ fn the_anisotropic_bulge_map_follows_the_mapping_direction() {
             .collect();
         heights.iter().sum::<f64>() / heights.len() as f64
     };
-    let normal = press.deform(&[press.zone(-0.8)], &params);
+    let normal = press.deform(&[&press.zone(-0.8)], &params);
     let (east, west) = (mean_height(&normal, &press.mesh, 1.0), mean_height(&normal, &press.mesh, -1.0));
     let mut tilted_zone = press.zone(-0.8);
     tilted_zone.mapping_direction = DVec3::new(0.6, 0.0, 1.0).normalize();
-    let tilted = press.deform(&[tilted_zone], &params);
+    let tilted = press.deform(&[&tilted_zone], &params);
     let (tilted_east, tilted_west) = (mean_height(&tilted, &press.mesh, 1.0), mean_height(&tilted, &press.mesh, -1.0));
     println!(
         "anisotropic η: normal press mean bulge east {east:.4} west {west:.4}; tilted d̂ east {tilted_east:.4} west {tilted_west:.4}"
@@ -546,8 +546,8 @@ fn the_anisotropic_bulge_map_follows_the_mapping_direction() {
 fn wrinkles_modulate_the_profile_and_keep_the_volume() {
     let mut press = PlanePress::icosphere(4);
     let zone = press.zone(-0.8);
-    let plain = press.deform(std::slice::from_ref(&zone), &DeformParams::new(0.8));
-    let wrinkled = press.deform(std::slice::from_ref(&zone), &DeformParams::new(0.8).with_wrinkles(0.01, 3.0));
+    let plain = press.deform(&[&zone], &DeformParams::new(0.8));
+    let wrinkled = press.deform(&[&zone], &DeformParams::new(0.8).with_wrinkles(0.01, 3.0));
     let change = plain.positions.iter().zip(&wrinkled.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
     assert!(relative_volume_change(&press.mesh, &wrinkled.positions).abs() < 1e-9);
     assert!(change > 0.005 && change < 0.03, "{change}");
@@ -557,17 +557,17 @@ fn wrinkles_modulate_the_profile_and_keep_the_volume() {
 fn a_second_frame_reuses_the_factorizations_and_matches_a_fresh_solver_bit_for_bit() {
     let mut press = PlanePress::icosphere(4);
     let params = DeformParams::new(0.8).with_anisotropic_bulge(true);
-    let first = press.deform(&[press.zone(-0.8)], &params);
-    let second = press.deform(&[press.zone(-0.77)], &params);
+    let first = press.deform(&[&press.zone(-0.8)], &params);
+    let second = press.deform(&[&press.zone(-0.77)], &params);
     assert_eq!(press.solver.symbolic_analyses(), 1, "no symbolic analysis after the first frame");
     assert_eq!(press.solver.numeric_factorizations(), 6);
     let mut fresh = PlanePress::icosphere(4);
-    let again = fresh.deform(&[fresh.zone(-0.77)], &params);
+    let again = fresh.deform(&[&fresh.zone(-0.77)], &params);
     assert_eq!(again.positions, second.positions);
     assert_eq!(again.u, second.u);
     assert_ne!(first.positions, second.positions);
     // Repeating a frame gives the same bits too.
-    let repeat = press.deform(&[press.zone(-0.77)], &params);
+    let repeat = press.deform(&[&press.zone(-0.77)], &params);
     assert_eq!(repeat.positions, second.positions);
 }
 
@@ -579,11 +579,11 @@ fn no_zone_leaves_the_region_untouched_and_bad_input_is_an_error() {
     assert!(result.deformable.iter().all(|&d| !d));
     let empty = press.zone(-2.0);
     assert!(empty.is_empty());
-    assert_eq!(press.deform(&[empty], &DeformParams::new(0.5)).positions, press.mesh.positions);
+    assert_eq!(press.deform(&[&empty], &DeformParams::new(0.5)).positions, press.mesh.positions);
 
     let zone = press.zone(-0.8);
     let run = |press: &mut PlanePress, params: &DeformParams| {
-        deform_region(&press.mesh, &press.topology, &mut press.solver, std::slice::from_ref(&zone), params)
+        deform_region(&press.mesh, &press.topology, &mut press.solver, &[&zone], params)
     };
     assert!(matches!(run(&mut press, &DeformParams::new(f64::NAN)), Err(DeformError::InvalidExtent { .. })));
     assert!(matches!(run(&mut press, &DeformParams::default()), Err(DeformError::InvalidExtent { .. })));
@@ -593,7 +593,7 @@ fn no_zone_leaves_the_region_untouched_and_bad_input_is_an_error() {
     let err = deform_region(&press.mesh, &press.topology, &mut other.solver, &[], &DeformParams::new(0.5)).unwrap_err();
     assert!(matches!(err, DeformError::RegionMismatch { .. }), "{err}");
     // Stage functions given inputs of another region report it instead of panicking.
-    let contact = ContactSet::new(&press.mesh, &press.topology, std::slice::from_ref(&zone)).unwrap();
+    let contact = ContactSet::new(&press.mesh, &press.topology, &[&zone]).unwrap();
     let pp = parametrize::ParametrizeParams::new(0.5);
     let p = parametrize::parametrize(&press.mesh, &press.topology, &mut press.solver, &contact, &pp).unwrap();
     let options = direction_field::DirectionParams {
@@ -626,7 +626,7 @@ fn timing_of_a_ten_thousand_vertex_sphere() {
             let mut best: Option<DeformStats> = None;
             for k in 0..5 {
                 let c = -0.82 + 0.01 * k as f64;
-                let stats = press.deform(&[press.zone(c)], &params).stats;
+                let stats = press.deform(&[&press.zone(c)], &params).stats;
                 if k > 0 && best.is_none_or(|b| stats.time < b.time) {
                     best = Some(stats);
                 }
@@ -687,23 +687,44 @@ fn normals_given_by_the_caller_give_the_bits_of_computed_ones_and_must_fit_the_r
     let mut press = PlanePress::icosphere(3);
     let zones = [press.zone(-0.8)];
     let params = DeformParams::new(0.8);
-    let computed = press.deform(&zones, &params);
+    let computed = press.deform(&zones.iter().collect::<Vec<_>>(), &params);
     let normals = crate::mesh::vertex_normals(&press.mesh);
     let overrides = RegionOverrides { normals: Some(&normals), ..RegionOverrides::default() };
-    let given =
-        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap();
+    let given = deform_region_with(
+        &press.mesh,
+        &press.topology,
+        &mut press.solver,
+        &zones.iter().collect::<Vec<_>>(),
+        &params,
+        &overrides,
+    )
+    .unwrap();
     let bits = |r: &RegionDeformation| r.positions.iter().map(|p| p.to_array().map(f64::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&computed), bits(&given));
     // Other normals are used as given (they steer the directions of §5.2).
     let tilted: Vec<DVec3> = normals.iter().map(|n| (*n + DVec3::new(0.3, 0.0, 0.0)).normalize()).collect();
     let overrides = RegionOverrides { normals: Some(&tilted), ..RegionOverrides::default() };
-    let steered =
-        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap();
+    let steered = deform_region_with(
+        &press.mesh,
+        &press.topology,
+        &mut press.solver,
+        &zones.iter().collect::<Vec<_>>(),
+        &params,
+        &overrides,
+    )
+    .unwrap();
     assert_ne!(bits(&computed), bits(&steered));
     // Normals of another mesh are an error naming them, not a panic.
     let short = &normals[..normals.len() - 1];
     let overrides = RegionOverrides { normals: Some(short), ..RegionOverrides::default() };
-    let error =
-        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap_err();
+    let error = deform_region_with(
+        &press.mesh,
+        &press.topology,
+        &mut press.solver,
+        &zones.iter().collect::<Vec<_>>(),
+        &params,
+        &overrides,
+    )
+    .unwrap_err();
     assert!(error.to_string().contains("normals"), "{error}");
 }

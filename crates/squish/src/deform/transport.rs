@@ -523,7 +523,7 @@ mod tests {
         mesh: &TriMesh,
         topology: &Topology,
         solver: &mut RegionSolver,
-        zones: &[ContactZone],
+        zones: &[&ContactZone],
         extent: f64,
     ) -> (ContactSet, Parametrization, TransportField) {
         let contact = ContactSet::new(mesh, topology, zones).unwrap();
@@ -587,7 +587,7 @@ mod tests {
         for (t, p) in zone.boundary_targets.iter_mut().zip(&zone.boundary_positions) {
             *t = *p - 0.05 * dir;
         }
-        let (contact, p, field) = field_for(&mesh, &topology, &mut solver, &[zone], 0.8);
+        let (contact, p, field) = field_for(&mesh, &topology, &mut solver, &[&zone], 0.8);
         let theta = 0.6f64.atan2(0.8);
         let (mut worst, mut uncorrected, mut count) = (0.0f64, 0.0f64, 0);
         for v in 0..mesh.num_vertices() {
@@ -640,7 +640,7 @@ mod tests {
         let topology = Topology::new(&mesh);
         let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
         let zone = plane_zone(&mesh, &topology, DVec3::Z, -0.8);
-        let (_, p, field) = field_for(&mesh, &topology, &mut solver, &[zone], 1.2);
+        let (_, p, field) = field_for(&mesh, &topology, &mut solver, &[&zone], 1.2);
         let (mut twist, mut largest, mut count) = (0.0f64, 0.0f64, 0);
         for v in 0..mesh.num_vertices() {
             if !p.deformable[v] || field.tangents[v].length() < 1e-3 {
@@ -673,12 +673,12 @@ mod tests {
         let zone = plane_zone(&mesh, &topology, DVec3::new(0.2, 0.1, 1.0), -0.75);
         let params = DeformParams::new(0.9).with_direction_field(DirectionFieldMethod::ParallelTransport);
         let mut reused = RegionSolver::new(&mesh, &topology).unwrap();
-        let first = deform_region(&mesh, &topology, &mut reused, std::slice::from_ref(&zone), &params).unwrap();
+        let first = deform_region(&mesh, &topology, &mut reused, &[&zone], &params).unwrap();
         assert_eq!(first.stats.numeric_factorizations, 5, "heat, Poisson, transport, u′, guide");
-        let again = deform_region(&mesh, &topology, &mut reused, std::slice::from_ref(&zone), &params).unwrap();
+        let again = deform_region(&mesh, &topology, &mut reused, &[&zone], &params).unwrap();
         assert_eq!(reused.symbolic_analyses(), 2, "the real analysis and the complex one, once each");
         let mut fresh = RegionSolver::new(&mesh, &topology).unwrap();
-        let third = deform_region(&mesh, &topology, &mut fresh, std::slice::from_ref(&zone), &params).unwrap();
+        let third = deform_region(&mesh, &topology, &mut fresh, &[&zone], &params).unwrap();
         for other in [&again, &third] {
             assert_eq!(first.positions, other.positions);
             assert_eq!(first.directions, other.directions);
@@ -686,7 +686,7 @@ mod tests {
         let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let fourth = single.install(|| {
             let mut s = RegionSolver::new(&mesh, &topology).unwrap();
-            deform_region(&mesh, &topology, &mut s, std::slice::from_ref(&zone), &params).unwrap()
+            deform_region(&mesh, &topology, &mut s, &[&zone], &params).unwrap()
         });
         assert_eq!(first.positions, fourth.positions);
         assert!(first.stats.volume_exact);

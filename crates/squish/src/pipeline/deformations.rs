@@ -3,7 +3,7 @@
 //! parallel), then each object's regions are written back into one object-sized result.
 //!
 //! Inputs: the object caches (each region's sub-mesh and [`RegionSolver`]), the frame, the
-//! [`RegionContacts`] of the contact stage, the component figures and region sizes of the setup.
+//! [`RegionZones`] of the contact stage, the component figures and region sizes of the setup.
 //! Output: per object and region, a [`RegionOutcome`] (`None` for a region without zones).
 //!
 //! Conventions:
@@ -22,8 +22,10 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::cache::{ComponentFigures, ObjectCache, RegionCache, SubRegion};
-use super::contacts::RegionContacts;
+use super::cache::{ObjectCache, RegionCache, SubRegion};
+use super::contacts::RegionZones;
+use super::plan::Trace;
+use super::store::FrameStore;
 use super::{Frame, FrameObject, PipelineError};
 use crate::contact::ContactZone;
 use crate::deform::{
@@ -71,19 +73,18 @@ pub(super) struct ResolvedScales {
     pub domain_radius: Option<f64>,
 }
 
-/// Chapter 5 on every region with zones (in parallel). `sizes`: each region's size (of the
-/// components it touches); `normals`: each object's vertex normals when the contact stage
-/// computed them; `keep`: keep each region's fields for edits ([`RegionOutcome::kept`]).
+/// Chapter 5 on every region with zones (in parallel), with the store's region sizes (of the
+/// components they touch) and object normals (when the contact stage computed them); `keep`:
+/// keep each region's fields for edits ([`RegionOutcome::kept`]).
 pub(super) fn deform_regions(
     caches: &mut [Option<ObjectCache>],
     frame: &Frame,
-    contacts: &RegionContacts,
-    figures: &[ComponentFigures],
-    sizes: &[Vec<f64>],
-    normals: &[Option<Vec<DVec3>>],
+    contacts: &RegionZones,
+    store: &FrameStore,
     keep: bool,
 ) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
-    let RegionContacts { zones, contact_area, .. } = contacts;
+    let RegionZones { zones, contact_area, .. } = contacts;
+    let FrameStore { figures, sizes, normals, .. } = store;
     caches
         .par_iter_mut()
         .zip(&frame.objects)
@@ -114,6 +115,13 @@ pub(super) fn deform_regions(
         .collect()
 }
 
+/// Adds every region's stage times and work of chapter 5 to the frame's.
+pub(super) fn record(outcomes: &[Vec<Option<RegionOutcome>>], trace: &mut Trace) {
+    for outcome in outcomes.iter().flatten().flatten() {
+        trace.add(&outcome.deformation.stats.timings, &outcome.deformation.stats.work);
+    }
+}
+
 /// Fraction of the smallest φ on a region's cut border that a clamped extent keeps.
 const CLAMP_FRACTION: f64 = 0.95;
 
@@ -134,7 +142,7 @@ fn deform_one(
     topology: &Topology,
     region: &mut RegionCache,
     index: usize,
-    zones: &[ContactZone],
+    zones: &[&ContactZone],
     object_normals: Option<&[DVec3]>,
     scale: Scale,
     keep: bool,
@@ -258,7 +266,7 @@ fn region_params<'a>(
 pub(super) fn finish_kept_regions(
     caches: &[Option<ObjectCache>],
     frame: &Frame,
-    contacts: &RegionContacts,
+    contacts: &RegionZones,
     kept: &[Vec<Option<KeptRegion>>],
 ) -> Result<Vec<Vec<Option<RegionOutcome>>>, PipelineError> {
     caches

@@ -44,12 +44,15 @@ mod deformations;
 mod edits;
 mod error;
 mod part_contact;
+mod plan;
+mod quality;
 mod regions;
 mod results;
 mod self_contact;
 mod separation;
 mod setup;
 mod stats;
+mod store;
 mod untangle;
 mod warnings;
 
@@ -60,6 +63,8 @@ use glam::DVec3;
 pub use edits::{DOWNSTREAM_KEYS, is_downstream};
 pub use error::PipelineError;
 pub use part_contact::{MARGIN_RINGS, PartPairStats, Untangled};
+pub use plan::{JobKind, JobLevel, JobRecord};
+pub use quality::PairQuality;
 pub use self_contact::SelfContactResult;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
 pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
@@ -72,10 +77,12 @@ use crate::mesh::TriMesh;
 #[cfg(doc)]
 use crate::params::RegionChoice;
 use crate::params::{ObjectParams, PairParams};
-use crate::stage::{Stage, StageTimes, StageWork, Work};
+use crate::stage::{Stage, Work};
 use cache::ObjectCache;
-use contacts::{RegionContacts, RegionInputs};
+use contacts::{RegionPair, RegionZones};
 use edits::EditState;
+use plan::Trace;
+use store::FrameStore;
 
 /// One object of a frame.
 #[derive(Clone, Copy, Debug)]
@@ -184,13 +191,12 @@ impl FrameResult {
 }
 
 /// Runs the pipeline frame after frame, keeping connectivity-only caches (see the module doc).
-#[derive(Default)]
 pub struct Deformer {
     caches: Vec<Option<ObjectCache>>,
     /// Symbolic factorizations run since creation (one per deformed region unless its face set
     /// or connectivity changes): lets benchmarks check that frames reuse them.
     symbolic_analyses: usize,
-    /// Per object: the caches of its articulations (ch. 6).
+    /// Per object: the caches of its self-contacts (ch. 6).
     self_contact: Vec<self_contact::SelfContactCache>,
     /// Whether to keep what edits reuse ([`Deformer::keep_for_edits`]).
     keep_edits: bool,
@@ -198,12 +204,35 @@ pub struct Deformer {
     edits: Option<EditState>,
     /// Whether to leave out the separation pass ([`Deformer::without_separation`]).
     skip_separation: bool,
+    /// The quality pass's trees; `None` when it is left out ([`Deformer::without_quality`]).
+    quality: Option<quality::QualityCache>,
+}
+
+impl Default for Deformer {
+    fn default() -> Self {
+        Self {
+            caches: Vec::new(),
+            symbolic_analyses: 0,
+            self_contact: Vec::new(),
+            keep_edits: false,
+            edits: None,
+            skip_separation: false,
+            quality: Some(quality::QualityCache::default()),
+        }
+    }
 }
 
 impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Leaves out the quality pass ([`PairQuality`]: penetrations and intersecting faces
+    /// before and after, and the residual-penetration warning): for timings of the method alone.
+    pub fn without_quality(mut self) -> Self {
+        self.quality = None;
+        self
     }
 
     /// Keeps, from now on, what a frame that differs from the last one only by parameters of
@@ -229,7 +258,8 @@ impl Deformer {
         self.symbolic_analyses
     }
 
-    /// Deforms one frame. See the module doc.
+    /// Deforms one frame: the frame plan (`plan`) level by level, then the results. See the
+    /// module doc.
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         // The frame's own span of work: what its stages do not measure stays out of the spans of
         // another frame this thread may be computing (`Work`).
@@ -238,18 +268,18 @@ impl Deformer {
 
     fn deform_frame(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
-        if frame.pairs.iter().any(|p| !p.params.enabled) {
-            let pairs = frame.pairs.iter().filter(|p| p.params.enabled).copied().collect();
-            return self.deform(&Frame { objects: frame.objects.clone(), pairs });
-        }
-        if !frame.objects.iter().any(|o| self_contact::has_self_contact(o.params)) {
+        let frame = frame.without_disabled_pairs();
+        let mut trace = Trace::default();
+        let self_contact = frame.objects.iter().any(|o| self_contact::has_self_contact(o.params));
+        if !self_contact {
             self.self_contact.clear();
-            return self.deform_pairs(frame, start, self.keep_edits);
         }
-        // Self-contact reads the downstream parameters before the pairs: never an edit.
-        self.edits = None;
-        let (resolved, (articulations, part_pairs)) =
-            self_contact::resolve_self_contacts(&mut self.self_contact, frame)?;
+        // A failed frame must not leave the state of an earlier one; self-contact reads the
+        // downstream parameters before the pairs: never an edit.
+        let edit = self.edits.take().filter(|state| self.keep_edits && !self_contact && state.is_edit(&frame));
+
+        // Level 1 of the plan: the self-contacts of skinned objects (ch. 6), on the input.
+        let resolved = self_contact::resolve_self_contacts(&mut self.self_contact, &frame, &mut trace)?;
         let meshes: Vec<Option<TriMesh>> = resolved
             .iter()
             .zip(&frame.objects)
@@ -263,169 +293,141 @@ impl Deformer {
             .zip(&meshes)
             .map(|(o, m)| FrameObject { mesh: m.as_ref().unwrap_or(o.mesh), ..*o })
             .collect();
-        let mut result = self.deform_pairs(&Frame { objects, pairs: frame.pairs.clone() }, start, false)?;
-        self_contact::relative_to_input(&mut result.stats.objects, frame, &result.positions, &resolved);
-        result.stats.articulations = articulations;
-        result.stats.part_pairs = part_pairs;
-        result.self_contact = resolved;
-        result.stats.total = start.elapsed();
-        Ok(result)
+        let between = Frame { objects, pairs: frame.pairs.clone() };
+
+        // Level 2: the contacts between objects (ch. 4–5, the separation pass), or an edit of
+        // the kept frame's.
+        let level = match edit {
+            Some(state) => {
+                let level = self.edit(&between, &state, &mut trace);
+                self.edits = Some(state);
+                level?
+            }
+            None => self.contact_objects(&between, self.keep_edits && !self_contact, &mut trace)?,
+        };
+        results::assemble(&frame, &between, &self.caches, level, resolved, self.quality.as_mut(), trace, start)
     }
 
-    /// The contacts between objects of a frame, stage after stage: setup, working regions,
-    /// contact definition (ch. 4), deformation (ch. 5), results; or, for an edit of the kept
-    /// frame, §5.4–5.5 and the results. `start` is when the frame began; `keep`: keep what edits
-    /// reuse.
-    fn deform_pairs(&mut self, frame: &Frame, start: Instant, keep: bool) -> Result<FrameResult, PipelineError> {
-        if keep && let Some(state) = self.edits.as_ref().filter(|state| state.is_edit(frame)) {
-            setup::check_frame(frame)?;
-            return self.edit(frame, state, start);
-        }
-        // A failed frame must not leave the state of an earlier one.
-        self.edits = None;
-        let mut stages = StageTimes::default();
+    /// The contacts between objects, stage after stage: setup, working regions, their region
+    /// pairs as jobs, the contact definition of every job (ch. 4), the deformation of every
+    /// region with zones (ch. 5), the separation pass. `keep`: keep what edits reuse.
+    fn contact_objects(&mut self, frame: &Frame, keep: bool, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
         // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
-        let timer = Instant::now();
-        let figures = setup::update_objects(&mut self.caches, frame, &pairing.needs_tree)?;
-        stages[Stage::Setup] = timer.elapsed();
+        let figures = trace.run(Stage::Setup, || setup::update_objects(&mut self.caches, frame, &pairing.needs_tree))?;
 
-        // Working regions (§4.5).
-        let timer = Instant::now();
-        regions::update_working_regions(&mut self.caches, frame, &pairing.partners, &pairing.needs_tree, &figures)?;
-        stages[Stage::Regions] = timer.elapsed();
-
-        // Chapter 4 on every pair of overlapping regions; the zones are lent to chapter 5.
+        // Working regions (§4.5), then the jobs: every pair of their regions whose boxes overlap.
+        let caches = &mut self.caches;
+        let (store, region_pairs) = trace.run(Stage::Regions, || {
+            regions::update_working_regions(caches, frame, &pairing.partners, &pairing.needs_tree, &figures)?;
+            let caches: Vec<&ObjectCache> = caches.iter().flatten().collect();
+            let store = FrameStore::new(&caches, frame, figures);
+            let region_pairs = contacts::region_pairs(frame, &caches);
+            Ok::<_, PipelineError>((store, region_pairs))
+        })?;
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
-        let inputs = RegionInputs::new(&caches, frame);
-        let sizes: Vec<Vec<f64>> = caches
-            .iter()
-            .zip(&figures)
-            .map(|(c, f)| c.regions.iter().map(|r| f.size_of(&r.components)).collect())
-            .collect();
-        let region_pairs = contacts::region_pairs(frame, &caches);
-        let mut contacts = contacts::contact_region_pairs(frame, &caches, &inputs, &region_pairs)?;
+        let jobs = contacts::job_records(frame, &store, &region_pairs, trace);
+
+        // Chapter 4 on every job, in parallel.
+        let contacts = contacts::contact_region_pairs(frame, &caches, &store, &region_pairs, &jobs, trace)?;
         let contained = warnings::contained_sides(frame, &caches, &region_pairs, &contacts);
-        let closed: Vec<bool> = caches.iter().map(|c| c.closed).collect();
-        let mut region_contacts = RegionContacts::gather(frame, &caches, &region_pairs, &mut contacts);
+        let regions: Vec<usize> = caches.iter().map(|c| c.regions.len()).collect();
         drop(caches);
 
-        // Chapter 5 on every region with zones.
-        let mut outcomes = deformations::deform_regions(
-            &mut self.caches,
-            frame,
-            &region_contacts,
-            &figures,
-            &sizes,
-            &inputs.normals,
-            keep,
-        )?;
+        // Chapter 5 on every region with zones, in parallel.
+        let zones = RegionZones::gather(frame, &regions, &region_pairs, &contacts);
+        let mut outcomes = deformations::deform_regions(&mut self.caches, frame, &zones, &store, keep)?;
+        deformations::record(&outcomes, trace);
         self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
-        region_contacts.give_back(&mut contacts);
+        let summary = zones.summary();
         if keep {
-            let kept =
-                outcomes.iter_mut().map(|o| o.iter_mut().map(|o| o.as_mut().and_then(|o| o.kept.take())).collect());
+            let kept = outcomes
+                .iter_mut()
+                .map(|o| o.iter_mut().map(|o| o.as_mut().and_then(|o| o.kept.take())).collect())
+                .collect();
             self.edits = Some(EditState::new(
                 frame,
                 contacts.clone(),
                 region_pairs.clone(),
-                kept.collect(),
+                kept,
                 contained.clone(),
-                closed.clone(),
+                store.closed.clone(),
             ));
         }
 
-        // Work per stage: the contact stage's and chapter 5's (`Work`).
-        let mut work = StageWork::default();
-        contacts.iter().flatten().for_each(|c| work += &c.stats.work);
-        outcomes.iter().flatten().flatten().for_each(|o| work += &o.deformation.stats.work);
-
         // The separation pass on the outputs (issue 29).
-        let timer = Instant::now();
-        let unseparated = if self.skip_separation {
-            Vec::new()
-        } else {
-            let (_, warnings, separation_work) =
-                separation::separate(frame, &self.caches, &region_pairs, &contacts, &mut outcomes)?;
-            work[Stage::Separation] = separation_work;
-            warnings
-        };
-        stages[Stage::Separation] += timer.elapsed();
-
-        // Results: positions written back, figures per pair, object, region and stage.
-        let pairs = results::pair_stats(frame, &region_pairs, &contacts, &mut stages);
-        let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
-        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let mut warnings = warnings::frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
-        warnings.extend(unseparated);
-        Ok(FrameResult {
-            positions: objects.positions,
+        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, trace)?;
+        Ok(ObjectsLevel {
+            region_pairs,
             contacts,
-            deformations: objects.deformations,
-            regions: objects.summaries,
-            self_contact: vec![None; frame.objects.len()],
-            stats: FrameStats {
-                total: start.elapsed(),
-                stages,
-                work,
-                objects: objects.stats,
-                pairs,
-                regions: objects.regions,
-                articulations: Vec::new(),
-                part_pairs: Vec::new(),
-                edit: false,
-                warnings,
-            },
+            outcomes,
+            zones: summary,
+            contained,
+            closed: store.closed,
+            unseparated,
+            edit: false,
         })
     }
 
-    /// An edit of the kept frame (see `edits`): its contacts and region fields reused, §5.4–5.5
-    /// and the results computed with this frame's parameters.
-    fn edit(&self, frame: &Frame, state: &EditState, start: Instant) -> Result<FrameResult, PipelineError> {
-        let mut contacts = state.contacts.clone();
-        let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
-        let mut region_contacts = RegionContacts::gather(frame, &caches, &state.region_pairs, &mut contacts);
-        drop(caches);
-        let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &region_contacts, &state.regions)?;
-        region_contacts.give_back(&mut contacts);
-        let mut work = StageWork::default();
-        outcomes.iter().flatten().flatten().for_each(|o| work += &o.deformation.stats.work);
-        let timer = Instant::now();
-        let unseparated = if self.skip_separation {
-            Vec::new()
-        } else {
-            let (_, warnings, separation_work) =
-                separation::separate(frame, &self.caches, &state.region_pairs, &contacts, &mut outcomes)?;
-            work[Stage::Separation] = separation_work;
-            warnings
-        };
-        // The contact stage's times are the kept frame's: not this frame's work.
-        let pairs = results::pair_stats(frame, &state.region_pairs, &contacts, &mut StageTimes::default());
-        let mut stages = StageTimes::default();
-        stages[Stage::Separation] += timer.elapsed();
-        let objects = results::object_results(frame, &self.caches, &region_contacts, outcomes, &mut stages);
-        let params: Vec<&PairParams> = state.region_pairs.iter().map(|rp| &frame.pairs[rp.pair].params).collect();
-        let mut warnings =
-            warnings::frame_warnings(&pairs, &contacts, &params, &state.contained, &objects.stats, &state.closed);
-        warnings.extend(unseparated);
-        Ok(FrameResult {
-            positions: objects.positions,
-            contacts,
-            deformations: objects.deformations,
-            regions: objects.summaries,
-            self_contact: vec![None; frame.objects.len()],
-            stats: FrameStats {
-                total: start.elapsed(),
-                stages,
-                work,
-                objects: objects.stats,
-                pairs,
-                regions: objects.regions,
-                articulations: Vec::new(),
-                part_pairs: Vec::new(),
-                edit: true,
-                warnings,
-            },
+    /// An edit of the kept frame (see `edits`): its jobs' contacts and its regions' fields
+    /// reused, §5.4–5.5 and the separation pass run with this frame's parameters.
+    fn edit(&self, frame: &Frame, state: &EditState, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
+        setup::check_frame(frame)?;
+        let regions: Vec<usize> = self.caches.iter().flatten().map(|c| c.regions.len()).collect();
+        let zones = RegionZones::gather(frame, &regions, &state.region_pairs, &state.contacts);
+        let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &zones, &state.regions)?;
+        deformations::record(&outcomes, trace);
+        let summary = zones.summary();
+        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, trace)?;
+        Ok(ObjectsLevel {
+            region_pairs: state.region_pairs.clone(),
+            contacts: state.contacts.clone(),
+            outcomes,
+            zones: summary,
+            contained: state.contained.clone(),
+            closed: state.closed.clone(),
+            unseparated,
+            edit: true,
         })
+    }
+
+    /// The separation pass (unless left out), timed as its own stage; its warnings.
+    fn separate(
+        &self,
+        frame: &Frame,
+        region_pairs: &[RegionPair],
+        contacts: &[Option<PairContact>],
+        outcomes: &mut [Vec<Option<deformations::RegionOutcome>>],
+        trace: &mut Trace,
+    ) -> Result<Vec<FrameWarning>, PipelineError> {
+        if self.skip_separation {
+            return Ok(Vec::new());
+        }
+        let (_, warnings) =
+            trace.run(Stage::Separation, || separation::separate(frame, &self.caches, region_pairs, contacts, outcomes))?;
+        Ok(warnings)
+    }
+}
+
+/// What the contacts between objects left for the results: the jobs with their contacts, every
+/// region's deformation, and what the warnings read.
+struct ObjectsLevel {
+    region_pairs: Vec<RegionPair>,
+    contacts: Vec<Option<PairContact>>,
+    outcomes: Vec<Vec<Option<deformations::RegionOutcome>>>,
+    zones: contacts::ZoneSummary,
+    contained: Vec<Option<[usize; 2]>>,
+    closed: Vec<bool>,
+    unseparated: Vec<FrameWarning>,
+    edit: bool,
+}
+
+impl<'a> Frame<'a> {
+    /// The frame without its disabled pairs (see [`FramePair::params`]).
+    fn without_disabled_pairs(&self) -> Frame<'a> {
+        Frame {
+            objects: self.objects.clone(),
+            pairs: self.pairs.iter().filter(|p| p.params.enabled).copied().collect(),
+        }
     }
 }

@@ -8,22 +8,90 @@
 
 use glam::DVec3;
 
+use std::time::Instant;
+
 use super::cache::ObjectCache;
-use super::contacts::{RegionContacts, RegionPair};
+use super::contacts::{RegionPair, ZoneSummary};
 use super::deformations::{RegionOutcome, combine};
-use super::{Frame, ObjectStats, PairStats, RegionStats, RegionSummary};
+use super::plan::Trace;
+use super::quality::{QualityCache, measure};
+use super::self_contact::{SelfContactResult, relative_to_input};
+use super::warnings::frame_warnings;
+use super::{
+    Frame, FrameResult, FrameStats, ObjectStats, ObjectsLevel, PairStats, PipelineError, RegionStats, RegionSummary,
+};
 use crate::contact::{DirectionSource, PairContact};
 use crate::deform::{RegionDeformation, RegionSolver, swept_volume_change};
 use crate::mesh::{signed_volume, signed_volume_of};
-use crate::stage::StageTimes;
+use crate::params::PairParams;
+use crate::stage::Stage;
 
-/// The figures of every region pair (same order as `region_pairs`), adding their stage times to
-/// `stages`.
+/// The result of a frame, assembled in one place for full frames and edits: the contacts between
+/// objects written back into each object's positions (`between` is the frame they started from:
+/// `frame` after its self-contacts, `resolved`), the figures of every region pair, object, region
+/// and stage, then the quality and warnings pass (`quality`: its trees, `None` to leave it out).
+/// `start` is when the frame began.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn assemble(
+    frame: &Frame,
+    between: &Frame,
+    caches: &[Option<ObjectCache>],
+    level: ObjectsLevel,
+    resolved: Vec<Option<SelfContactResult>>,
+    quality: Option<&mut QualityCache>,
+    mut trace: Trace,
+    start: Instant,
+) -> Result<FrameResult, PipelineError> {
+    let ObjectsLevel { region_pairs, contacts, outcomes, zones, contained, closed, unseparated, edit } = level;
+    let pairs = pair_stats(between, &region_pairs, &contacts);
+    let mut objects = object_results(between, caches, &zones, outcomes);
+
+    // The quality and warnings pass.
+    let (warnings, quality) = trace.run(Stage::Quality, || {
+        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &between.pairs[rp.pair].params).collect();
+        let mut warnings = frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        warnings.extend(unseparated);
+        relative_to_input(&mut objects.stats, frame, &objects.positions, &resolved);
+        let quality = match quality {
+            Some(cache) => {
+                let (figures, residual) = measure(frame, &objects.positions, &pairs, cache);
+                warnings.extend(residual);
+                figures
+            }
+            None => Vec::new(),
+        };
+        (warnings, quality)
+    });
+
+    let Trace { stages, work, jobs, articulations, part_pairs } = trace;
+    Ok(FrameResult {
+        positions: objects.positions,
+        contacts,
+        deformations: objects.deformations,
+        regions: objects.summaries,
+        self_contact: resolved,
+        stats: FrameStats {
+            total: start.elapsed(),
+            stages,
+            work,
+            objects: objects.stats,
+            pairs,
+            regions: objects.regions,
+            articulations,
+            part_pairs,
+            edit,
+            warnings,
+            quality,
+            jobs,
+        },
+    })
+}
+
+/// The figures of every region pair (same order as `region_pairs`).
 pub(super) fn pair_stats(
     frame: &Frame,
     region_pairs: &[RegionPair],
     contacts: &[Option<PairContact>],
-    stages: &mut StageTimes,
 ) -> Vec<PairStats> {
     let mut pair_stats = Vec::with_capacity(region_pairs.len());
     for (rp, contact) in region_pairs.iter().zip(contacts) {
@@ -33,7 +101,6 @@ pub(super) fn pair_stats(
             pair_stats.push(base);
             continue;
         };
-        *stages += &contact.stats.timings;
         let counts = &contact.stats.counts;
         pair_stats.push(PairStats {
             in_contact: !contact.is_empty(),
@@ -62,17 +129,15 @@ pub(super) struct ObjectResults {
     pub summaries: Vec<RegionSummary>,
 }
 
-/// Writes every object's regions back and gathers the figures of objects and regions, adding the
-/// regions' stage times to `stages`.
+/// Writes every object's regions back and gathers the figures of objects and regions.
 pub(super) fn object_results(
     frame: &Frame,
     caches: &[Option<ObjectCache>],
-    contacts: &RegionContacts,
+    zones: &ZoneSummary,
     outcomes: Vec<Vec<Option<RegionOutcome>>>,
-    stages: &mut StageTimes,
 ) -> ObjectResults {
     let count = frame.objects.len();
-    let RegionContacts { zones, touching, .. } = contacts;
+    let ZoneSummary { zones, touching } = zones;
     let mut positions = Vec::with_capacity(count);
     let mut object_stats = Vec::with_capacity(count);
     let mut kept = Vec::with_capacity(count);
@@ -90,7 +155,7 @@ pub(super) fn object_results(
             volume_after: volume_before,
             preserve_volume: object.params.preserve_volume.unwrap_or(true),
             regions: cache.regions.len(),
-            zones: zones[i].iter().map(Vec::len).sum(),
+            zones: zones[i].iter().sum(),
             ..ObjectStats::default()
         };
         for (r, (region, outcome)) in cache.regions.iter().zip(&outcomes).enumerate() {
@@ -105,12 +170,11 @@ pub(super) fn object_results(
                 cut_border_vertices: sub.map_or(0, |s| s.border_count),
                 rebuilt: region.rebuilt,
                 touching: touching[i][r].clone(),
-                zones: zones[i][r].len(),
+                zones: zones[i][r],
                 ..RegionStats::default()
             };
             if let Some(outcome) = outcome {
                 let s = &outcome.deformation.stats;
-                *stages += &s.timings;
                 rs.deformed = true;
                 rs.extent = outcome.extent;
                 rs.extent_clamped = outcome.clamped;

@@ -13,23 +13,30 @@
 //! bind pose), or the frame's own mesh when none is given: β then follows the frame, which keeps
 //! every frame independent of the others.
 
+use std::time::Instant;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::part_contact::{PartContactCache, PartPairStats, resolve_part_contacts};
-use super::{Frame, ObjectParams, ObjectStats, PipelineError};
+use super::plan::{JobKind, JobLevel, JobRecord, Trace};
+use super::{Frame, FrameObject, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
 use crate::skinning::{
-    ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations, plan_articulation,
-    self_intersection_counts,
+    ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations,
+    articulation_interiors, contact_articulation, deform_articulation, self_intersection_counts,
 };
+use crate::spatial::TriangleBvh;
+use crate::stage::{Stage, StageTimes};
 
-/// What the deformer keeps about an object's articulations between frames.
+/// What the deformer keeps about an object's self-contacts between frames.
 #[derive(Debug, Default)]
 pub(super) struct SelfContactCache {
     triangles: Vec<[u32; 3]>,
     topology: Option<Topology>,
+    /// Tree over the whole object, refitted to each frame: shared by its articulations.
+    tree: Option<TriangleBvh>,
     setups: Vec<Option<ArticulationSetup>>,
     /// The contacts between its parts (issue 27).
     parts: PartContactCache,
@@ -54,123 +61,318 @@ pub struct SelfContactResult {
     pub untangled: Option<super::Untangled>,
 }
 
-/// The figures of a frame's self-contact stage: per articulation and per touching part pair.
-pub(super) type SelfContactStats = (Vec<ArticulationStats>, Vec<PartPairStats>);
-
 /// True if the object has self-contact to resolve: articulations or parts.
 pub(super) fn has_self_contact(params: &ObjectParams) -> bool {
     !params.rigid && (!params.self_contact.is_empty() || params.self_contact_parts.is_some())
 }
 
-/// Runs the articulations, then the part contacts, of every object that has some. Returns, per
-/// object, its result (`None` for objects without self-contact) and the figures.
+/// What the articulations of an object share at one frame: its rest pose and normals, and which
+/// of its vertices lie inside another part.
+struct Prepared {
+    rest: TriMesh,
+    normals: Vec<DVec3>,
+    interior: Vec<bool>,
+    closed: bool,
+}
+
+/// An articulation job: its object, its index among the object's articulations, and where it is.
+enum ArticulationState {
+    /// Its caches are ready.
+    Ready,
+    /// Its contact definition (ch. 4) is done.
+    Contact(Box<ArticulationContact>),
+    /// Its deformation (ch. 5) is planned.
+    Planned(Box<ArticulationPlan>),
+}
+
+/// The plan's first level (see `plan`): every object with self-contact has its articulations
+/// resolved as jobs — their caches, the crease cut and chapter 4 of every job in parallel, then
+/// chapter 5 of every job in parallel, then per object the blend and the bulge heights — then its
+/// part contacts. Returns, per object, its result (`None` for objects without self-contact); the
+/// jobs, their figures and the stage times go to `trace`.
 pub(super) fn resolve_self_contacts(
     caches: &mut Vec<SelfContactCache>,
     frame: &Frame,
-) -> Result<(Vec<Option<SelfContactResult>>, SelfContactStats), PipelineError> {
+    trace: &mut Trace,
+) -> Result<Vec<Option<SelfContactResult>>, PipelineError> {
     let count = frame.objects.len();
     caches.resize_with(count, SelfContactCache::default);
     caches.truncate(count);
-    let results: Vec<Option<(SelfContactResult, SelfContactStats)>> = caches
-        .par_iter_mut()
-        .zip(&frame.objects)
-        .enumerate()
-        .map(|(i, (cache, object))| {
-            if !has_self_contact(object.params) {
-                return Ok(None);
-            }
-            resolve_object(i, cache, object.name, object.mesh, object.params).map(Some)
-        })
-        .collect::<Result<_, _>>()?;
-    let (mut articulations, mut part_pairs) = (Vec::new(), Vec::new());
-    let results = results
-        .into_iter()
-        .map(|r| {
-            r.map(|(result, (a, p))| {
-                articulations.extend(a);
-                part_pairs.extend(p);
-                result
-            })
+    if !frame.objects.iter().any(|o| has_self_contact(o.params)) {
+        return Ok(vec![None; count]);
+    }
+
+    // Setup: each object's connectivity caches and rest pose, then every articulation's caches.
+    let timer = Instant::now();
+    for (cache, object) in caches.iter_mut().zip(&frame.objects) {
+        if has_self_contact(object.params) {
+            refresh_object(cache, object)?;
+        }
+    }
+    let mut jobs: Vec<(usize, usize)> = Vec::new();
+    for (i, object) in frame.objects.iter().enumerate() {
+        if has_self_contact(object.params) {
+            jobs.extend((0..object.params.self_contact.len()).map(|k| (i, k)));
+        }
+    }
+    let records: Vec<usize> = jobs
+        .iter()
+        .map(|&(i, k)| {
+            let name =
+                format!("{}: articulation \"{}\"", frame.objects[i].name, frame.objects[i].params.self_contact[k].name);
+            trace.push_job(JobRecord::new(JobLevel::SelfContact, JobKind::Articulation, name, [i, i]))
         })
         .collect();
-    Ok((results, (articulations, part_pairs)))
+    let rests: Vec<Option<TriMesh>> = caches
+        .iter()
+        .zip(&frame.objects)
+        .map(|(_, o)| has_self_contact(o.params).then(|| rest_mesh(o)).transpose())
+        .collect::<Result<_, _>>()?;
+    let mut slots = setup_slots(caches, frame);
+    let mut states: Vec<Result<ArticulationState, String>> = slots
+        .par_iter_mut()
+        .map(|(i, k, topology, slot)| {
+            let object = &frame.objects[*i];
+            let (Some(rest), Some(topology)) = (rests[*i].as_ref(), topology) else {
+                return Ok(Err("no topology".to_string()));
+            };
+            let articulation = &object.params.self_contact[*k];
+            let ready = match slot {
+                Some(setup) if setup.matches(object.mesh, articulation) => setup.set_rest(rest, topology),
+                _ => ArticulationSetup::new(object.mesh, topology, articulation, rest).map(|setup| {
+                    **slot = Some(setup);
+                }),
+            };
+            job_outcome(object, articulation, ready.map(|()| ArticulationState::Ready))
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    drop(slots);
+    let prepared: Vec<Option<Prepared>> = caches
+        .par_iter_mut()
+        .zip(&frame.objects)
+        .zip(rests)
+        .enumerate()
+        .map(|(i, ((cache, object), rest))| {
+            let Some(rest) = rest else { return Ok(None) };
+            prepare(
+                cache,
+                object,
+                rest,
+                jobs.iter().zip(&states).filter(|((o, _), s)| *o == i && s.is_ok()).map(|((_, k), _)| *k),
+            )
+            .map(Some)
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    trace.time(Stage::Setup, timer.elapsed());
+
+    // The crease cut and chapter 4 of every articulation, in parallel.
+    let mut slots = setup_slots(caches, frame);
+    states = slots
+        .par_iter_mut()
+        .zip(states)
+        .map(|((i, k, topology, slot), state)| {
+            let (object, articulation) = (&frame.objects[*i], &frame.objects[*i].params.self_contact[*k]);
+            let (Ok(ArticulationState::Ready), Some(setup), Some(topology), Some(prepared)) =
+                (&state, slot.as_mut(), topology, prepared[*i].as_ref())
+            else {
+                return Ok(state);
+            };
+            let found =
+                contact_articulation(object.mesh, topology, &prepared.normals, &prepared.interior, setup, articulation);
+            job_outcome(object, articulation, found.map(|c| ArticulationState::Contact(Box::new(c))))
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    for (state, &job) in states.iter().zip(&records) {
+        if let Ok(ArticulationState::Contact(c)) = state {
+            let mut times = StageTimes::default();
+            times[Stage::CreaseCut] = c.stats.cut_time;
+            if let Some(contact) = &c.contact {
+                times += &contact.stats.timings;
+            }
+            trace.add_to_job(job, &times, &Default::default());
+            trace.jobs[job].in_contact = c.in_contact();
+        }
+    }
+
+    // Chapter 5 of every articulation in contact, up to its bulge height, in parallel.
+    states = slots
+        .par_iter_mut()
+        .zip(states)
+        .map(|((i, k, _, slot), state)| {
+            let object = &frame.objects[*i];
+            let articulation = &object.params.self_contact[*k];
+            let found = match state {
+                Ok(ArticulationState::Contact(found)) => found,
+                Ok(_) => return Ok(Err("its caches were not ready".to_string())),
+                Err(reason) => return Ok(Err(reason)),
+            };
+            let (Some(setup), Some(prepared)) = (slot.as_mut(), prepared[*i].as_ref()) else {
+                return Ok(Err("its caches were not ready".to_string()));
+            };
+            // Any extent here is replaced by the articulation's own.
+            let preserve = object.params.preserve_volume.unwrap_or(prepared.closed);
+            let mut deform_params = DeformParams::of(object.params, 1.0, preserve);
+            // One value per object vertex: each articulation gathers its regions' values.
+            deform_params.bulge_map = object.params.bulge_map.clone();
+            let planned = deform_articulation(*found, object.mesh, setup, articulation, &deform_params);
+            job_outcome(object, articulation, planned.map(|p| ArticulationState::Planned(Box::new(p))))
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    drop(slots);
+
+    // Per object: the blend over the shared regions and the bulge heights, then its part contacts.
+    let mut results = Vec::with_capacity(count);
+    let mut states = states.into_iter().zip(records).zip(&jobs).peekable();
+    for (i, (cache, object)) in caches.iter_mut().zip(&frame.objects).enumerate() {
+        let Some(prepared) = prepared[i].as_ref() else {
+            results.push(None);
+            continue;
+        };
+        let mut plans = Vec::new();
+        while let Some(((state, job), &(o, k))) = states.next_if(|(_, (o, _))| *o == i) {
+            let articulation = &object.params.self_contact[k];
+            let mut plan = match state {
+                Ok(ArticulationState::Planned(plan)) => *plan,
+                Ok(_) => inactive_plan(object.mesh.num_vertices(), articulation, "its caches were not ready".into()),
+                Err(reason) => inactive_plan(object.mesh.num_vertices(), articulation, reason),
+            };
+            plan.stats.object = o;
+            let deformation = plan.stats.deformation_time;
+            let mut times = StageTimes::default();
+            times[Stage::Deformation] = deformation;
+            trace.add_to_job(job, &times, &Default::default());
+            trace.jobs[job].error.clone_from(&plan.stats.error);
+            plans.push(plan);
+        }
+        let (result, stats, part_pairs) = finish_object(i, cache, object, prepared, plans, trace)?;
+        trace.articulations.extend(stats);
+        trace.part_pairs.extend(part_pairs);
+        results.push(Some(result));
+    }
+    Ok(results)
 }
 
-fn resolve_object(
-    index: usize,
-    cache: &mut SelfContactCache,
-    name: &str,
-    mesh: &TriMesh,
-    params: &ObjectParams,
-) -> Result<(SelfContactResult, SelfContactStats), PipelineError> {
-    let n = mesh.num_vertices();
-    let error = |articulation: &str, source| PipelineError::SelfContact {
-        object: name.to_string(),
-        articulation: articulation.to_string(),
-        source: Box::new(source),
-    };
+/// The articulations of every object as `(object, index, topology, cache slot)`, in job order.
+type SetupSlot<'c> = (usize, usize, Option<&'c Topology>, &'c mut Option<ArticulationSetup>);
+
+fn setup_slots<'c>(caches: &'c mut [SelfContactCache], frame: &Frame) -> Vec<SetupSlot<'c>> {
+    let mut slots = Vec::new();
+    for (i, (cache, object)) in caches.iter_mut().zip(&frame.objects).enumerate() {
+        if !has_self_contact(object.params) {
+            continue;
+        }
+        let SelfContactCache { topology, setups, .. } = cache;
+        let topology = topology.as_ref();
+        for (k, slot) in setups.iter_mut().enumerate() {
+            slots.push((i, k, topology, slot));
+        }
+    }
+    slots
+}
+
+/// A job's result, or the reason it was left inactive: an automatic articulation that fails is
+/// reported, an explicit one fails the frame.
+fn job_outcome<T>(
+    object: &FrameObject,
+    articulation: &crate::params::Articulation,
+    outcome: Result<T, crate::skinning::SelfContactError>,
+) -> Result<Result<T, String>, PipelineError> {
+    match outcome {
+        Ok(t) => Ok(Ok(t)),
+        Err(e) if articulation.automatic => Ok(Err(e.to_string())),
+        Err(e) => Err(PipelineError::SelfContact {
+            object: object.name.to_string(),
+            articulation: articulation.name.clone(),
+            source: Box::new(e),
+        }),
+    }
+}
+
+/// Brings an object's connectivity caches to this frame (rebuilt when its triangles change) and
+/// sizes its articulation slots.
+fn refresh_object(cache: &mut SelfContactCache, object: &FrameObject) -> Result<(), PipelineError> {
+    let mesh = object.mesh;
     if cache.topology.is_none() || cache.triangles != mesh.triangles {
-        let topology =
-            mesh.check_for_deformation().map_err(|source| PipelineError::Mesh { object: name.to_string(), source })?;
+        let topology = mesh
+            .check_for_deformation()
+            .map_err(|source| PipelineError::Mesh { object: object.name.to_string(), source })?;
         *cache = SelfContactCache {
             triangles: mesh.triangles.clone(),
             topology: Some(topology),
+            tree: None,
             setups: Vec::new(),
             parts: PartContactCache::default(),
         };
     }
-    let Some(topology) = cache.topology.as_ref() else {
-        return Err(PipelineError::InvalidRegion { object: name.to_string(), reason: "no topology".into() });
-    };
-    let rest = match &params.rest_positions {
-        Some(rest) if rest.len() != n => {
-            return Err(PipelineError::PerVertexLength {
-                object: name.to_string(),
-                what: "the rest positions",
-                expected: n,
-                actual: rest.len(),
-            });
-        }
-        Some(rest) => TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() },
-        None => mesh.clone(),
-    };
-    let closed = topology.is_closed();
-    let articulations = &params.self_contact;
-    cache.setups.resize_with(articulations.len(), || None);
-    cache.setups.truncate(articulations.len());
+    let count = object.params.self_contact.len();
+    cache.setups.resize_with(count, || None);
+    cache.setups.truncate(count);
+    Ok(())
+}
+
+/// The object's rest pose: its rest positions, or the frame's own mesh when none is given.
+fn rest_mesh(object: &FrameObject) -> Result<TriMesh, PipelineError> {
+    let mesh = object.mesh;
+    match &object.params.rest_positions {
+        Some(rest) if rest.len() != mesh.num_vertices() => Err(PipelineError::PerVertexLength {
+            object: object.name.to_string(),
+            what: "the rest positions",
+            expected: mesh.num_vertices(),
+            actual: rest.len(),
+        }),
+        Some(rest) => Ok(TriMesh { positions: rest.clone(), triangles: mesh.triangles.clone() }),
+        None => Ok(mesh.clone()),
+    }
+}
+
+/// What an object's articulations share at this frame (see [`Prepared`]): the whole object's tree
+/// refitted once, its normals, and the interior flags of the vertices of the articulations
+/// `ready` (those whose caches are ready).
+fn prepare(
+    cache: &mut SelfContactCache,
+    object: &FrameObject,
+    rest: TriMesh,
+    ready: impl Iterator<Item = usize>,
+) -> Result<Prepared, PipelineError> {
+    let mesh = object.mesh;
+    let spatial = |source| PipelineError::Spatial { object: object.name.to_string(), source };
     let normals = vertex_normals(mesh);
-    // Any extent here is replaced by the articulation's own.
-    let mut deform_params = DeformParams::of(params, 1.0, params.preserve_volume.unwrap_or(closed));
-    // One value per object vertex: each articulation gathers its regions' values.
-    deform_params.bulge_map = params.bulge_map.clone();
-    let plans: Vec<ArticulationPlan> = cache
-        .setups
-        .par_iter_mut()
-        .zip(articulations)
-        .map(|(slot, articulation)| {
-            let planned = (|| {
-                let setup = match slot {
-                    Some(setup) if setup.matches(mesh, articulation) => {
-                        setup.set_rest(&rest, topology)?;
-                        setup
-                    }
-                    _ => slot.insert(ArticulationSetup::new(mesh, topology, articulation, &rest)?),
-                };
-                plan_articulation(mesh, topology, &normals, setup, articulation, &deform_params)
-            })();
-            let mut plan = match planned {
-                Ok(plan) => plan,
-                Err(e) if articulation.automatic => inactive_plan(n, articulation, e.to_string()),
-                Err(e) => return Err(error(&articulation.name, e)),
-            };
-            plan.stats.object = index;
-            Ok(plan)
-        })
-        .collect::<Result<_, _>>()?;
-    let preserve = params.preserve_volume.unwrap_or(closed);
+    let setups: Vec<&ArticulationSetup> = ready.filter_map(|k| cache.setups.get(k)?.as_ref()).collect();
+    let interior = if setups.is_empty() {
+        vec![false; mesh.num_vertices()]
+    } else {
+        let tree = match cache.tree.as_mut() {
+            Some(tree) => {
+                tree.refit(&mesh.positions).map_err(spatial)?;
+                tree
+            }
+            None => cache.tree.insert(TriangleBvh::new(mesh).map_err(spatial)?),
+        };
+        articulation_interiors(mesh, &normals, tree, setups)
+    };
+    let closed = cache.topology.as_ref().is_some_and(Topology::is_closed);
+    Ok(Prepared { rest, normals, interior, closed })
+}
+
+/// An object's articulations applied (the blend and the bulge heights, §6 and App. C), their
+/// figures, then its part contacts (issue 27).
+fn finish_object(
+    index: usize,
+    cache: &mut SelfContactCache,
+    object: &FrameObject,
+    prepared: &Prepared,
+    plans: Vec<ArticulationPlan>,
+    trace: &mut Trace,
+) -> Result<(SelfContactResult, Vec<ArticulationStats>, Vec<PartPairStats>), PipelineError> {
+    let (name, mesh, params) = (object.name, object.mesh, object.params);
+    let n = mesh.num_vertices();
+    let timer = Instant::now();
+    let preserve = params.preserve_volume.unwrap_or(prepared.closed);
     let applied = apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge)
         .map_err(|source| PipelineError::Deform { object: name.to_string(), source })?;
     let after = TriMesh { positions: applied.positions, triangles: mesh.triangles.clone() };
+    trace.time(Stage::Blend, timer.elapsed());
+    let timer = Instant::now();
     let mut contact = vec![false; n];
     let mut moved = vec![false; n];
     let mut cuts = Vec::with_capacity(plans.len());
@@ -199,9 +401,12 @@ fn resolve_object(
         }
         stats.push(s);
     }
+    trace.time(Stage::Quality, timer.elapsed());
     let (positions, part_pairs, self_intersecting_faces, untangled) = match &params.self_contact_parts {
         Some(parts) => {
-            let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &rest, params, parts)?;
+            let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &prepared.rest, params, parts)?;
+            trace.time(Stage::PartContacts, r.pairs.iter().map(|p| p.time).sum());
+            trace.time(Stage::Untangle, r.untangled.time);
             for (m, p) in moved.iter_mut().zip(r.moved) {
                 *m |= p;
             }
@@ -210,7 +415,7 @@ fn resolve_object(
         None => (after.positions, Vec::new(), None, None),
     };
     let result = SelfContactResult { positions, contact, moved, cuts, self_intersecting_faces, untangled };
-    Ok((result, (stats, part_pairs)))
+    Ok((result, stats, part_pairs))
 }
 
 /// The plan of an automatic articulation that failed at this frame: no displacement, the reason

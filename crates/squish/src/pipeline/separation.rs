@@ -388,20 +388,9 @@ impl Blend {
 const BLEND_POWER: i32 = 4;
 
 /// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
-/// (order of `region_pairs`), what it did, the warnings for the pairs left intersecting, and the
-/// pass's work ([`Work`]: its rounds, distance queries and exact tests).
+/// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting. Its
+/// work ([`Work`]: its rounds, distance queries and exact tests) is recorded in the caller's span.
 pub(super) fn separate(
-    frame: &Frame,
-    caches: &[Option<ObjectCache>],
-    region_pairs: &[RegionPair],
-    contacts: &[Option<PairContact>],
-    outcomes: &mut [Vec<Option<RegionOutcome>>],
-) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>, Work), PipelineError> {
-    let (result, work) = Work::measure(|| separate_measured(frame, caches, region_pairs, contacts, outcomes));
-    result.map(|(report, warnings)| (report, warnings, work))
-}
-
-fn separate_measured(
     frame: &Frame,
     caches: &[Option<ObjectCache>],
     region_pairs: &[RegionPair],

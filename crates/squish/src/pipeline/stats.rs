@@ -173,6 +173,15 @@ pub struct FrameStats {
     /// What the frame did not do that it was asked to (see [`super::FrameWarning`]).
     #[serde(default)]
     pub warnings: Vec<super::FrameWarning>,
+    /// Per pair of objects: penetrations and intersecting faces before and after (the quality
+    /// pass, see [`super::PairQuality`]); empty when the deformer leaves it out
+    /// ([`super::Deformer::without_quality`]).
+    #[serde(default)]
+    pub quality: Vec<super::PairQuality>,
+    /// The frame plan's jobs, level by level, with the stages each ran (see
+    /// [`super::JobRecord`]).
+    #[serde(default)]
+    pub jobs: Vec<super::JobRecord>,
 }
 
 /// Which part of its object a working region is (same order as [`FrameStats::regions`]).

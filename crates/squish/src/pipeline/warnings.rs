@@ -7,7 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{FrameStats, ObjectStats, PairStats};
+use super::{ObjectStats, PairStats};
 use crate::contact::PairContact;
 use crate::params::PairParams;
 
@@ -44,32 +44,6 @@ pub struct FrameWarning {
     pub object: Option<usize>,
     /// What happened, why, and what to change.
     pub message: String,
-}
-
-impl FrameStats {
-    /// Adds a [`WarningKind::ResidualPenetration`] for region pair `pair` when the output's
-    /// deepest penetration `after` is above the tolerance of the input's `before` (both measured
-    /// by the caller, e.g. with [`crate::spatial::penetration_depths`]); returns whether it did.
-    pub fn note_residual_penetration(&mut self, pair: usize, before: f64, after: f64) -> bool {
-        if !(after > RESIDUAL_PENETRATION_TOLERANCE * before && after > 0.0) {
-            return false;
-        }
-        let names = self.pairs.get(pair).map_or_else(Default::default, |p| p.objects.clone());
-        self.warnings.push(FrameWarning {
-            kind: WarningKind::ResidualPenetration,
-            pair: Some(pair),
-            object: None,
-            message: format!(
-                "pair (\"{}\", \"{}\"): the output still penetrates {after:.3e} deep, {:.0}% of the input's {before:.3e} \
-                 (tolerance {:.0}%); a smaller pair.contact_tau, a larger extent or a rigid side resolve more",
-                names[0],
-                names[1],
-                100.0 * after / before.max(f64::MIN_POSITIVE),
-                100.0 * RESIDUAL_PENETRATION_TOLERANCE
-            ),
-        });
-        true
-    }
 }
 
 /// The pipeline's warnings for one frame: per region pair (`contacts[k]` with its

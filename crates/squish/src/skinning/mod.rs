@@ -16,7 +16,8 @@ pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinnin
 pub use partition::{Seed, SharedRegion};
 pub use parts::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair, dominant_joints, parts_from_skin};
 pub use self_contact::{
-    AppliedArticulations, ArticulationPlan, ArticulationSetup, ArticulationStats, CONTACT_THRESHOLD_FLOOR,
-    FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError, SelfIntersectionCounts, apply_articulations, plan_articulation,
+    AppliedArticulations, ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats,
+    CONTACT_THRESHOLD_FLOOR, FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError, SelfIntersectionCounts,
+    apply_articulations, articulation_interiors, contact_articulation, deform_articulation, plan_articulation,
     self_intersection_counts,
 };

@@ -171,8 +171,6 @@ pub struct ArticulationSetup {
     in_regions: Vec<bool>,
     /// RMS radius of ℛ on the rest pose.
     size: f64,
-    /// Tree over the whole object (refitted per frame) for the interior test.
-    tree: TriangleBvh,
     /// Offset of the interior test (10⁻⁴ of the mean edge length).
     epsilon: f64,
     /// Mean edge length of the rest pose.
@@ -225,13 +223,11 @@ impl ArticulationSetup {
         let faces = (0..mesh.num_triangles() as u32)
             .filter(|&f| face_sets[0][f as usize] || face_sets[1][f as usize])
             .collect();
-        let tree = TriangleBvh::new(mesh)?;
         let edge_length = crate::mesh::mean_edge_length(rest, topology);
         let size = shared_size(rest, &shared);
         let in_regions = shared.membership.iter().map(|m| m[0] || m[1]).collect();
         Ok(Self {
             in_regions,
-            tree,
             epsilon: 1e-4 * edge_length,
             edge_length,
             regions: articulation.regions.clone(),
@@ -469,10 +465,9 @@ fn separate(zone: &ContactZone, offset: f64) -> ContactZone {
 /// Fraction of the smallest φ on a far border that a clamped extent keeps.
 const CLAMP_FRACTION: f64 = 0.95;
 
-/// Runs one articulation at one frame up to the choice of its bulge height (see the module doc).
-/// `mesh` is the object at this frame (the skinned input), `topology` its connectivity,
-/// `normals` its unit vertex normals, `params` the object's deformation parameters (its extent is
-/// ignored: the articulation's own, or the automatic one, is used).
+/// One articulation at one frame up to the choice of its bulge height: [`contact_articulation`]
+/// then [`deform_articulation`], with the interior flags from a triangle tree of its own (the
+/// pipeline shares one tree and one set of flags among an object's articulations).
 pub fn plan_articulation(
     mesh: &TriMesh,
     topology: &Topology,
@@ -481,6 +476,69 @@ pub fn plan_articulation(
     articulation: &Articulation,
     params: &DeformParams,
 ) -> Result<ArticulationPlan, SelfContactError> {
+    let tree = TriangleBvh::new(mesh)?;
+    let interior = articulation_interiors(mesh, normals, &tree, [&*setup]);
+    let found = contact_articulation(mesh, topology, normals, &interior, setup, articulation)?;
+    deform_articulation(found, mesh, setup, articulation, params)
+}
+
+/// The contact definition of one articulation at one frame (steps 1–3 of the module doc): the
+/// crease cut, the truncated regions and chapter 4 between them. What
+/// [`deform_articulation`] then deforms.
+pub struct ArticulationContact {
+    /// Per vertex of ℛ (order of [`SharedRegion::vertices`]): labeled 𝒲̄₁ by the crease cut.
+    pub labels: Vec<bool>,
+    /// The contact between the truncated regions (`None` when one is empty), on the pair's
+    /// sides `[𝒲̄₂, 𝒲̄₁]`.
+    pub contact: Option<crate::contact::PairContact>,
+    truncated: Option<[Truncated; 2]>,
+    direction: DVec3,
+    pub stats: ArticulationStats,
+    start: Instant,
+}
+
+impl ArticulationContact {
+    /// True if the two sides are in contact (non-empty zones).
+    pub fn in_contact(&self) -> bool {
+        self.contact.as_ref().is_some_and(|c| !c.is_empty())
+    }
+}
+
+/// Per object vertex: inside another part of the object, for the vertices of every articulation
+/// of `setups` (see [`interior_flags`]); `tree` is the whole object's triangle tree at `mesh`'s
+/// positions, shared by the object's articulations.
+pub fn articulation_interiors<'a>(
+    mesh: &TriMesh,
+    normals: &[DVec3],
+    tree: &TriangleBvh,
+    setups: impl IntoIterator<Item = &'a ArticulationSetup>,
+) -> Vec<bool> {
+    let mut vertices = vec![false; mesh.num_vertices()];
+    let mut epsilon = None;
+    for setup in setups {
+        for (v, &inside) in vertices.iter_mut().zip(&setup.in_regions) {
+            *v |= inside;
+        }
+        epsilon.get_or_insert(setup.epsilon);
+    }
+    match epsilon {
+        Some(epsilon) => interior_flags(mesh, normals, tree, &vertices, epsilon),
+        None => vertices,
+    }
+}
+
+/// Steps 1–3 of the module doc for one articulation at one frame: d̂, the crease cut and the
+/// contact of chapter 4 between the truncated regions. `mesh` is the object at this frame (the
+/// skinned input), `topology` its connectivity, `normals` its unit vertex normals and
+/// `interior` its [`articulation_interiors`].
+pub fn contact_articulation(
+    mesh: &TriMesh,
+    topology: &Topology,
+    normals: &[DVec3],
+    interior: &[bool],
+    setup: &mut ArticulationSetup,
+    articulation: &Articulation,
+) -> Result<ArticulationContact, SelfContactError> {
     let start = Instant::now();
     articulation.params.validate().map_err(ArticulationError::from)?;
     let n = mesh.num_vertices();
@@ -517,12 +575,9 @@ pub fn plan_articulation(
     for side in &mut setup.sides {
         side.sub.update_positions(&mesh.positions);
     }
-    let shared = &setup.shared;
-    setup.tree.refit(&mesh.positions)?;
-    let interior = interior_flags(mesh, normals, &setup.tree, &setup.in_regions, setup.epsilon);
     let truncated = match (
-        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], &interior, d)?,
-        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], &interior, -d)?,
+        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d)?,
+        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d)?,
     ) {
         (Some(first), Some(second)) => Some([first, second]),
         _ => None,
@@ -547,6 +602,30 @@ pub fn plan_articulation(
         None => None,
     };
     stats.contact_time = t.elapsed();
+    if let Some(contact) = contact.as_ref().filter(|c| !c.is_empty()) {
+        stats.in_contact = true;
+        stats.intersection_points = contact.intersection_points.len();
+        stats.threshold = contact.criterion.threshold;
+        stats.contact_area = contact.contact_area;
+    }
+    Ok(ArticulationContact { labels, contact, truncated, direction: d, stats, start })
+}
+
+/// Steps 4–6 of the module doc for one articulation at one frame, after
+/// [`contact_articulation`]: the zones reported onto both regions, chapter 5 on each up to the
+/// profiles and the blend over ℛ, up to the choice of its bulge height. `params` are the object's
+/// deformation parameters (its extent is ignored: the articulation's own, or the automatic one,
+/// is used).
+pub fn deform_articulation(
+    found: ArticulationContact,
+    mesh: &TriMesh,
+    setup: &mut ArticulationSetup,
+    articulation: &Articulation,
+    params: &DeformParams,
+) -> Result<ArticulationPlan, SelfContactError> {
+    let n = mesh.num_vertices();
+    let ArticulationContact { labels, contact, truncated, direction: d, stats, start } = found;
+    let shared = &setup.shared;
     let mut plan = ArticulationPlan {
         displacement: AffineDisplacement::none(n),
         extent: f64::NAN,
@@ -558,10 +637,6 @@ pub fn plan_articulation(
         plan.stats.total_time = start.elapsed();
         return Ok(plan);
     };
-    plan.stats.in_contact = true;
-    plan.stats.intersection_points = contact.intersection_points.len();
-    plan.stats.threshold = contact.criterion.threshold;
-    plan.stats.contact_area = contact.contact_area;
 
     // §6.2.1: each zone reported onto both whole regions; zones on the pair's sides: [𝒲̄₂, 𝒲̄₁].
     let t = Instant::now();
@@ -576,6 +651,7 @@ pub fn plan_articulation(
             .filter(|z| !z.is_empty())
             .collect()
     });
+    let zone_refs: [Vec<&ContactZone>; 2] = [0, 1].map(|l| zones[l].iter().collect());
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
     let fields: [Vec<DVec3>; 2] = [0, 1]
         .map(|l| setup.sides[l].sub.parent_vertex.iter().map(|&v| (2.0 * shared.beta[v as usize] - 1.0) * d).collect());
@@ -598,8 +674,14 @@ pub fn plan_articulation(
                 region_params.bulge_map = Some(side.sub.gather(map));
             }
             let overrides = RegionOverrides { mapping_field: Some(&fields[l]), normals: None };
-            let region_plan =
-                plan_region(&side.sub.mesh, &side.topology, &mut side.solver, &zones[l], &region_params, &overrides)?;
+            let region_plan = plan_region(
+                &side.sub.mesh,
+                &side.topology,
+                &mut side.solver,
+                &zone_refs[l],
+                &region_params,
+                &overrides,
+            )?;
             for (v, &far) in side.far_border.iter().enumerate() {
                 if !far {
                     continue;

@@ -151,6 +151,44 @@ fn the_submodules_of_a_module_do_not_use_each_other_in_a_circle() {
     }
 }
 
+/// The submodules of `pipeline`, bottom first (`docs/architecture.md`, "Layers"): the frame plan's
+/// stages point down to the stages and stores they run on, the driver (`mod.rs`) is above all.
+const PIPELINE_ORDER: [&[&str]; 8] = [
+    &["error", "stats", "plan", "cache", "untangle"],
+    &["store", "regions"],
+    &["setup", "contacts"],
+    &["deformations", "warnings"],
+    &["separation", "quality"],
+    &["part_contact"],
+    &["self_contact"],
+    &["edits", "results"],
+];
+
+#[test]
+fn the_pipelines_submodules_point_down_in_their_documented_order() {
+    let dir = src().join("pipeline");
+    let level = |name: &str| PIPELINE_ORDER.iter().position(|l| l.contains(&name));
+    let mut violations = Vec::new();
+    for file in rust_files(&dir).into_iter().filter(|f| f.parent() == Some(dir.as_path())) {
+        let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        if stem == "mod" {
+            continue;
+        }
+        let Some(own) = level(&stem) else {
+            violations.push(format!("pipeline/{stem}.rs has no place in PIPELINE_ORDER: give it one"));
+            continue;
+        };
+        for used in names_after(&read(&file), "super::").into_iter().filter(|u| *u != stem) {
+            if let Some(other) = level(&used)
+                && other >= own
+            {
+                violations.push(format!("pipeline/{stem}.rs (level {own}) uses `{used}` (level {other})"));
+            }
+        }
+    }
+    assert!(violations.is_empty(), "{}", violations.join("\n"));
+}
+
 #[test]
 fn the_reader_finds_grouped_paths_and_skips_comments() {
     let source = "use crate::{mesh::{Topology, TriMesh}, spatial, DVec3};\n\

@@ -70,13 +70,14 @@ fn a_ball_radius_too_large_for_the_elastic_object_is_reduced() {
 }
 
 /// A sphere wholly inside a closed slab was "do not intersect"; it is now named as a
-/// containment (nothing is resolved: there is no intersection curve to bound a zone).
+/// containment (nothing is resolved: there is no intersection curve to bound a zone), and the
+/// quality pass finds its whole penetration left.
 #[test]
 fn a_mesh_inside_another_is_named_as_such() {
     let scene = ball_in_slab(0.2, 0.6, 1.0, PairParams::default(), ObjectParams::default());
     let result = Deformer::new().deform(&scene.frame()).unwrap();
     assert!(!result.stats.pairs[0].in_contact);
-    assert_eq!(kinds(&result), vec![WarningKind::Containment]);
+    assert_eq!(kinds(&result), vec![WarningKind::Containment, WarningKind::ResidualPenetration]);
     assert!(result.stats.warnings[0].message.contains("\"ball\" lies wholly inside \"slab\""));
     // Apart: no warning.
     let scene = ball_in_slab(0.2, -0.5, 1.0, PairParams::default(), ObjectParams::default());
@@ -102,14 +103,21 @@ fn an_open_mesh_without_bulge_is_reported() {
     assert!(result.stats.warnings.is_empty(), "{:?}", result.stats.warnings);
 }
 
-/// The residual-penetration rule: above 10% of the input's depth only.
+/// The quality pass: a ball pressed into a slab penetrates before, far less after, with no
+/// faces crossing at the default gap; left out on request.
 #[test]
-fn residual_penetration_above_the_tolerance_is_noted() {
-    let mut stats = FrameStats { pairs: vec![PairStats::default()], ..FrameStats::default() };
-    assert!(!stats.note_residual_penetration(0, 1.0, 0.1));
-    assert!(!stats.note_residual_penetration(0, 0.0, 0.0));
-    assert!(stats.note_residual_penetration(0, 1.0, 0.11));
-    assert_eq!(stats.warnings.len(), 1);
-    assert_eq!(stats.warnings[0].kind, WarningKind::ResidualPenetration);
-    assert!(stats.warnings[0].message.contains("11%"), "{}", stats.warnings[0].message);
+fn the_quality_pass_measures_the_penetration_before_and_after() {
+    let scene = ball_in_slab(0.5, 0.2, 1.0, PairParams::default(), ObjectParams::default());
+    let result = Deformer::new().deform(&scene.frame()).unwrap();
+    let quality = &result.stats.quality;
+    assert_eq!(quality.len(), 1);
+    let q = &quality[0];
+    let (before, after) = (q.penetration_before.unwrap(), q.penetration_after.unwrap());
+    assert!(before > 0.15 && before < 0.25, "{before}");
+    assert!(after <= RESIDUAL_PENETRATION_TOLERANCE * before, "{after} of {before}");
+    assert!(q.intersecting_faces_before[0] > 0 && q.intersecting_faces_after == [0, 0], "{q:?}");
+    assert!(!kinds(&result).contains(&WarningKind::ResidualPenetration));
+    let without = Deformer::new().without_quality().deform(&scene.frame()).unwrap();
+    assert!(without.stats.quality.is_empty());
+    assert_eq!(without.positions, result.positions);
 }
