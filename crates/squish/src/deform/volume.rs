@@ -82,12 +82,7 @@ pub struct VolumeCubic {
 
 /// The terms of one face in [`VolumeCubic::new`]: `det(q + c) − det(q)` and the coefficients of
 /// h, h², h³ of `det(q + c + h·l)`, or `None` when none of its vertices moves.
-fn face_terms(
-    mesh: &TriMesh,
-    tri: &[u32; 3],
-    displacement: &AffineDisplacement,
-    reference: DVec3,
-) -> Option<[f64; 4]> {
+fn face_terms(mesh: &TriMesh, tri: &[u32; 3], displacement: &AffineDisplacement, reference: DVec3) -> Option<[f64; 4]> {
     let [i, j, k] = tri.map(|v| v as usize);
     if !(displacement.moved[i] || displacement.moved[j] || displacement.moved[k]) {
         return None;

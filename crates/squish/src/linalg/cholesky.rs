@@ -411,7 +411,7 @@ pub struct NumericFactor {
     /// The diagonal of the decoupled rows (their 1 × 1 blocks) in the reduced layout.
     diagonal: Vec<f64>,
     reduced_analyses: usize,
-    /// Rows of those analyses, summed.
+    /// Rows of the analyses this factor needed (its own or shared), summed.
     analyzed_rows: u64,
     /// Time those analyses took.
     analysis_time: Duration,
@@ -480,7 +480,9 @@ impl NumericFactor {
         self.reduced_analyses
     }
 
-    /// Rows of those analyses, summed (their [`crate::stage::Work`]).
+    /// Rows of the analyses of coupled-row submatrices this factor needed, whether it ran them or
+    /// took them from another factor of the same pattern (their [`crate::stage::Work`]: the same
+    /// whatever the threads).
     pub fn analyzed_rows(&self) -> u64 {
         self.analyzed_rows
     }
@@ -653,9 +655,11 @@ impl NumericFactor {
         if !reusable {
             let start = Instant::now();
             let (shared, new) = self.symbolic.rows_analysis(&self.coupled)?;
+            // Counted whether analyzed here or taken from another factor's: which of two
+            // factors in parallel analyzes first depends on the threads, the rows needed do not.
+            self.analyzed_rows += coupled_rows as u64;
             if new {
                 self.reduced_analyses += 1;
-                self.analyzed_rows += coupled_rows as u64;
                 self.analysis_time += start.elapsed();
             }
             let (numeric, rhs) = match self.reduced.take() {

@@ -314,7 +314,8 @@ impl Deformer {
     fn contact_objects(&mut self, frame: &Frame, keep: bool, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
         // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
-        let figures = trace.run(Stage::Setup, || setup::update_objects(&mut self.caches, frame, &pairing.needs_tree))?;
+        let figures =
+            trace.run(Stage::Setup, || setup::update_objects(&mut self.caches, frame, &pairing.needs_tree))?;
 
         // Working regions (§4.5), then the jobs: every pair of their regions whose boxes overlap.
         let caches = &mut self.caches;
@@ -403,8 +404,8 @@ impl Deformer {
         if self.skip_separation {
             return Ok(Vec::new());
         }
-        let (_, warnings) =
-            trace.run(Stage::Separation, || separation::separate(frame, &self.caches, region_pairs, contacts, outcomes))?;
+        let (_, warnings) = trace
+            .run(Stage::Separation, || separation::separate(frame, &self.caches, region_pairs, contacts, outcomes))?;
         Ok(warnings)
     }
 }
