@@ -242,7 +242,13 @@ impl Surface<'_> {
     /// outside (`outside`, per candidate: winding number 0) and from one ray cast per piece that
     /// none reaches: the same answers as a ray cast per vertex, exactly, for a short segment each.
     /// Runs in parallel.
-    fn inside_flags(&self, positions: &[DVec3], topology: &Topology, candidates: &[u32], outside: &[bool]) -> Vec<bool> {
+    fn inside_flags(
+        &self,
+        positions: &[DVec3],
+        topology: &Topology,
+        candidates: &[u32],
+        outside: &[bool],
+    ) -> Vec<bool> {
         if !self.closed {
             return vec![false; candidates.len()];
         }
@@ -462,8 +468,10 @@ pub(super) fn separate(
         })
         .collect();
     // Per object and region: the volume terms of its last correction.
-    let mut volume_terms: Vec<Vec<SweptTerms>> =
-        caches.iter().map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()])).collect();
+    let mut volume_terms: Vec<Vec<SweptTerms>> = caches
+        .iter()
+        .map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()]))
+        .collect();
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
@@ -479,8 +487,9 @@ pub(super) fn separate(
             let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
-            let windings = [0, 1]
-                .map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].trees.bvh, WINDING_ACCURACY)));
+            let windings = [0, 1].map(|l| {
+                (!surfaces[l].closed).then(|| FastWinding::from_children(&surfaces[l].trees.bvh, WINDING_ACCURACY))
+            });
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
             let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
@@ -538,28 +547,43 @@ pub(super) fn separate(
         }
         rounds += 1;
         Work::count_rounds(1);
-        // How far each object's vertices moved this round (for the distance bounds).
-        let mut moved: Vec<Option<(Vec<f64>, f64)>> = vec![None; count];
-        for i in 0..count {
-            if moves[i].iter().all(|m| *m == DVec3::ZERO) {
-                continue;
-            }
-            let Some(cache) = caches[i].as_ref() else { continue };
-            let spread = spread_moves(cache, &positions[i], &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
-            for (c, s) in corrections[i].iter_mut().zip(&spread) {
-                *c += *s;
-            }
-            correct_regions(frame, i, cache, &corrections[i], &mut outcomes[i], &mut volume_terms[i])?;
-            let new_positions = positions_at(i, outcomes);
-            let by_vertex: Vec<f64> = new_positions.iter().zip(&positions[i]).map(|(a, b)| (*a - *b).length()).collect();
-            let most = by_vertex.iter().copied().fold(0.0, f64::max);
-            moved[i] = Some((by_vertex, most));
-            positions[i] = new_positions;
-            for side in trees[i].iter_mut().flatten() {
-                side.refit(&positions[i])
-                    .map_err(|source| PipelineError::Spatial { object: frame.objects[i].name.to_string(), source })?;
-            }
-        }
+        // Each object's correction and height solves, and how far its vertices moved this round
+        // (for the distance bounds): objects are independent, so in parallel.
+        let work = SharedWork::default();
+        let moved: Vec<Option<(Vec<f64>, f64)>> = (0..count)
+            .into_par_iter()
+            .zip(outcomes.par_iter_mut())
+            .zip(corrections.par_iter_mut())
+            .zip(volume_terms.par_iter_mut())
+            .zip(positions.par_iter_mut())
+            .zip(trees.par_iter_mut())
+            .map(|(((((i, outcomes), correction), terms), positions), trees)| {
+                work.measure(|| {
+                    if moves[i].iter().all(|m| *m == DVec3::ZERO) {
+                        return Ok(None);
+                    }
+                    let Some(cache) = caches[i].as_ref() else { return Ok(None) };
+                    let spread = spread_moves(cache, positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
+                    for (c, s) in correction.iter_mut().zip(&spread) {
+                        *c += *s;
+                    }
+                    correct_regions(frame, i, cache, correction, outcomes, terms)?;
+                    let new_positions = object_positions(&frame.objects[i].mesh.positions, cache, outcomes);
+                    let by_vertex: Vec<f64> =
+                        new_positions.iter().zip(positions.iter()).map(|(a, b)| (*a - *b).length()).collect();
+                    let most = by_vertex.iter().copied().fold(0.0, f64::max);
+                    *positions = new_positions;
+                    for side in trees.iter_mut().flatten() {
+                        side.refit(positions).map_err(|source| PipelineError::Spatial {
+                            object: frame.objects[i].name.to_string(),
+                            source,
+                        })?;
+                    }
+                    Ok(Some((by_vertex, most)))
+                })
+            })
+            .collect::<Result<_, PipelineError>>()?;
+        work.record();
         // A vertex's distance to a surface shrinks at most by how far both moved.
         for (&k, pair_bounds) in active.iter().zip(&mut bounds) {
             let objects = frame.pairs[region_pairs[k].pair].objects;
@@ -701,7 +725,6 @@ fn query_direction(
 fn inside_box(b: &Aabb3, p: DVec3) -> bool {
     p.cmpge(b.min).all() && p.cmple(b.max).all()
 }
-
 
 /// Each non-zero move spread over the movable vertices within `radius` (edge paths, Euclidean
 /// distance at `positions`) with the weight `(1 − (r/R)²)²`, blended per vertex with its own
