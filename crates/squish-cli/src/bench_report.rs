@@ -172,6 +172,9 @@ pub struct RunReport {
     pub work: StageWork,
     /// Each timed frame's work, summed over the stages, in animation order.
     pub work_per_frame: Vec<Work>,
+    /// The work of each stage summed over the timed frames: with `--quick`, the figures the work
+    /// guard (`crates/squish-scenes/tests/bench_work.rs`) holds the scenes to.
+    pub work_timed_frames: StageWork,
 }
 
 /// What a run measured, for [`RunReport::new`].
@@ -212,6 +215,10 @@ impl RunReport {
             symbolic_analyses_timed_frames: figures.symbolic_analyses_timed_frames,
             work: median_stats.work,
             work_per_frame: figures.stats.iter().map(|s| total_work(&s.work)).collect(),
+            work_timed_frames: figures.stats.iter().fold(StageWork::default(), |mut sum, s| {
+                sum += &s.work;
+                sum
+            }),
         }
     }
 }

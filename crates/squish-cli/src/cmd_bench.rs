@@ -316,36 +316,36 @@ struct Run {
 }
 
 fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
-    let mut deformer = Deformer::new().without_quality();
-    let warm_up = scene.pose(0.0);
-    let start = Instant::now();
-    deformer.deform(&warm_up.frame()).map_err(|e| format!("warm-up frame: {e}"))?;
-    let first_frame = start.elapsed();
-    drop(warm_up);
-    let symbolic_analyses_warm_up = deformer.symbolic_analyses();
     let mut run = Run {
-        first_frame,
+        first_frame: Duration::ZERO,
         stats: Vec::with_capacity(frames),
         numeric_factorizations: Vec::with_capacity(frames),
         factorized_rows: Vec::with_capacity(frames),
         recomputed_rows: Vec::with_capacity(frames),
         reduced_analyses_timed: 0,
         symbolic_analyses_timed: 0,
-        symbolic_analyses_warm_up,
+        symbolic_analyses_warm_up: 0,
         digests: Vec::with_capacity(frames),
     };
-    for k in 0..frames {
-        let pose = scene.pose(BenchScene::frame_time(k, frames));
-        let result = deformer.deform(&pose.frame()).map_err(|e| format!("frame {k}: {e}"))?;
-        let deformations = || result.deformations.iter().flatten();
-        run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
-        run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
-        run.recomputed_rows.push(deformations().map(|d| d.stats.recomputed_rows).sum());
-        run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
-        run.digests.push(positions_digest(&result.positions));
-        run.stats.push(result.stats);
-    }
-    run.symbolic_analyses_timed = deformer.symbolic_analyses() - symbolic_analyses_warm_up;
+    let mut symbolic_analyses = 0;
+    scene.animate(
+        frames,
+        |deformer, time| {
+            run.first_frame = time;
+            run.symbolic_analyses_warm_up = deformer.symbolic_analyses();
+        },
+        |_, result, deformer| {
+            let deformations = || result.deformations.iter().flatten();
+            run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
+            run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
+            run.recomputed_rows.push(deformations().map(|d| d.stats.recomputed_rows).sum());
+            run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
+            run.digests.push(positions_digest(&result.positions));
+            run.stats.push(result.stats);
+            symbolic_analyses = deformer.symbolic_analyses();
+        },
+    )?;
+    run.symbolic_analyses_timed = symbolic_analyses.saturating_sub(run.symbolic_analyses_warm_up);
     Ok(run)
 }
 
