@@ -517,9 +517,8 @@ impl SceneReport {
         // The first round's: in later rounds the process also holds what the allocator kept
         // from every scene of the round before.
         let peak_memory_mb = runs.first().and_then(|r| r.peak_memory_mb);
-        let every = |flag: fn(&SceneReport) -> Option<bool>| {
-            runs.iter().map(flag).try_fold(true, |all, f| f.map(|f| all && f))
-        };
+        let every =
+            |flag: fn(&SceneReport) -> Option<bool>| runs.iter().map(flag).try_fold(true, |all, f| f.map(|f| all && f));
         let same_output = every(|r| r.same_output_across_threads);
         let same_work = every(|r| r.same_work_across_threads);
         let multi = median_position(&multi_ms).and_then(|i| runs[i].multi.take());

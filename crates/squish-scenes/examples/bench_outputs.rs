@@ -51,7 +51,8 @@ fn run(scene: &BenchScene, frames: usize, dir: &Path) {
                 }
             }
         }
-        let digest = bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
+        let digest =
+            bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
         std::fs::File::create(dir.join(format!("{}.{k}.bin", scene.name))).unwrap().write_all(&bytes).unwrap();
         let work: Vec<String> = result
             .stats

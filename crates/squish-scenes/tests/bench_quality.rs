@@ -8,9 +8,9 @@
 
 mod common;
 
+use common::scenes;
 use squish::pipeline::Deformer;
 use squish::spatial::mesh_intersections;
-use common::scenes;
 use squish_scenes::bench::{BenchScene, BenchSize};
 
 /// Distinct faces of `a` and of `b` that intersect the other mesh.

@@ -98,8 +98,10 @@ fn every_stage_of_the_quick_bench_scenes_does_the_work_committed() {
 fn frames_on(scene: &BenchScene, threads: usize) -> Vec<(StageWork, Vec<Vec<glam::DVec3>>)> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let mut frames = Vec::new();
-    pool.install(|| scene.animate(FRAMES, |_, _| {}, |_, result, _| frames.push((result.stats.work, result.positions))))
-        .unwrap();
+    pool.install(|| {
+        scene.animate(FRAMES, |_, _| {}, |_, result, _| frames.push((result.stats.work, result.positions)))
+    })
+    .unwrap();
     frames
 }
 
