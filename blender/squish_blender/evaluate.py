@@ -49,6 +49,9 @@ class ObjectInput:
     params: dict
     closed: bool
     rest: np.ndarray | None = None  # world space: the mesh's own positions (bind pose), for articulations
+    uvs: np.ndarray | None = None  # (m, 3, 2) per loop-triangle corner, for the shared parametrization
+    skin: squish.Skin | None = None  # with self-contact "Auto": the skin, analysed once
+    joint_matrices: np.ndarray | None = None  # with self-contact "Auto": the bones' world matrices (J, 4, 4)
 
 
 @dataclass
@@ -65,7 +68,12 @@ class FrameInput:
     def build(self) -> squish.Frame:
         frame = squish.Frame()
         for obj in self.objects:
-            frame.add_object(obj.name, squish.Mesh(obj.positions, obj.triangles), obj.params)
+            mesh = squish.Mesh(obj.positions, obj.triangles, uvs=obj.uvs)
+            if obj.skin is not None:
+                frame.add_object(obj.name, mesh, obj.params, self_contact="auto", skin=obj.skin,
+                                 joint_matrices=obj.joint_matrices)
+            else:
+                frame.add_object(obj.name, mesh, obj.params)
             if obj.rest is not None:
                 frame.set_rest_positions(obj.name, obj.rest)
         for a, b, params in self.pairs:
@@ -98,7 +106,8 @@ def participants(scene) -> list[bpy.types.Object]:
             if obj is not None and obj not in ordered:
                 ordered.append(obj)
     for obj in scene.objects:
-        if obj.type == "MESH" and len(obj.squish.articulations) and obj not in ordered:
+        articulated = len(obj.squish.articulations) or obj.squish.self_contact == "AUTO"
+        if obj.type == "MESH" and articulated and obj not in ordered:
             ordered.append(obj)
     return ordered
 
@@ -171,6 +180,23 @@ def _is_closed(triangles: np.ndarray) -> bool:
     keys = edges[:, 0] * (int(triangles.max()) + 1) + edges[:, 1]
     _, counts = np.unique(keys, return_counts=True)
     return bool(np.all(counts == 2))
+
+
+def _corner_uvs(obj, mesh, uv_map: str) -> np.ndarray:
+    """The UVs of each loop triangle's corners, (m, 3, 2) float64, from the UV map `uv_map` (empty:
+    the active render one): per corner, so that seams keep one UV per side."""
+    layers = mesh.uv_layers
+    layer = layers.get(uv_map) if uv_map else next((u for u in layers if u.active_render), None)
+    if layer is None:
+        names = ", ".join(u.name for u in layers) or "none"
+        what = f"no UV map \"{uv_map}\"" if uv_map else "no UV map"
+        raise SetupError(f"{obj.name}: has {what}, which the shared-parametrization mapping matches the meshes in; "
+                         f"pick one of its UV maps ({names}) or use the unique direction")
+    loop_uvs = np.empty(len(layer.uv) * 2, dtype=np.float32)
+    layer.uv.foreach_get("vector", loop_uvs)
+    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return loop_uvs.reshape(-1, 2).astype(np.float64)[loops].reshape(-1, 3, 2)
 
 
 def _mesh_arrays(obj_eval, original_count: int, name: str) -> tuple[np.ndarray, np.ndarray, bool, object]:
@@ -272,16 +298,65 @@ def _articulation_regions(obj, articulation, depsgraph, groups: GroupWeights):
     return regions, joints
 
 
+# Skins analysed for self-contact "Auto", by object name: (what they were built from, the Skin).
+_skins: dict[str, tuple[int, squish.Skin]] = {}
+
+
+def _skin(obj, rest: np.ndarray, triangles: np.ndarray, groups: GroupWeights) -> tuple[squish.Skin, object]:
+    """The `squish.Skin` of an object with self-contact "Auto" (bind pose in world space, the
+    weights of the bones' vertex groups, the armature's hierarchy and rest matrices), built once
+    for as long as those stay the same; and the armature."""
+    armature = object_armature(obj)
+    if armature is None or armature.type != "ARMATURE":
+        raise SetupError(f"{obj.name}: self-contact \"Auto\" reads the skeleton from an Armature modifier, and the "
+                         "object has none with an armature; add one or set self-contact to Off")
+    bones = list(armature.data.bones)
+    names = [bone.name for bone in bones]
+    index = {name: j for j, name in enumerate(names)}
+    parents = [index[b.parent.name] if b.parent is not None else None for b in bones]
+    to_world = _world(armature.matrix_world)
+    bind = np.stack([to_world @ _world(bone.matrix_local) for bone in bones])
+    columns = [(index[g.name], groups.weights(obj, "skin", g.name)) for g in obj.vertex_groups if g.name in index]
+    if not columns:
+        raise SetupError(f"{obj.name}: self-contact \"Auto\" needs the skin's weights: none of its vertex groups is "
+                         f"named after a bone of {armature.name}")
+    weights = np.stack([w for _, w in columns], axis=1)
+    joints = np.tile([j for j, _ in columns], (len(weights), 1))
+    key = hash((rest.tobytes(), triangles.tobytes(), weights.tobytes(), bind.tobytes(), tuple(names), tuple(parents)))
+    cached = _skins.get(obj.name)
+    if cached is None or cached[0] != key:
+        try:
+            skin = squish.Skin((rest, triangles), joints, weights, parents, bind, names=names)
+        except squish.SquishError as error:
+            raise SetupError(f"{obj.name}: self-contact \"Auto\": {error}") from None
+        cached = _skins[obj.name] = (key, skin)
+    return cached[1], armature
+
+
+def _joint_matrices(armature, depsgraph) -> np.ndarray:
+    """The bones' world matrices at this frame, in the armature's bone order."""
+    posed = armature.evaluated_get(depsgraph)
+    to_world = _world(posed.matrix_world)
+    return np.stack([to_world @ _world(posed.pose.bones[bone.name].matrix) for bone in armature.data.bones])
+
+
+def _shared_parametrization(scene) -> set:
+    """The objects of the pairs that match the meshes through their UVs (method A)."""
+    return {obj for pair in scene.squish.pairs if pair.mapping == "shared_parametrization"
+            for obj in (pair.object_a, pair.object_b)}
+
+
 def gather(scene, depsgraph, groups: GroupWeights | None = None) -> FrameInput:
     """The current frame's input (raises SetupError). `groups`: vertex-group weights read before
     (a bake's frames share them); by default they are read anew."""
     groups = groups if groups is not None else GroupWeights()
     objects = check_setup(scene)
+    with_uvs = _shared_parametrization(scene)
     inputs, meshes = [], []
     try:
         for obj in objects:
             obj_eval = obj.evaluated_get(depsgraph)
-            local, triangles, closed, _ = _mesh_arrays(obj_eval, len(obj.data.vertices), obj.name)
+            local, triangles, closed, evaluated_mesh = _mesh_arrays(obj_eval, len(obj.data.vertices), obj.name)
             meshes.append(obj_eval)
             # Vertex groups are read from the original mesh: the vertex order is the same (checked).
             matrix = _world(obj_eval.matrix_world)
@@ -296,13 +371,19 @@ def gather(scene, depsgraph, groups: GroupWeights | None = None) -> FrameInput:
                 raise SetupError(f"{obj.name}: is an open mesh, so its volume cannot be preserved; switch "
                                  "\"Preserve volume\" off (or close the mesh)")
             rest = None
-            if len(obj.squish.articulations):
+            auto = obj.squish.self_contact == "AUTO"
+            if len(obj.squish.articulations) or auto:
                 # The articulations' partition of unity is computed on the rest pose: the mesh's
                 # own positions before its modifiers (a skin's bind pose), placed like the frame.
                 own = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
                 obj.data.vertices.foreach_get("co", own)
                 rest = own.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-            inputs.append(ObjectInput(obj.name, matrix, world, triangles, params, closed, rest))
+            uvs = _corner_uvs(obj, evaluated_mesh, obj.squish.uv_map) if obj in with_uvs else None
+            item = ObjectInput(obj.name, matrix, world, triangles, params, closed, rest, uvs)
+            if auto:
+                item.skin, armature = _skin(obj, rest, triangles, groups)
+                item.joint_matrices = _joint_matrices(armature, depsgraph)
+            inputs.append(item)
         pairs = []
         for pair in scene.squish.pairs:
             params = schema_props.parameters_from(pair, "pair")
@@ -328,7 +409,8 @@ def fingerprint(frame_input: FrameInput) -> int:
     parts = []
     for obj in frame_input.objects:
         parts += [obj.name, obj.positions.tobytes(), obj.triangles.tobytes(), repr(_hashable(obj.params)),
-                  b"" if obj.rest is None else obj.rest.tobytes()]
+                  b"" if obj.rest is None else obj.rest.tobytes(), b"" if obj.uvs is None else obj.uvs.tobytes(),
+                  id(obj.skin), b"" if obj.joint_matrices is None else obj.joint_matrices.tobytes()]
     parts.append(repr(_hashable(frame_input.pairs)))
     for name, articulation, regions, joints, params in frame_input.articulations:
         parts += [name, articulation, regions[0].tobytes(), regions[1].tobytes(),

@@ -34,6 +34,17 @@ status: dict[str, str] = {}
 # The last result per scene, float64 (what the mesh shows at 32-bit precision): for scripts and tests.
 last_result: dict[str, "evaluate.FrameResult"] = {}
 _running = False
+# True while enable/disable set `scene.squish.live` themselves (its update callback then does nothing).
+_switching = False
+
+
+def _set_live(scene, value: bool) -> None:
+    global _switching
+    _switching = True
+    try:
+        scene.squish.live = value
+    finally:
+        _switching = False
 
 
 def _node_group() -> bpy.types.NodeTree:
@@ -81,7 +92,7 @@ def enable(scene) -> list[bpy.types.Object]:
         if not _has_live_modifier(obj):
             modifier = obj.modifiers.new(LIVE_MODIFIER, "NODES")
             modifier.node_group = group
-    scene.squish.live = True
+    _set_live(scene, True)
     _last_fingerprint.pop(scene.name, None)
     return objects
 
@@ -103,7 +114,7 @@ def disable(scene) -> None:
     group = bpy.data.node_groups.get(NODE_GROUP)
     if group is not None and group.users == 0:
         bpy.data.node_groups.remove(group)
-    scene.squish.live = False
+    _set_live(scene, False)
     _last_fingerprint.pop(scene.name, None)
     status.pop(scene.name, None)
     last_result.pop(scene.name, None)
@@ -175,11 +186,40 @@ def _refresh_from_handler(scene, depsgraph) -> None:
         print(f"Squish live mode: {status[scene.name]}")
 
 
-def setting_changed(context) -> None:
-    """A Squish setting was edited: evaluate the frame again if live mode is on."""
+def setting_changed(_settings, context) -> None:
+    """Update callback of every Squish setting: Blender runs no depsgraph update when an add-on's
+    property is edited, so the frame is evaluated again here if live mode is on."""
     scene = context.scene
     if scene is not None and scene.squish.live:
         _refresh_from_handler(scene, context.evaluated_depsgraph_get())
+
+
+def live_switched(settings, context) -> None:
+    """Update callback of `Scene.squish.live`: setting it (the Live button, or a script's
+    `scene.squish.live = True`) switches live mode on or off. A setup that cannot be evaluated
+    leaves it off, with the reason in the status line (and the console: a script has no report)."""
+    if _switching:
+        return
+    scene = settings.id_data
+    if not settings.live:
+        disable(scene)
+        return
+    try:
+        enable(scene)
+    except SetupError as error:
+        status[scene.name] = f"Error: {error}"
+        print(f"Squish live mode: {status[scene.name]}")
+        _set_live(scene, False)
+        return
+    depsgraph = context.evaluated_depsgraph_get()
+    depsgraph.update()
+    last_result.pop(scene.name, None)
+    refresh(scene, depsgraph, force=True)
+    if scene.name not in last_result:
+        message = status.get(scene.name, "Error: live mode could not evaluate the frame")
+        disable(scene)
+        status[scene.name] = message
+        print(f"Squish live mode: {message}")
 
 
 @persistent

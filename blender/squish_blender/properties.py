@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import schema_props
+from . import live, schema_props
 
 
 def _is_mesh(_self, obj) -> bool:
@@ -19,8 +19,9 @@ def _is_armature(_self, obj) -> bool:
 
 def _with_schema(name: str, level: str, own: dict) -> type:
     """A PropertyGroup class whose annotations are the schema's keys of `level` plus `own`."""
-    annotations = {**own, **schema_props.properties_of(level)}
-    clash = set(own) & set(schema_props.properties_of(level))
+    generated = schema_props.properties_of(level, live.setting_changed)
+    annotations = {**own, **generated}
+    clash = set(own) & set(generated)
     if clash:
         raise TypeError(f"{name}: the add-on's own properties {sorted(clash)} clash with schema keys")
     return type(name, (bpy.types.PropertyGroup,), {"__annotations__": annotations})
@@ -31,16 +32,16 @@ _AXES = [(axis, axis, f"The object's {axis} axis (world space, at each frame)")
 
 SquishPair = _with_schema("SquishPair", "pair", {
     "object_a": bpy.props.PointerProperty(
-        name="Object A", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_mesh,
+        name="Object A", update=live.setting_changed, type=bpy.types.Object, poll=_is_mesh,
         description="First mesh object of the pair (pushed along the mapping direction)"),
     "object_b": bpy.props.PointerProperty(
-        name="Object B", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_mesh,
+        name="Object B", update=live.setting_changed, type=bpy.types.Object, poll=_is_mesh,
         description="Second mesh object of the pair; the mapping direction is oriented along its normals"),
     "direction_object": bpy.props.PointerProperty(
-        name="Axis of", update=schema_props.refresh_live, type=bpy.types.Object,
+        name="Axis of", update=live.setting_changed, type=bpy.types.Object,
         description="With Set Direction on: take the direction from this object's axis (empty: the vector)"),
     "direction_axis": bpy.props.EnumProperty(name="Axis", items=_AXES, default="Z",
-                                             update=schema_props.refresh_live,
+                                             update=live.setting_changed,
                                              description="Which axis of the object gives the mapping direction"),
     "show_expanded": bpy.props.BoolProperty(name="Show settings", default=True),
 })
@@ -49,26 +50,36 @@ SquishArticulation = _with_schema("SquishArticulation", "articulation", {
     "name": bpy.props.StringProperty(name="Name", default="Articulation",
                                      description="Names the articulation in reports"),
     "source": bpy.props.EnumProperty(
-        name="Regions from", default="BONES", update=schema_props.refresh_live,
+        name="Regions from", default="BONES", update=live.setting_changed,
         items=[("BONES", "Bones", "Region 1: the parent bone's vertex group; region 2: the child bone's and its "
                 "descendants' groups (skinning weights ≥ Min weight); direction from the posed bones"),
                ("GROUPS", "Vertex groups", "Regions from two vertex groups (weights ≥ 0.5); needs a direction")]),
     "armature": bpy.props.PointerProperty(
-        name="Armature", update=schema_props.refresh_live, type=bpy.types.Object, poll=_is_armature,
+        name="Armature", update=live.setting_changed, type=bpy.types.Object, poll=_is_armature,
         description="The armature whose bones bend here (empty: the object's Armature modifier's)"),
-    "parent_bone": bpy.props.StringProperty(name="Parent bone", update=schema_props.refresh_live,
+    "parent_bone": bpy.props.StringProperty(name="Parent bone", update=live.setting_changed,
                                           description="The bone before the joint (thigh)"),
-    "child_bone": bpy.props.StringProperty(name="Child bone", update=schema_props.refresh_live,
+    "child_bone": bpy.props.StringProperty(name="Child bone", update=live.setting_changed,
                                          description="The bone after the joint (shin)"),
-    "group_1": bpy.props.StringProperty(name="Region 1 group", update=schema_props.refresh_live,
+    "group_1": bpy.props.StringProperty(name="Region 1 group", update=live.setting_changed,
                                       description="Vertex group of the parent side"),
-    "group_2": bpy.props.StringProperty(name="Region 2 group", update=schema_props.refresh_live,
+    "group_2": bpy.props.StringProperty(name="Region 2 group", update=live.setting_changed,
                                       description="Vertex group of the child side"),
 })
 
 SquishObject = _with_schema("SquishObject", "object", {
     "articulations": bpy.props.CollectionProperty(type=SquishArticulation),
     "active_articulation": bpy.props.IntProperty(name="Active articulation", default=0, min=0),
+    "self_contact": bpy.props.EnumProperty(
+        name="Self-contact", default="OFF", update=live.setting_changed,
+        items=[("OFF", "Off", "Only the articulations listed below"),
+               ("AUTO", "Auto", "Every articulation of the armature's skeleton and the contacts between the skin's "
+                "parts (a scene file's self_contact = \"auto\", thesis ch. 6): the skin is read from the Armature "
+                "modifier's armature and the bones' vertex groups")]),
+    "uv_map": bpy.props.StringProperty(
+        name="UV map", default="", update=live.setting_changed,
+        description="The UV map a pair with the shared-parametrization mapping (method A, thesis §4.2.1) matches "
+                    "the meshes in; empty: the active render UV map"),
 })
 
 
@@ -76,8 +87,9 @@ class SquishScene(bpy.types.PropertyGroup):
     pairs: bpy.props.CollectionProperty(type=SquishPair)
     active_pair: bpy.props.IntProperty(name="Active pair", default=0, min=0)
     live: bpy.props.BoolProperty(
-        name="Live", default=False, options=set(),
-        description="Whether live mode shows the deformation (switch it with the Live button)")
+        name="Live", default=False, options=set(), update=live.live_switched,
+        description="Live mode: show the current frame's deformation while scrubbing and editing (the Live "
+                    "button, or set from a script)")
     bake_start: bpy.props.IntProperty(name="Start", default=1, description="First frame to bake")
     bake_end: bpy.props.IntProperty(name="End", default=250, description="Last frame to bake")
     bake_target: bpy.props.EnumProperty(

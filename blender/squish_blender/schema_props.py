@@ -33,14 +33,6 @@ _OPTIONAL_START = 1.0
 _VECTOR_START = (0.0, 0.0, 1.0)
 
 
-def refresh_live(_settings, context) -> None:
-    """Update callback of every setting: Blender runs no depsgraph update when an add-on's
-    property changes, so live mode is told here (it evaluates once per change)."""
-    from . import live  # imported here: live imports this module through evaluate
-
-    live.setting_changed(context)
-
-
 @functools.cache
 def schema_rows(level: str) -> tuple[dict, ...]:
     """The schema's rows of one level ("object", "pair", "articulation"), in schema order (the
@@ -95,20 +87,23 @@ def _start_value(row: dict) -> float:
     return (low + high) / 2 if math.isfinite(high) else low + 1.0
 
 
-def properties_of(level: str) -> dict[str, bpy.props._PropertyDeferred]:
-    """Blender property definitions (annotations) for every key of one schema level."""
+def properties_of(level: str, update) -> dict[str, bpy.props._PropertyDeferred]:
+    """Blender property definitions (annotations) for every key of one schema level; `update` is
+    every property's update callback (live mode's: Blender runs no depsgraph update when an
+    add-on's property changes). Given by the caller, so that this module imports no other module
+    of the add-on (tests/test_imports.py)."""
     annotations = {}
     for row in schema_rows(level):
         key, kind = row["key"], row["kind"]
         optional = row["optional"]
         default = row["default"]
         # What every property of a key shares: its label, tooltip and the live-mode refresh.
-        common = {"name": _label(key), "description": _tooltip(row), "update": refresh_live}
+        common = {"name": _label(key), "description": _tooltip(row), "update": update}
         if optional and kind != "per_vertex":
             auto = f": {row['auto']}" if row.get("auto") else ""
             annotations[f"use_{key}"] = bpy.props.BoolProperty(
                 name=f"Set {_label(key)}", description=f"Off: {row['word']}{auto}. On: the value below",
-                default=False, update=refresh_live,
+                default=False, update=update,
             )
         if kind == "bool":
             annotations[key] = bpy.props.BoolProperty(default=bool(default) if not optional else False, **common)

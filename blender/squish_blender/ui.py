@@ -97,6 +97,7 @@ class SQUISH_PT_object(_ObjectProperties, bpy.types.Panel):
         schema_props.draw_level(layout, settings, "object", skip=_PER_VERTEX)
         for key in _PER_VERTEX:
             layout.prop_search(settings, key, obj, "vertex_groups")
+        layout.prop_search(settings, "uv_map", obj.data, "uv_layers")
         box = layout.box()
         box.label(text="Profile curve (x of v2, v3, v4)")
         node = profile_curve.curve_node(obj)
@@ -116,6 +117,11 @@ class SQUISH_PT_articulations(_ObjectProperties, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         obj = context.object
+        layout.prop(obj.squish, "self_contact")
+        if obj.squish.self_contact == "AUTO":
+            armature = evaluate.object_armature(obj)
+            layout.label(text=f"Skeleton of {armature.name}" if armature is not None else "No Armature modifier",
+                         icon="ARMATURE_DATA" if armature is not None else "ERROR")
         layout.operator("squish.articulation_add", icon="ADD")
         for index, articulation in enumerate(obj.squish.articulations):
             box = layout.box()

@@ -3,7 +3,7 @@
 import './style.css';
 import { Connection } from './connection.js';
 import { View3D } from './view3d.js';
-import { ParamPanel } from './params.js';
+import { ParamPanel, levelOf } from './params.js';
 import { ProfileEditor } from './profile.js';
 import { readouts } from './readouts.js';
 
@@ -62,7 +62,7 @@ function refresh() {
   if (!frame) return;
   $('scrub').value = String(frame.frame);
   $('frame-label').textContent = `frame ${frame.frame}${frame.edit ? ' (edit)' : ''}`;
-  const values = 'object' in state.target ? frame.values.objects[state.target.object] : frame.values.pairs[state.target.pair];
+  const values = valuesOf(frame, state.target);
   panel.update(values, frame.frame);
   if ('object' in state.target) profile.set(frame.objects[state.target.object]?.profile ?? null);
   $('readouts').innerHTML = readouts(frame);
@@ -82,10 +82,19 @@ function drawKeys(keys) {
   }
 }
 
+// The values the frame holds for a target's parameters.
+function valuesOf(frame, target) {
+  if ('object' in target) return frame.values.objects[target.object];
+  if ('pair' in target) return frame.values.pairs[target.pair];
+  const [i, k] = target.articulation;
+  return frame.values.articulations?.[i]?.[k];
+}
+
 function selectTarget(target) {
   state.target = target;
   for (const li of $('targets').children) li.classList.toggle('selected', li.dataset.target === JSON.stringify(target));
-  panel.build(state.scene.schema, target);
+  const inert = 'object' in target ? state.scene.objects[target.object].inert ?? {} : {};
+  panel.build(state.scene.schema, target, inert);
   $('target-name').textContent = li_name(target);
   $('profile-section').hidden = !('object' in target);
   refresh();
@@ -93,8 +102,39 @@ function selectTarget(target) {
 
 function li_name(target) {
   if ('object' in target) return state.scene.objects[target.object].name;
+  if ('articulation' in target) {
+    const [i, k] = target.articulation;
+    return `${state.scene.objects[i].name}: ${state.scene.objects[i].articulations[k].name}`;
+  }
   const pair = state.scene.pairs[target.pair];
   return `${pair.names[0]} × ${pair.names[1]}`;
+}
+
+// The list of objects, their articulations (self-contact) and parts, and the pairs.
+function listTargets(scene) {
+  const list = $('targets');
+  const add = (target, text, className) => {
+    const li = document.createElement('li');
+    li.dataset.target = JSON.stringify(target);
+    li.textContent = text;
+    if (className) li.className = className;
+    li.onclick = () => selectTarget(target);
+    list.append(li);
+  };
+  scene.objects.forEach((object, i) => {
+    add({ object: i }, `object: ${object.name}`);
+    object.articulations.forEach((a, k) => {
+      add({ articulation: [i, k] }, `${a.automatic ? 'auto' : 'articulation'}: ${a.name}`, 'sub');
+    });
+    if (object.parts.length) {
+      const li = document.createElement('li');
+      li.className = 'sub parts';
+      li.textContent = `parts: ${object.parts.join(', ')}`;
+      li.dataset.testid = 'parts';
+      list.append(li);
+    }
+  });
+  scene.pairs.forEach((pair, i) => add({ pair: i }, `pair: ${pair.names.join(' × ')}`));
 }
 
 async function start() {
@@ -107,14 +147,7 @@ async function start() {
   state.scene = scene;
   $('scene-name').textContent = scene.name;
   view.build(scene);
-  const targets = [...scene.objects.map((_, i) => ({ object: i })), ...scene.pairs.map((_, i) => ({ pair: i }))];
-  for (const target of targets) {
-    const li = document.createElement('li');
-    li.dataset.target = JSON.stringify(target);
-    li.textContent = 'object' in target ? `object: ${scene.objects[target.object].name}` : `pair: ${scene.pairs[target.pair].names.join(' × ')}`;
-    li.onclick = () => selectTarget(target);
-    $('targets').append(li);
-  }
+  listTargets(scene);
   panel.onSelectKey = (key) => { state.key = key; refresh(); };
   const scrub = $('scrub');
   scrub.min = String(scene.frames.start);

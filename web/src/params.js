@@ -1,7 +1,12 @@
-// One control per parameter of the selected object or pair, generated from the schema rows
-// (`squish params --json`): slider over the valid range, numeric field, reset to the default,
-// `auto` for values the library can derive, and a key at the current frame (the diamond).
-const EDITABLE = new Set(['number', 'integer', 'bool']);
+// One control per parameter of the selected object, pair or articulation, generated from the
+// schema rows (`squish params --json`): slider over the valid range and numeric field (two fields
+// for a pair of numbers, a menu for a choice), reset to the default, `auto` for values the library
+// can derive, and a key at the current frame (the diamond). Keys that change nothing for the
+// target (`inert`, from the server) are greyed with the reason.
+const EDITABLE = new Set(['number', 'integer', 'bool', 'pair', 'choice']);
+
+// The schema level of a target.
+export const levelOf = (target) => ('object' in target ? 'object' : 'pair' in target ? 'pair' : 'articulation');
 
 // The slider's span for a range with an infinite end: around the default and current value.
 function sliderSpan(entry, value) {
@@ -22,15 +27,21 @@ export class ParamPanel {
     this.onSelectKey = () => {};
   }
 
-  // Builds the rows for `target` ({object: i} or {pair: i}) from the schema.
-  build(schema, target) {
+  // Builds the rows for `target` ({object: i}, {pair: i} or {articulation: [i, k]}) from the
+  // schema; `inert` maps keys that change nothing for it to why.
+  build(schema, target, inert = {}) {
     this.target = target;
     this.container.textContent = '';
     this.rows.clear();
-    const level = 'object' in target ? 'object' : 'pair';
+    const level = levelOf(target);
     for (const entry of schema) {
       if (entry.level !== level || !EDITABLE.has(entry.kind)) continue;
-      this.rows.set(entry.key, this.row(entry));
+      const row = this.row(entry);
+      if (inert[entry.key]) {
+        row.row.classList.add('inert');
+        row.row.title = `no effect here: ${inert[entry.key]}\n${row.row.title}`;
+      }
+      this.rows.set(entry.key, row);
     }
   }
 
@@ -52,6 +63,28 @@ export class ParamPanel {
       box.onchange = () => set(box.checked);
       row.append(box, document.createElement('span'));
       controls.box = box;
+    } else if (entry.kind === 'choice') {
+      const menu = document.createElement('select');
+      for (const choice of entry.choices ?? []) menu.append(new Option(choice, choice));
+      menu.onchange = () => set(menu.value);
+      row.append(menu, document.createElement('span'));
+      controls.menu = menu;
+    } else if (entry.kind === 'pair') {
+      // Two numbers (an articulation's stiffness of its parent and child sides).
+      const fields = [0, 1].map(() => {
+        const field = document.createElement('input');
+        field.type = 'number';
+        field.step = 'any';
+        return field;
+      });
+      const send = () => {
+        const values = fields.map((f) => Number(f.value));
+        if (fields.some((f) => f.value.trim() === '') || !values.every(Number.isFinite)) return;
+        set(values);
+      };
+      for (const field of fields) field.onchange = send;
+      row.append(...fields);
+      controls.pair = fields;
     } else {
       const slider = document.createElement('input');
       slider.type = 'range';
@@ -98,7 +131,10 @@ export class ParamPanel {
           this.send({ type: 'unkey', target: this.target, key: entry.key });
           return;
         }
-        const value = controls.box ? controls.box.checked : Number(controls.number.value);
+        const value = controls.box ? controls.box.checked
+          : controls.menu ? controls.menu.value
+          : controls.pair ? controls.pair.map((f) => Number(f.value))
+          : Number(controls.number.value);
         set(value, true);
       };
       buttons.append(key);
@@ -117,6 +153,11 @@ export class ParamPanel {
       row.classList.toggle('edited', shown.edited);
       const value = shown.value;
       if (controls.box) controls.box.checked = value === true;
+      if (controls.menu && document.activeElement !== controls.menu) controls.menu.value = String(value);
+      if (controls.pair) {
+        const pair = Array.isArray(value) ? value : [value, value];
+        controls.pair.forEach((f, k) => { if (document.activeElement !== f) f.value = String(pair[k]); });
+      }
       if (controls.slider) {
         const numeric = typeof value === 'number' ? value : null;
         const [min, max] = sliderSpan(entry, numeric);

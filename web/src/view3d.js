@@ -1,5 +1,8 @@
 // The 3D view: each object's input ("before") and output ("after") meshes, orbit/pan/zoom
-// (OrbitControls), before/after/split display, a section plane and per-vertex overlays.
+// (OrbitControls), before/after/split display, a section plane and per-vertex overlays. The
+// world's up axis is the scene's (y for glTF, z otherwise); an object with a texture is drawn on
+// its mesh split along its UV seams (`display`), positions, smooth normals and overlay colours
+// gathered from the object's vertices.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
@@ -24,6 +27,7 @@ export class View3D {
     this.scene.background = new THREE.Color(0x30343a);
     this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 1000);
     this.camera.up.set(0, 0, 1);
+    this.up = 'z';
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.addEventListener('change', () => this.render());
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 1.6));
@@ -45,12 +49,25 @@ export class View3D {
 
   // Builds the meshes of the scene's objects (triangles fixed; positions per frame).
   build(sceneView) {
+    this.up = sceneView.up === 'y' ? 'y' : 'z';
+    if (this.up === 'y') this.camera.up.set(0, 1, 0);
+    else this.camera.up.set(0, 0, 1);
+    this.textures = new THREE.TextureLoader();
     this.objects = sceneView.objects.map((object, i) => {
+      const display = object.display ?? null;
+      let texture = null;
+      if (display && object.texture) {
+        // glTF's texture coordinates point down the image (three.js' GLTFLoader: flipY off).
+        texture = this.textures.load(object.texture, () => this.render());
+        texture.flipY = false;
+        texture.colorSpace = THREE.SRGBColorSpace;
+      }
       const make = (group, opacity) => {
         const geometry = new THREE.BufferGeometry();
-        geometry.setIndex(object.triangles);
+        geometry.setIndex(display ? display.triangles : object.triangles);
+        if (display) geometry.setAttribute('uv', new THREE.Float32BufferAttribute(display.uv, 2));
         const material = new THREE.MeshStandardMaterial({
-          color: 0xffffff, vertexColors: true, roughness: 0.65, metalness: 0.0,
+          color: 0xffffff, vertexColors: true, roughness: 0.65, metalness: 0.0, map: texture,
           side: THREE.DoubleSide, transparent: opacity < 1, opacity, clippingPlanes: [],
         });
         const mesh = new THREE.Mesh(geometry, material);
@@ -58,8 +75,39 @@ export class View3D {
         group.add(mesh);
         return mesh;
       };
-      return { name: object.name, before: make(this.before, 1), after: make(this.after, 1), frame: null };
+      return {
+        name: object.name, before: make(this.before, 1), after: make(this.after, 1), frame: null,
+        triangles: object.triangles, display, texture,
+      };
     });
+  }
+
+  // Per drawn vertex, `values` (per object vertex, `width` numbers each) of its object vertex.
+  gather(entry, values, width) {
+    if (!entry.display) return values;
+    const vertex = entry.display.vertex;
+    const out = new Float32Array(vertex.length * width);
+    for (let d = 0; d < vertex.length; d++) {
+      for (let c = 0; c < width; c++) out[d * width + c] = values[vertex[d] * width + c];
+    }
+    return out;
+  }
+
+  // Smooth vertex normals of the object's own mesh (across UV seams), area weighted.
+  static normals(positions, triangles) {
+    const normals = new Float32Array(positions.length);
+    for (let t = 0; t < triangles.length; t += 3) {
+      const [a, b, c] = [triangles[t] * 3, triangles[t + 1] * 3, triangles[t + 2] * 3];
+      const ux = positions[b] - positions[a], uy = positions[b + 1] - positions[a + 1], uz = positions[b + 2] - positions[a + 2];
+      const vx = positions[c] - positions[a], vy = positions[c + 1] - positions[a + 1], vz = positions[c + 2] - positions[a + 2];
+      const n = [uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx];
+      for (const v of [a, b, c]) for (let k = 0; k < 3; k++) normals[v + k] += n[k];
+    }
+    for (let v = 0; v < normals.length; v += 3) {
+      const l = Math.hypot(normals[v], normals[v + 1], normals[v + 2]) || 1;
+      for (let k = 0; k < 3; k++) normals[v + k] /= l;
+    }
+    return normals;
   }
 
   // Positions and overlays of a computed frame.
@@ -68,7 +116,8 @@ export class View3D {
       const entry = this.objects[i];
       if (!entry) return;
       entry.frame = object;
-      for (const [mesh, positions] of [[entry.before, object.input], [entry.after, object.output]]) {
+      for (const [mesh, source] of [[entry.before, object.input], [entry.after, object.output]]) {
+        const positions = this.gather(entry, source, 3);
         const attribute = mesh.geometry.getAttribute('position');
         if (attribute && attribute.count * 3 === positions.length) {
           attribute.array.set(positions);
@@ -76,7 +125,12 @@ export class View3D {
         } else {
           mesh.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
         }
-        mesh.geometry.computeVertexNormals();
+        if (entry.display) {
+          const normals = this.gather(entry, View3D.normals(source, entry.triangles), 3);
+          mesh.geometry.setAttribute('normal', new THREE.Float32BufferAttribute(normals, 3));
+        } else {
+          mesh.geometry.computeVertexNormals();
+        }
         mesh.geometry.computeBoundingSphere();
         mesh.geometry.computeBoundingBox();
       }
@@ -89,7 +143,8 @@ export class View3D {
     const entry = this.objects[i];
     const object = entry.frame;
     const n = object.output.length / 3;
-    const base = new THREE.Color(BASE_COLORS[i % BASE_COLORS.length]);
+    // A textured object shows its texture (white multiplies it unchanged) under the overlays.
+    const base = new THREE.Color(entry.texture ? 0xffffff : BASE_COLORS[i % BASE_COLORS.length]);
     const colours = new Float32Array(n * 3);
     const o = object.overlays;
     const painted = object.painted;
@@ -113,8 +168,8 @@ export class View3D {
       }
       colours.set(c, v * 3);
     }
-    entry.before.geometry.setAttribute('color', new THREE.Float32BufferAttribute(before, 3));
-    entry.after.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
+    entry.before.geometry.setAttribute('color', new THREE.Float32BufferAttribute(this.gather(entry, before, 3), 3));
+    entry.after.geometry.setAttribute('color', new THREE.Float32BufferAttribute(this.gather(entry, colours, 3), 3));
   }
 
   setOverlay(overlay) {
@@ -165,7 +220,9 @@ export class View3D {
     const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
     const distance = radius / Math.sin((this.camera.fov * Math.PI) / 360);
     this.controls.target.copy(centre);
-    this.camera.position.copy(centre).add(new THREE.Vector3(0.9, -1.6, 0.8).normalize().multiplyScalar(distance));
+    // From the front, a little to the side and above: glTF characters face +z with y up.
+    const eye = this.up === 'y' ? new THREE.Vector3(0.5, 0.35, 1.6) : new THREE.Vector3(0.9, -1.6, 0.8);
+    this.camera.position.copy(centre).add(eye.normalize().multiplyScalar(distance));
     this.camera.near = distance / 100;
     this.camera.far = distance * 100;
     this.camera.updateProjectionMatrix();

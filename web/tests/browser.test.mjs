@@ -6,12 +6,12 @@
 // /usr/bin/chromium), SQUISH_SCREENSHOTS (a folder: the README's screenshots are written there).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn, execFileSync } from 'node:child_process';
+import { execFileSync } from 'node:child_process';
 import { cpSync, mkdtempSync, readFileSync, readdirSync, rmSync, mkdirSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { openPage, startServer, waitForFrame } from './serve.mjs';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const repo = resolve(here, '../..');
@@ -25,21 +25,6 @@ let url;
 let browser;
 let page;
 
-// Starts `squish serve` on a free port and returns its URL.
-function startServer(scene) {
-  return new Promise((ok, fail) => {
-    server = spawn(squish, ['serve', scene, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
-    let out = '';
-    server.stdout.on('data', (d) => {
-      out += d;
-      const m = out.match(/http:\/\/[^\s]+/);
-      if (m) ok(m[0]);
-    });
-    server.stderr.on('data', (d) => process.stderr.write(d));
-    server.on('exit', (code) => fail(new Error(`squish serve exited (${code}): ${out}`)));
-  });
-}
-
 const frame = () => page.evaluate(() => window.squish.frame);
 const api = async (path, body) => {
   const response = await fetch(new URL(path, url), body ? { method: 'POST', body: JSON.stringify(body) } : {});
@@ -47,15 +32,7 @@ const api = async (path, body) => {
 };
 
 // Waits until the page shows a frame for which `check` holds.
-async function waitFor(check, what) {
-  const deadline = Date.now() + 30000;
-  while (Date.now() < deadline) {
-    const f = await frame();
-    if (f && check(f)) return f;
-    await page.waitForTimeout(50);
-  }
-  throw new Error(`timed out waiting for ${what}`);
-}
+const waitFor = (check, what) => waitForFrame(page, check, what);
 
 // Fraction of pixels that differ between two PNG screenshots (decoded by the browser).
 async function pixelDifference(a, b) {
@@ -92,14 +69,8 @@ async function saveScreenshot(name) {
 before(async () => {
   folder = mkdtempSync(join(tmpdir(), 'squish-serve-'));
   cpSync(join(repo, 'examples/press'), folder, { recursive: true });
-  url = await startServer(join(folder, 'press.toml'));
-  browser = await chromium.launch({
-    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-    args: ['--use-gl=angle', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--no-sandbox'],
-  });
-  page = await browser.newPage({ viewport: { width: 1400, height: 860 } });
-  page.on('pageerror', (e) => process.stderr.write(`page error: ${e}\n`));
-  await page.goto(url);
+  ({ server, url } = await startServer(squish, join(folder, 'press.toml')));
+  ({ browser, page } = await openPage(url));
 });
 
 after(async () => {

@@ -166,7 +166,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     };
     let json = serde_json::to_string_pretty(&report)?;
     if let Some(path) = &args.output {
-        crate::input::write_text(path, &json)?;
+        squish_shot::files::write_text(path, &json)?;
     }
     if args.json {
         println!("{json}");
@@ -414,7 +414,7 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
         let (single_digests, single_work): (Vec<u64>, Vec<StageWork>) =
             (single.digests.clone(), single.stats.iter().map(|s| s.work).collect());
         drop(single);
-        if scene.rest.objects.iter().any(|o| crate::shot::has_self_contact(&o.params)) {
+        if scene.rest.objects.iter().any(|o| squish_shot::shot::has_self_contact(&o.params)) {
             if !scene.poses.is_empty() {
                 report.self_contact = Some(pool(1)?.install(|| measure_self_contact(scene))?);
             }

@@ -6,22 +6,19 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde::Serialize;
-use squish::contact::{BoundaryKind, ContactSide, PairContact, contact_pair, debug_export};
-use squish::mesh::{Topology, vertex_normals};
-use squish::spatial::TriangleBvh;
-use squish::stage::PerStage;
 use squish_io::{PlyWriteOptions, VertexProperty, write_ply_with, write_point_cloud_ply};
 use squish_render::{Label, rgba8};
+use squish_shot::files::{create_dir, write_text};
+use squish_shot::shot::PreviewFrame;
+use squish_shot::two_objects::{ContactFigures, define_contact};
 
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::{
-    InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path, output_stems,
-    write_text,
+    InputMesh, StagedOutputs, WeldChoice, display_names, note_undecodable_names, output_path, output_stems,
 };
-use crate::params::{PairSettings, contact_error, pair_settings};
+use crate::params::pair_settings;
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
-use crate::shot::PreviewFrame;
 
 #[derive(Args, Debug)]
 pub struct ContactArgs {
@@ -38,8 +35,9 @@ pub struct ContactArgs {
     /// Set one parameter, e.g. --set b.rigid=true --set pair.contact_tau=0.5.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
-    /// Weld duplicate vertices before processing (outputs keep the file's vertices).
-    #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
+    /// Weld duplicate vertices before processing (outputs keep the file's vertices): auto (glTF
+    /// files), always (`--weld` alone) or never.
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "always", default_value_t = WeldChoice::Auto)]
     pub weld: WeldChoice,
     /// Write DIR/preview.png: the overlaps (input) and the contact zones, whole and cut.
     #[arg(long)]
@@ -52,26 +50,6 @@ pub struct ContactArgs {
     pub strict: bool,
 }
 
-/// The contact figures of one side.
-#[derive(Clone, Debug, Serialize)]
-pub struct SideSummary {
-    name: String,
-    /// The PLY file with the labels (`squish contact`); none for meshes given in memory.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    labelled_mesh: Option<String>,
-    intersection_vertices: usize,
-    intersection_boundary_points: usize,
-    intersection_area: f64,
-    mapping_vertices: usize,
-    mapping_boundary_points: usize,
-    mapping_area: f64,
-    contact_vertices: usize,
-    contact_boundary_points: usize,
-    contact_area_on_mesh: f64,
-    contact_area_on_surface: f64,
-    relative_stiffness: f64,
-}
-
 #[derive(Serialize)]
 struct Summary {
     inputs: [String; 2],
@@ -80,124 +58,7 @@ struct Summary {
     boundary_points: String,
 }
 
-/// The contact definition's figures: what `contact.json` of `squish contact` holds besides the
-/// file names.
-#[derive(Clone, Debug, Serialize)]
-pub struct ContactFigures {
-    mapping_direction: [f64; 3],
-    direction_automatic: bool,
-    /// ε_c = m_S + τσ_S (Eq. 4.3).
-    threshold: f64,
-    mean_depth: f64,
-    depth_std_dev: f64,
-    contact_tau: f64,
-    contact_area_on_surface: f64,
-    intersection_points: Vec<[f64; 3]>,
-    sides: [SideSummary; 2],
-    timings_ms: Timings,
-    numerical_fallbacks: usize,
-    pub warnings: Vec<squish::pipeline::FrameWarning>,
-}
-
-/// The contact stage's times in ms, per stage (its own: intersection, mapping, contact zone), and
-/// the whole call.
-#[derive(Clone, Debug, Serialize)]
-struct Timings {
-    #[serde(flatten)]
-    stages: PerStage<f64>,
-    total: f64,
-}
-
 const LABELS: [Label; 4] = [Label::Outside, Label::Intersection, Label::Mapping, Label::Contact];
-
-/// The contact definition of two meshes (thesis ch. 4) as `squish contact` computes it.
-pub struct ContactDefinition {
-    pub result: PairContact,
-    /// Per mesh and vertex (processed numbering): 0 outside, 1 intersection, 2 mapping region,
-    /// 3 contact zone.
-    pub labels: [Vec<u8>; 2],
-    /// The exact boundary points of the three regions: position, kind (1 intersection, 2
-    /// mapping, 3 contact) and side (0 or 1).
-    pub boundary_points: Vec<([f64; 3], i32, i32)>,
-    pub figures: ContactFigures,
-}
-
-/// Computes the contact definition of `meshes` (named `names` in messages) with `settings`
-/// (validated); `labelled_meshes` are the files the labels are written to, if any (for the
-/// figures).
-pub fn define_contact(
-    names: [&str; 2],
-    meshes: [&squish::TriMesh; 2],
-    settings: &PairSettings,
-    labelled_meshes: [Option<String>; 2],
-) -> Result<ContactDefinition, CliError> {
-    let mut prepared = Vec::new();
-    for (mesh, name) in meshes.iter().zip(names) {
-        let topology = mesh.check_for_deformation().map_err(|e| CliError::input(format!("{name}: {e}")))?;
-        let bvh = TriangleBvh::new(mesh).map_err(|e| CliError::input(format!("{name}: {e}")))?;
-        prepared.push((topology, vertex_normals(mesh), bvh));
-    }
-    let side = |i: usize, params: &squish::ObjectParams| {
-        let (topology, normals, bvh): &(Topology, _, TriangleBvh) = &prepared[i];
-        ContactSide::new(meshes[i], topology, normals, bvh)
-            .with_name(names[i])
-            .with_stiffness(squish::contact::Stiffness::of(params))
-    };
-    let result =
-        contact_pair(&side(0, &settings.a), &side(1, &settings.b), &settings.pair).map_err(|e| contact_error(&e))?;
-    let debug = debug_export(&result, meshes);
-    let [labelled_a, labelled_b] = labelled_meshes;
-    let sides = [
-        side_summary(&result, 0, names[0], labelled_a, meshes[0], &prepared[0].0),
-        side_summary(&result, 1, names[1], labelled_b, meshes[1], &prepared[1].0),
-    ];
-    let mut boundary_points = Vec::new();
-    for (l, data) in debug.iter().enumerate() {
-        for p in &data.points {
-            let kind = match p.kind {
-                BoundaryKind::Intersection => 1,
-                BoundaryKind::Mapping => 2,
-                BoundaryKind::Contact => 3,
-            };
-            boundary_points.push((p.position.to_array(), kind, l as i32));
-        }
-    }
-    // No edge crosses: one closed mesh may lie inside the other.
-    let contained = if result.intersection_points.is_empty() {
-        let inside = |i: usize| {
-            let other = &prepared[1 - i];
-            other.0.is_closed()
-                && meshes[i].triangles.first().is_some_and(|t| other.2.contains(meshes[i].positions[t[0] as usize]))
-        };
-        if inside(0) {
-            Some([0, 1])
-        } else if inside(1) {
-            Some([1, 0])
-        } else {
-            None
-        }
-    } else {
-        None
-    };
-    let warnings =
-        squish::pipeline::pair_warnings(&names.map(String::from), 0, Some(&result), &settings.pair, contained);
-    let figures = ContactFigures {
-        mapping_direction: result.direction.to_array(),
-        direction_automatic: matches!(result.direction_source, squish::contact::DirectionSource::Automatic),
-        threshold: result.criterion.threshold,
-        mean_depth: result.criterion.mean,
-        depth_std_dev: result.criterion.std_dev,
-        contact_tau: settings.pair.contact_tau,
-        contact_area_on_surface: result.contact_area,
-        intersection_points: result.intersection_points.iter().map(|p| p.position.to_array()).collect(),
-        sides,
-        timings_ms: Timings { stages: result.stats.timings.millis(), total: result.stats.time.as_secs_f64() * 1e3 },
-        numerical_fallbacks: result.stats.fallbacks.numerical(),
-        warnings,
-    };
-    let [labels_a, labels_b] = debug.map(|d| d.labels);
-    Ok(ContactDefinition { result, labels: [labels_a, labels_b], boundary_points, figures })
-}
 
 pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let mut settings = pair_settings(args.params.as_deref(), &args.sets)?;
@@ -210,7 +71,7 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
     let contact = define_contact(
         [&stems[0], &stems[1]],
         [&inputs[0].mesh, &inputs[1].mesh],
-        &settings,
+        &settings.parameters(),
         labelled.clone().map(|p| Some(p.display().to_string())),
     )?;
     create_dir(&args.output)?;
@@ -324,30 +185,4 @@ pub fn run(args: &ContactArgs) -> Result<(), CliError> {
         return Err(CliError::strict(count));
     }
     Ok(())
-}
-
-fn side_summary(
-    result: &PairContact,
-    l: usize,
-    name: &str,
-    labelled_mesh: Option<String>,
-    mesh: &squish::TriMesh,
-    topology: &Topology,
-) -> SideSummary {
-    let side = &result.sides[l];
-    SideSummary {
-        name: name.to_string(),
-        labelled_mesh,
-        intersection_vertices: side.intersection.num_inside(),
-        intersection_boundary_points: side.intersection.points().len(),
-        intersection_area: side.intersection.area(mesh, topology),
-        mapping_vertices: side.mapping.region.num_inside(),
-        mapping_boundary_points: side.mapping.region.points().len(),
-        mapping_area: side.mapping.region.area(mesh, topology),
-        contact_vertices: side.zone.region.num_inside(),
-        contact_boundary_points: side.zone.region.points().len(),
-        contact_area_on_mesh: side.zone_area_on_mesh,
-        contact_area_on_surface: side.zone_area_on_surface,
-        relative_stiffness: side.relative_stiffness,
-    }
 }

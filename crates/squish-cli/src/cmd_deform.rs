@@ -4,20 +4,20 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde::Serialize;
-use squish::pipeline::{Deformer, Frame, FrameObject, FramePair, FrameResult};
+use squish::pipeline::{Deformer, FramePair, OwnedFrame, OwnedObject};
 use squish_io::MeshFormat;
+use squish_shot::files::{create_dir, write_text};
+use squish_shot::shot::PreviewFrame;
+use squish_shot::two_objects::{DeformFigures, deform_pair};
 
 use crate::console::{print_warnings, say};
 use crate::error::CliError;
 use crate::input::{
-    FormatChoice, InputMesh, StagedOutputs, WeldChoice, create_dir, display_names, note_undecodable_names, output_path,
-    output_stems, write_text,
+    FormatChoice, InputMesh, StagedOutputs, WeldChoice, display_names, note_undecodable_names, output_path,
+    output_stems,
 };
-use crate::params::{PairSettings, pair_settings, pipeline_error};
+use crate::params::{PairSettings, pair_settings};
 use crate::preview::{ColorMode, PictureArgs, SceneDefaults, write_frame_preview};
-use crate::report::FrameReport;
-use crate::shot::PreviewFrame;
-use squish::pipeline::{OwnedFrame, OwnedObject};
 
 #[derive(Args, Debug)]
 pub struct DeformArgs {
@@ -39,8 +39,9 @@ pub struct DeformArgs {
     /// Output format (default: the format of each input).
     #[arg(long, value_enum)]
     pub format: Option<FormatChoice>,
-    /// Weld duplicate vertices before processing (outputs keep the file's vertices).
-    #[arg(long, value_enum, default_value_t = WeldChoice::Auto)]
+    /// Weld duplicate vertices before processing (outputs keep the file's vertices): auto (glTF
+    /// files), always (`--weld` alone) or never.
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "always", default_value_t = WeldChoice::Auto)]
     pub weld: WeldChoice,
     /// Write DIR/preview.png: input | output, whole and cut through the contact.
     #[arg(long)]
@@ -65,53 +66,6 @@ struct DeformReport {
     figures: DeformFigures,
 }
 
-/// The figures of a two-object deformation: what `report.json` of `squish deform` holds besides
-/// the file names.
-#[derive(Clone, Debug, Serialize)]
-pub struct DeformFigures {
-    pub parameters: DeformParameters,
-    /// Deepest vertex of either mesh inside the other, before and after (closed meshes only).
-    pub penetration_before: Option<f64>,
-    pub penetration_after: Option<f64>,
-    pub frame: FrameReport,
-}
-
-/// The parameters a deformation ran with.
-#[derive(Clone, Debug, Serialize)]
-pub struct DeformParameters {
-    pub a: squish::ObjectParams,
-    pub b: squish::ObjectParams,
-    pub pair: squish::PairParams,
-}
-
-/// Deforms mesh `a` against mesh `b` (one frame, one pair; `names` in messages and figures)
-/// with `settings` (validated), as `squish deform` does: the result and its figures.
-pub fn deform_pair(
-    names: [&str; 2],
-    meshes: [&squish::TriMesh; 2],
-    settings: &PairSettings,
-    deformer: &mut Deformer,
-) -> Result<(FrameResult, DeformFigures), CliError> {
-    let frame = Frame {
-        objects: vec![
-            FrameObject { name: names[0], mesh: meshes[0], params: &settings.a },
-            FrameObject { name: names[1], mesh: meshes[1], params: &settings.b },
-        ],
-        pairs: vec![FramePair { objects: [0, 1], params: settings.pair }],
-    };
-    let result = deformer.deform(&frame).map_err(|e| pipeline_error(&e))?;
-    let quality = result.stats.quality.first();
-    let penetration_before = quality.and_then(|q| q.penetration_before);
-    let penetration_after = quality.and_then(|q| q.penetration_after);
-    let figures = DeformFigures {
-        parameters: DeformParameters { a: settings.a.clone(), b: settings.b.clone(), pair: settings.pair },
-        penetration_before,
-        penetration_after,
-        frame: FrameReport::from(&result.stats),
-    };
-    Ok((result, figures))
-}
-
 pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     let mut settings: PairSettings = pair_settings(args.params.as_deref(), &args.sets)?;
     let inputs = [InputMesh::read(&args.a, args.weld)?, InputMesh::read(&args.b, args.weld)?];
@@ -120,7 +74,8 @@ pub fn run(args: &DeformArgs) -> Result<(), CliError> {
     let display = display_names(&stems);
     note_undecodable_names(&stems);
     let names = [display[0].as_str(), display[1].as_str()];
-    let (result, figures) = deform_pair(names, [&inputs[0].mesh, &inputs[1].mesh], &settings, &mut Deformer::new())?;
+    let (result, figures) =
+        deform_pair(names, [&inputs[0].mesh, &inputs[1].mesh], &settings.parameters(), &mut Deformer::new())?;
     create_dir(&args.output)?;
     // Every output goes to a staging folder first and is moved into place at the end, so that
     // a failure (B cannot be written, the picture fails) leaves none of this run's files.

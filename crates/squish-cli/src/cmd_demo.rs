@@ -30,12 +30,13 @@ use squish_scenes::procedural::{self as scenes, ProceduralScene};
 
 use crate::console::say;
 use crate::error::CliError;
-use crate::input::{create_dir, write_text};
-use crate::interrupt;
 use crate::preview::{PictureSettings, strip, write_png, write_previews};
-use crate::quality::{ShotSummary, percent, write_report};
-use crate::shot::{ShotSettings, ShotSource, run_shot, worker_pool};
+use crate::signals;
 use squish::pipeline::OwnedFrame;
+use squish_shot::ShotError;
+use squish_shot::files::{create_dir, write_text};
+use squish_shot::quality::{ShotSummary, percent, write_report};
+use squish_shot::shot::{ShotSettings, ShotSource, run_shot, worker_pool};
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -89,7 +90,7 @@ struct DemoScene {
 }
 
 impl ShotSource for DemoScene {
-    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError> {
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, ShotError> {
         Ok((self.build)((self.depth)(frame)).contents)
     }
 }
@@ -219,7 +220,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let pool = worker_pool(args.threads)?;
     let root = std::path::absolute(&args.output).unwrap_or_else(|_| args.output.clone());
     create_dir(&root)?;
-    let interrupt = interrupt::install();
+    let interrupt = signals::install();
     let demos = demo_scenes(detail);
     say!(
         "squish demo{}: {} animated scenes → {}",
@@ -276,7 +277,7 @@ fn run_scene(
     demo: &DemoScene,
     root: &Path,
     pool: &rayon::ThreadPool,
-    interrupt: &interrupt::Interrupt,
+    interrupt: &squish_shot::Interrupt,
     index: usize,
     count: usize,
 ) -> Result<(SceneResult, Option<squish_render::Image>), CliError> {
@@ -304,7 +305,7 @@ fn run_scene(
         keep_outputs: false,
         label: format!("  {}", demo.slug),
     };
-    let write = |frame: i64, shot: &OwnedFrame, positions: &[Vec<DVec3>]| -> Result<(), CliError> {
+    let write = |frame: i64, shot: &OwnedFrame, positions: &[Vec<DVec3>]| -> Result<(), ShotError> {
         for (object, p) in shot.objects.iter().zip(positions) {
             let mesh = squish::TriMesh { positions: p.clone(), triangles: object.mesh.triangles.clone() };
             squish_io::write_mesh(&output.path_for(&object.name, frame), &mesh)?;
@@ -344,7 +345,7 @@ fn run_scene(
     });
     let summary = write_report(&dir, "report.json", &description, &outputs, &outcome)?;
     if let Some(failure) = outcome.failures.into_iter().next() {
-        return Err(failure.error);
+        return Err(failure.error.into());
     }
     say!("      {}", demo_line(&summary));
     say!("      → {}/ (meshes, report.json, quality.png, preview/, strip.png)", dir.display());

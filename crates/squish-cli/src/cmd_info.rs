@@ -28,7 +28,7 @@ pub struct InfoArgs {
     /// Weld vertices with identical positions before the topology figures: auto (glTF files,
     /// which duplicate vertices along UV seams), always (`--weld` alone) or never (the file's
     /// vertices).
-    #[arg(long, value_enum, num_args = 0..=1, require_equals = false, default_missing_value = "always", default_value_t = WeldChoice::Auto)]
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "always", default_value_t = WeldChoice::Auto)]
     pub weld: WeldChoice,
 }
 

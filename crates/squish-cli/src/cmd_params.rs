@@ -1,15 +1,13 @@
-//! `squish params [--json] [--markdown LEVEL]`: the parameter schema, from the one declaration
-//! of every parameter ([`squish::params`] for the deformer's, the scene file's `frames` and
-//! `output` tables from [`squish_io::scene`]).
+//! `squish params [--json] [--markdown LEVEL]`: the parameter schema ([`squish_shot::schema`]),
+//! from the one declaration of every parameter.
 //!
 //! The text form is for people; `--json` for front ends and scripts (the schema rows of
 //! [`squish::params::SchemaEntry`]); `--markdown LEVEL` prints the table that README.md and
 //! docs/scene-format.md hold for that level (a test checks that they are the same).
 
 use clap::{Args, ValueEnum};
-use serde::Serialize;
-use squish::params::{ArticulationParams, ObjectParams, PairParams, ParamKind, SchemaEntry, entries};
-use squish_io::scene::{FrameRange, OutputSpec};
+use squish::params::{ParamKind, SchemaEntry};
+use squish_shot::schema::{self, schema_json};
 
 use crate::console::say;
 use crate::error::CliError;
@@ -38,21 +36,23 @@ pub enum Level {
     Scene,
 }
 
+impl From<Level> for schema::Level {
+    fn from(level: Level) -> Self {
+        match level {
+            Level::Object => Self::Object,
+            Level::Pair => Self::Pair,
+            Level::Articulation => Self::Articulation,
+            Level::Scene => Self::Scene,
+        }
+    }
+}
+
 impl Level {
     const ALL: [Self; 4] = [Self::Object, Self::Pair, Self::Articulation, Self::Scene];
 
     /// The schema rows of the level.
     pub fn entries(self) -> Vec<SchemaEntry> {
-        match self {
-            Self::Object => entries::<ObjectParams>(),
-            Self::Pair => entries::<PairParams>(),
-            Self::Articulation => entries::<ArticulationParams>(),
-            Self::Scene => {
-                let mut all = entries::<FrameRange>();
-                all.extend(entries::<OutputSpec>());
-                all
-            }
-        }
+        schema::Level::from(self).entries()
     }
 
     fn title(self) -> &'static str {
@@ -63,19 +63,6 @@ impl Level {
             Self::Scene => "scene settings: the scene file's frames and output tables",
         }
     }
-}
-
-#[derive(Serialize)]
-struct Schema {
-    /// Bumped when the form of a row changes.
-    schema_version: u32,
-    parameters: Vec<SchemaEntry>,
-}
-
-/// Every row of the schema, level by level.
-pub fn schema_json() -> Result<String, CliError> {
-    let parameters = Level::ALL.iter().flat_map(|l| l.entries()).collect();
-    Ok(serde_json::to_string_pretty(&Schema { schema_version: 1, parameters })?)
 }
 
 /// The type column: `number`, `"a" | "b"`, `vector or auto` …

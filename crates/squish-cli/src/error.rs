@@ -1,9 +1,15 @@
-//! Errors of the command line: a message for the user and an exit code.
+//! Errors of the command line: a message for the user and an exit code. The shot machinery's
+//! errors ([`ShotError`], data) are worded here, once, in the command line's terms
+//! ([`CommandLine`]: `--frames 3:4`, `--threads 0`, `-o`, `--set pair.direction=0,0,1`), and
+//! given their exit code by their kind.
 
 use std::fmt;
 
-/// An error reported to the user. Exit code 1 for failures, 2 for bad usage or bad input, 130 when
-/// stopped by Ctrl-C (the shell convention 128 + SIGINT, so scripts can tell it from a failure).
+use squish_shot::error::{ErrorKind, SettingValue, ShotError, Wording};
+
+/// An error reported to the user. Exit code 1 for failures, 2 for bad usage or bad input, and
+/// 128 + the signal when stopped by one after writing what was done (130 Ctrl-C, 143 SIGTERM,
+/// 129 SIGHUP: the shell convention, so scripts can tell a stop from a failure).
 #[derive(Debug)]
 pub struct CliError {
     message: String,
@@ -30,9 +36,10 @@ impl CliError {
         Self { message: message.into(), code: 2 }
     }
 
-    /// Stopped by Ctrl-C after writing what was done, exit code 130.
+    /// Stopped by a signal after writing what was done: exit code 128 + the signal that stopped
+    /// the job (130 for Ctrl-C, the default when none was received).
     pub fn interrupted(message: impl Into<String>) -> Self {
-        Self { message: message.into(), code: 130 }
+        Self { message: message.into(), code: crate::signals::stop_exit_code() }
     }
 
     /// The process exit code.
@@ -44,6 +51,44 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.message)
+    }
+}
+
+/// The command line's names for the settings a message tells the user to change.
+pub struct CommandLine;
+
+impl Wording for CommandLine {
+    fn frames_option(&self) -> &'static str {
+        "--frames"
+    }
+    fn frames_given(&self, text: &str) -> String {
+        format!("--frames {text}")
+    }
+    fn frames(&self, first: i64, last: i64) -> String {
+        format!("--frames {first}:{last}")
+    }
+    fn threads(&self, n: usize) -> String {
+        format!("--threads {n}")
+    }
+    fn output(&self) -> &'static str {
+        "-o"
+    }
+    fn place(&self) -> &'static str {
+        "on the command line"
+    }
+    fn parameter(&self, prefix: &str, key: &str, value: SettingValue) -> String {
+        format!("--set {prefix}.{key}={value}")
+    }
+}
+
+impl From<ShotError> for CliError {
+    fn from(error: ShotError) -> Self {
+        let message = error.message(&CommandLine);
+        match error.kind() {
+            ErrorKind::Input | ErrorKind::Parameter => Self::input(message),
+            ErrorKind::Failure => Self::failure(message),
+            ErrorKind::Interrupted => Self::interrupted(message),
+        }
     }
 }
 

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use squish::TriMesh;
 use squish_io::{MeshDocument, MeshFormat, WeldMode, Welded, weld_positions};
+use squish_shot::files::output_dir_error;
 
 use crate::error::CliError;
 
@@ -169,36 +170,6 @@ pub fn note_undecodable_names(stems: &[OsString; 2]) {
     }
 }
 
-/// Creates the output directory (and parents). A path that is a file, or a folder that cannot
-/// be written, is bad usage (exit 2) whichever command meets it.
-pub fn create_dir(dir: &Path) -> Result<(), CliError> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(CliError::input(format!(
-            "{} is a file, not a folder: give -o a folder (it is created if missing)",
-            dir.display()
-        )));
-    }
-    std::fs::create_dir_all(dir).map_err(|e| output_dir_error(dir, "create", &e))
-}
-
-/// The error of an output folder that cannot be created or written: exit 2 when the user can
-/// fix it by choosing another folder (permissions, a read-only file system, a file in the way),
-/// else 1.
-pub fn output_dir_error(dir: &Path, action: &str, error: &std::io::Error) -> CliError {
-    use std::io::ErrorKind;
-    match error.kind() {
-        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem => CliError::input(format!(
-            "cannot {action} the output folder {}: {error}; choose a folder you can write with -o",
-            dir.display()
-        )),
-        ErrorKind::NotADirectory | ErrorKind::AlreadyExists => CliError::input(format!(
-            "cannot {action} the output folder {}: {error}; a file is in the way, give -o another folder",
-            dir.display()
-        )),
-        _ => CliError::failure(format!("cannot {action} the output folder {}: {error}", dir.display())),
-    }
-}
-
 /// Outputs written into a hidden staging folder inside the output folder, then moved into it
 /// together ([`StagedOutputs::commit`]): a command that fails halfway leaves none of its new
 /// files, and the files of an earlier run stay as they were. Dropped without a commit, the
@@ -215,7 +186,7 @@ impl StagedOutputs {
             .prefix(".squish-staging.")
             .suffix(".tmp")
             .tempdir_in(dir)
-            .map_err(|e| output_dir_error(dir, "write into", &e))?;
+            .map_err(|e| output_dir_error(dir, "write into", e))?;
         Ok(Self { dir: dir.to_path_buf(), staging })
     }
 
@@ -247,16 +218,4 @@ impl StagedOutputs {
         }
         Ok(())
     }
-}
-
-/// Writes `text` to `path` atomically.
-pub fn write_text(path: &Path, text: &str) -> Result<(), CliError> {
-    squish_io::write_atomically(path, |w| w.write_all(text.as_bytes()))?;
-    Ok(())
-}
-
-/// Writes `bytes` to `path` atomically.
-pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    squish_io::write_atomically(path, |w| w.write_all(bytes))?;
-    Ok(())
 }

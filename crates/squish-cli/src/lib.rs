@@ -1,45 +1,37 @@
-//! `squish`: the command-line front end of the Squish deformer, and the shot machinery it shares
-//! with the Python module (`crates/squish-py`).
+//! `squish`: the command-line front end of the Squish deformer.
 //!
-//! A thin layer over the `squish` core library and `squish-io`: every command parses its
-//! arguments, reads files, calls the library and writes results atomically. Parameters are the
-//! library's own structures; the command line never re-declares them.
+//! A thin layer over the `squish` core library, `squish-io` and the shot machinery it shares with
+//! the Python module (`squish-shot`: scene runs, their files and reports, one-frame calls): every
+//! command parses its arguments, reads files, calls the libraries, prints and draws. Parameters
+//! are the library's own structures; the command line never re-declares them. The shot
+//! machinery's errors are worded here in the command line's terms and given exit codes
+//! ([`error`]); Ctrl-C, SIGTERM and SIGHUP stop long jobs cleanly ([`signals`]).
 //!
-//! The binary (`src/main.rs`) only calls [`run_command_line`]. The public modules are what other
-//! front ends reuse so that they write the same files and reports as `squish run` and
-//! `squish deform`: [`cmd_run::run_scene`] (a scene file run into an output folder: frames in
-//! parallel, atomic per-frame writes, report parts and their merge, a clean stop), [`shot`]
-//! (frames in parallel), [`scene_shot`] (scene frames as library frames), [`params`] (parameters
-//! of a two-object command), [`cmd_deform::deform_pair`] and [`cmd_contact::define_contact`] (one
-//! frame of two meshes and its figures), [`quality`] and [`report`] (the figures of report.json),
-//! [`error`] (errors with their exit codes), [`serve`] (the live preview's server) and [`interrupt`] (a stop request that lets the
-//! frames in progress finish).
+//! The binary (`src/main.rs`) only calls [`run_command_line`]. The public modules are what the
+//! integration tests and examples reach: [`params`] (`--set` / `--params` of a two-object
+//! command), [`input`] (meshes read for the two-object commands), [`serve`] (the live preview's
+//! server).
 
 mod bench_report;
 mod cmd_bench;
-pub mod cmd_contact;
-pub mod cmd_deform;
+mod cmd_contact;
+mod cmd_deform;
 mod cmd_demo;
 mod cmd_info;
-pub mod cmd_params;
-pub mod cmd_run;
+mod cmd_params;
+mod cmd_run;
 mod console;
 pub mod error;
-pub mod frame_quality;
 pub mod input;
-pub mod interrupt;
 pub mod params;
-pub mod preview;
-pub mod quality;
-pub mod report;
-pub mod report_parts;
-pub mod scene_shot;
+mod preview;
 #[cfg(test)]
 mod schema_tests;
 pub mod serve;
-pub mod shot;
-pub mod shot_outputs;
+pub mod signals;
 
+use std::ffi::OsString;
+use std::path::Path;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -81,7 +73,7 @@ enum Command {
 /// The `squish` command: parses the process's arguments, runs the command, prints an error (if
 /// any) and returns the exit code.
 pub fn run_command_line() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(bare_weld_before_a_mesh(std::env::args_os().collect()));
     let result: Result<(), CliError> = match cli.command {
         Command::Info(args) => cmd_info::run(&args),
         Command::Deform(args) => cmd_deform::run(&args),
@@ -98,5 +90,48 @@ pub fn run_command_line() -> ExitCode {
             eprintln!("error: {error}");
             ExitCode::from(error.exit_code())
         }
+    }
+}
+
+/// `--weld` given alone right before a mesh file (`squish info --weld mesh.glb`) is `--weld=always`:
+/// clap would take the file for the option's value (`--weld` takes one, optionally). A word that
+/// is not a mesh file stays the value, so a misspelt one is still reported as such.
+fn bare_weld_before_a_mesh(mut args: Vec<OsString>) -> Vec<OsString> {
+    let is_mesh = |arg: &OsString| {
+        Path::new(arg).extension().is_some_and(|e| {
+            matches!(e.to_string_lossy().to_ascii_lowercase().as_str(), "obj" | "ply" | "gltf" | "glb")
+        })
+    };
+    for k in 0..args.len().saturating_sub(1) {
+        if args[k] == "--weld" && is_mesh(&args[k + 1]) {
+            args[k] = OsString::from("--weld=always");
+        }
+    }
+    args
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bare_weld_before_a_mesh_welds_always() {
+        let parse = |args: &[&str]| {
+            let args = bare_weld_before_a_mesh(args.iter().map(OsString::from).collect());
+            match Cli::try_parse_from(args).map(|cli| cli.command) {
+                Ok(Command::Info(info)) => Ok((info.weld, info.mesh)),
+                Ok(other) => panic!("{other:?}"),
+                Err(e) => Err(e.kind()),
+            }
+        };
+        let mesh = std::path::PathBuf::from("mesh.glb");
+        assert_eq!(parse(&["squish", "info", "--weld", "mesh.glb"]), Ok((input::WeldChoice::Always, mesh.clone())));
+        assert_eq!(parse(&["squish", "info", "mesh.glb", "--weld"]), Ok((input::WeldChoice::Always, mesh.clone())));
+        assert_eq!(
+            parse(&["squish", "info", "--weld", "never", "mesh.glb"]),
+            Ok((input::WeldChoice::Never, mesh.clone()))
+        );
+        assert_eq!(parse(&["squish", "info", "--weld=never", "mesh.glb"]), Ok((input::WeldChoice::Never, mesh)));
+        assert_eq!(parse(&["squish", "info", "--weld", "nevr", "mesh.glb"]), Err(clap::error::ErrorKind::InvalidValue));
     }
 }

@@ -14,8 +14,9 @@
 
 use std::path::{Path, PathBuf};
 
-use squish::params::{ObjectParams, PairParams, ParamError, ParamKind, ParamValue, Params};
-use squish_io::scene::{VertexData, param_value, read_vertex_map};
+use squish::params::{MappingMethod, ObjectParams, PairParams, ParamError, ParamKind, ParamValue, Params, Uvs};
+use squish_io::scene::{VertexData, names_vertex_data, param_value, read_vertex_map};
+use squish_shot::two_objects::PairParameters;
 
 use crate::error::CliError;
 use crate::input::InputMesh;
@@ -30,12 +31,33 @@ pub struct PairSettings {
     per_vertex: Vec<(usize, &'static str, VertexData, String)>,
 }
 
+/// The texture coordinates of a two-object command's input for the shared-parametrization mapping
+/// (thesis §4.2.1): the file's (`squish_io::document_uvs`), per corner of the welded mesh when
+/// it was welded. A file without them is an error naming it and the fix.
+pub fn input_uvs(input: &InputMesh) -> Result<Uvs, CliError> {
+    let uvs = squish_io::document_uvs(&input.document).map_err(|reason| {
+        CliError::input(format!(
+            "{}: pair.mapping = shared_parametrization matches the meshes in UV space (thesis §4.2.1), but {reason}; export the mesh with UVs or use pair.mapping=unique_direction",
+            input.path.display()
+        ))
+    })?;
+    Ok(match input.weld_map() {
+        Some(map) => squish_io::welded_uvs(&uvs, &input.file.triangles, map),
+        None => uvs,
+    })
+}
+
 /// Where a value comes from, for messages: `--set a.extent=-1`, `params.toml: [a]`.
 fn set_error(context: &str, e: ParamError) -> CliError {
     CliError::input(format!("{context}: {e}"))
 }
 
 impl PairSettings {
+    /// The parameters set, for the one-frame calls of the shot machinery.
+    pub fn parameters(&self) -> PairParameters {
+        PairParameters { a: self.a.clone(), b: self.b.clone(), pair: self.pair }
+    }
+
     /// The object of a prefix (`a` → 0, `b` → 1).
     fn object(&mut self, which: usize) -> &mut ObjectParams {
         if which == 0 { &mut self.a } else { &mut self.b }
@@ -97,7 +119,12 @@ impl PairSettings {
         let which = usize::from(prefix == "b");
         let mut file = None;
         self.set(prefix, key, &context, |info| {
-            if info.kind == ParamKind::PerVertex && !info.parse(&text).is_ok_and(|v| matches!(v, ParamValue::List(_))) {
+            // A list of numbers or the key's word (`uniform`, `none`: the default) is a value;
+            // anything else names a file.
+            let value = info.parse(&text);
+            if info.kind == ParamKind::PerVertex
+                && !value.as_ref().is_ok_and(|v| matches!(v, ParamValue::List(_) | ParamValue::Word(_)))
+            {
                 let data = if text.starts_with('{') {
                     let value: toml::Value = toml::from_str(&format!("v = {text}"))
                         .map_err(|e| format!("cannot read {text}: {}", e.message()))?;
@@ -108,7 +135,7 @@ impl PairSettings {
                 file = Some((info.key, data));
                 return Ok(None);
             }
-            info.parse(&text).map(Some)
+            value.map(Some)
         })?;
         if let Some((key, data)) = file {
             self.per_vertex.push((which, key, data, context));
@@ -144,7 +171,7 @@ impl PairSettings {
                 let which = usize::from(prefix == "b");
                 let mut file = None;
                 self.set(prefix, key, &context, |info| {
-                    if info.kind == ParamKind::PerVertex && !matches!(value, toml::Value::Array(_)) {
+                    if names_vertex_data(info, value) {
                         let mut data = VertexData::from_value(value)?;
                         if let Some(f) = data.file_mut().filter(|f| f.is_relative()) {
                             *f = base.join(&*f);
@@ -167,6 +194,11 @@ impl PairSettings {
     pub fn complete(&mut self, inputs: &[InputMesh; 2]) -> Result<(), CliError> {
         self.read_per_vertex(inputs)?;
         self.validate()?;
+        if self.pair.mapping == MappingMethod::SharedParametrization {
+            for (which, input) in inputs.iter().enumerate() {
+                self.object(which).uvs = Some(input_uvs(input)?);
+            }
+        }
         for (prefix, params, input) in [("a", &self.a, &inputs[0]), ("b", &self.b, &inputs[1])] {
             for info in ObjectParams::schema().iter().filter(|i| i.kind == ParamKind::PerVertex) {
                 let Some(ParamValue::List(values)) = params.get(info.key) else { continue };
@@ -212,34 +244,6 @@ impl PairSettings {
             ));
         }
         Ok(())
-    }
-}
-
-/// The fix of a contact error as the two-object commands spell it: the library names the pair
-/// parameter to set (`its \`direction\` parameter`), the command line sets it with `--set pair.…`.
-pub fn contact_error(error: &squish::contact::ContactError) -> CliError {
-    use squish::contact::ContactError;
-    let fix = match error {
-        ContactError::DirectionUndefined => {
-            "; on the command line: --set pair.direction=0,0,1 (the direction from A toward B)"
-        }
-        ContactError::BallTestingNeedsOneRigid => {
-            "; on the command line: --set pair.contact_method=geometric, or --set a.rigid=true"
-        }
-        _ => "",
-    };
-    CliError::input(format!("{error}{fix}"))
-}
-
-/// A pipeline error of a two-object command, with the command line's spelling of the fix (see
-/// [`contact_error`]).
-pub fn pipeline_error(error: &squish::pipeline::PipelineError) -> CliError {
-    match error {
-        squish::pipeline::PipelineError::Contact { a, b, source } => {
-            let fixed = contact_error(source);
-            CliError::input(format!("pair (\"{a}\", \"{b}\"): {fixed}"))
-        }
-        _ => CliError::input(error.to_string()),
     }
 }
 
@@ -322,6 +326,26 @@ mod tests {
         let s = pair_settings(None, &sets(&["pair.contact_method=ball"])).unwrap();
         let e = s.validate().unwrap_err().to_string();
         assert!(e.contains("pair.ball_radius") && e.contains("needs ball_radius"), "{e}");
+    }
+
+    /// The documented defaults of the per-vertex keys are words, not files: `--set` and a
+    /// parameters file take them and put the default back over an earlier value.
+    #[test]
+    fn the_per_vertex_keys_take_their_default_words() {
+        let s =
+            pair_settings(None, &sets(&["a.bulge_map=0.5,1,1", "a.bulge_map=uniform", "b.region_mask=none"])).unwrap();
+        assert_eq!((s.a.bulge_map.clone(), s.b.region_mask.clone()), (None, None));
+        assert!(s.per_vertex.is_empty(), "no file to read");
+        let s = pair_settings(None, &sets(&["a.region_mask=1,1,0"])).unwrap();
+        assert_eq!(s.a.region_mask, Some(vec![1.0, 1.0, 0.0]));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("params.toml");
+        std::fs::write(&path, "[a]\nbulge_map = \"uniform\"\nregion_mask = \"none\"\n").unwrap();
+        let s = pair_settings(Some(&path), &[]).unwrap();
+        assert!(s.a.bulge_map.is_none() && s.a.region_mask.is_none() && s.per_vertex.is_empty());
+        // Any other word is still a file, with the file's message.
+        let s = pair_settings(None, &sets(&["a.bulge_map=paint.txt"])).unwrap();
+        assert_eq!(s.per_vertex.len(), 1);
     }
 
     #[test]

@@ -19,9 +19,11 @@ use squish_render::{
     orbit_direction, render, scalar_colors, srgb8, text_size,
 };
 
+use squish_shot::ShotError;
+use squish_shot::files::{create_dir, write_bytes};
+use squish_shot::shot::{PreviewFrame, ShotOutcome};
+
 use crate::error::CliError;
-use crate::input::{create_dir, write_bytes};
-use crate::shot::{PreviewFrame, ShotOutcome};
 
 /// How to colour the output meshes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -178,7 +180,15 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let mut contact_count = 0usize;
     // Vertices of the contacts, of what deforms around them and of the input's overlaps.
     let mut near_contact: Vec<DVec3> = Vec::new();
+    // Where objects with self-contact cross themselves in the input (beyond the rest pose's own).
+    let mut self_crossing: Vec<DVec3> = Vec::new();
     for p in previews {
+        for (i, input) in p.inputs.iter().enumerate() {
+            if p.self_intersection_left.get(i).is_some_and(|left| !left.is_empty()) {
+                let flags = &p.intersection[i];
+                self_crossing.extend(input.positions.iter().zip(flags).filter(|(_, f)| **f).map(|(q, _)| *q));
+            }
+        }
         for mesh in p.inputs.iter().chain(&p.outputs) {
             points.extend_from_slice(&mesh.positions);
         }
@@ -201,6 +211,8 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let up = settings.up.rotated_from_z_up(DVec3::Z);
     let aspect = f64::from(settings.width) / f64::from(settings.height);
     let framed = match settings.framing {
+        // A character's self-contacts move much of it: frame where it crosses itself.
+        Framing::Contact if !self_crossing.is_empty() => contact_neighbourhood(&self_crossing, &points),
         Framing::Contact if !near_contact.is_empty() => contact_neighbourhood(&near_contact, &points),
         _ => points,
     };
@@ -219,8 +231,44 @@ pub fn view_of(previews: &[&PreviewFrame], mut points: Vec<DVec3>, settings: &Pi
     let view = (camera.target - camera.eye).normalize_or_zero();
     let horizontal = (view - up * view.dot(up)).normalize_or_zero();
     let normal = if horizontal == DVec3::ZERO { view } else { horizontal };
-    let point = if contact_count > 0 { contact_sum / contact_count as f64 } else { camera.target };
+    // A character crosses itself in several places at once (both armpits, both knees): the
+    // section goes through the densest of them rather than through their mean, the body's middle.
+    let point = match densest_cluster(&self_crossing) {
+        Some(centre) => centre,
+        None if contact_count > 0 => contact_sum / contact_count as f64,
+        None => camera.target,
+    };
     ShotView { camera, section: (point, normal) }
+}
+
+/// The mean of the points in the cell of a grid over their box (8 cells along its longest side)
+/// that holds the most of them (ties: the first cell in x, y, z order); `None` without points.
+fn densest_cluster(points: &[DVec3]) -> Option<DVec3> {
+    if points.is_empty() {
+        return None;
+    }
+    let region = squish::mesh::Aabb3::from_points(points.iter().copied());
+    let size = region.extent().max_element() / 8.0;
+    if !size.is_finite() || size <= 0.0 {
+        return Some(points[0]);
+    }
+    let cell = |q: DVec3| {
+        let c = ((q - region.min) / size).floor().min(DVec3::splat(7.0));
+        (c.x as u32, c.y as u32, c.z as u32)
+    };
+    let mut cells: std::collections::BTreeMap<(u32, u32, u32), (usize, DVec3)> = std::collections::BTreeMap::new();
+    for &q in points {
+        let entry = cells.entry(cell(q)).or_insert((0, DVec3::ZERO));
+        entry.0 += 1;
+        entry.1 += q;
+    }
+    let mut best: Option<(usize, DVec3)> = None;
+    for &(count, sum) in cells.values() {
+        if best.is_none_or(|(n, _)| count > n) {
+            best = Some((count, sum));
+        }
+    }
+    best.map(|(count, sum)| sum / count as f64)
 }
 
 /// The points to frame around a contact: the box of the contact's points, grown about its
@@ -279,7 +327,7 @@ pub fn render_frame(
     view: &ShotView,
     settings: &PictureSettings,
     caption: &str,
-) -> Result<Image, CliError> {
+) -> Result<Image, ShotError> {
     let meshes = coloured_meshes(p, side, settings.color, section.then_some(view.section));
     let scene: Vec<RenderMesh> =
         meshes.iter().map(|s| RenderMesh::new(&s.mesh).with_vertex_colors(&s.colors)).collect();
@@ -292,7 +340,7 @@ pub fn render_frame(
         options.lighting.back_tint_amount = 0.55;
     }
     let mut image = render(&scene, &view.camera, &options)
-        .map_err(|e| CliError::failure(format!("frame {frame}: picture: {e}")))?;
+        .map_err(|e| ShotError::Internal(format!("frame {frame}: picture: {e}")))?;
     draw_profiles(&mut image, &meshes, &view.camera);
     label(&mut image, caption);
     let entries: Vec<(Rgb, &str)> = match (side, settings.color) {
@@ -505,7 +553,7 @@ pub fn frame_pictures(
     p: &PreviewFrame,
     view: &ShotView,
     settings: &PictureSettings,
-) -> Result<FramePictures, CliError> {
+) -> Result<FramePictures, ShotError> {
     let title = frame.map_or_else(String::new, |f| format!("frame {f}: "));
     let frame = frame.unwrap_or(0);
     let input = render_frame(frame, p, Side::Input, false, view, settings, &format!("{title}input"))?;
@@ -550,7 +598,7 @@ pub fn write_previews(
     dir: &Path,
     outcome: &ShotOutcome,
     settings: &PictureSettings,
-) -> Result<(Vec<PathBuf>, BTreeMap<i64, FramePictures>), CliError> {
+) -> Result<(Vec<PathBuf>, BTreeMap<i64, FramePictures>), ShotError> {
     let mut written = Vec::new();
     let mut outputs = BTreeMap::new();
     if outcome.previews.is_empty() {
@@ -559,7 +607,7 @@ pub fn write_previews(
     create_dir(dir)?;
     let view = shot_view(outcome, settings);
     // Frames in parallel: PNG encoding is sequential within a picture.
-    let done: Vec<Result<WrittenFrame, CliError>> = outcome
+    let done: Vec<Result<WrittenFrame, ShotError>> = outcome
         .previews
         .par_iter()
         .map(|(&frame, p)| {
@@ -622,7 +670,7 @@ impl PictureArgs {
 
 /// Writes the "input | output" picture of a single frame (whole, and cut through the contact)
 /// to `path`.
-pub fn write_frame_preview(path: &Path, p: &PreviewFrame, settings: &PictureSettings) -> Result<PathBuf, CliError> {
+pub fn write_frame_preview(path: &Path, p: &PreviewFrame, settings: &PictureSettings) -> Result<PathBuf, ShotError> {
     let view = view_of(&[p], Vec::new(), settings);
     let pictures = frame_pictures(None, p, &view, settings)?;
     write_png(path, &pictures.compare)
@@ -643,8 +691,8 @@ pub fn strip(pictures: &BTreeMap<i64, FramePictures>) -> Option<Image> {
 }
 
 /// Encodes and writes a PNG atomically.
-pub fn write_png(path: &Path, image: &Image) -> Result<PathBuf, CliError> {
-    let bytes = encode_png(image).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+pub fn write_png(path: &Path, image: &Image) -> Result<PathBuf, ShotError> {
+    let bytes = encode_png(image).map_err(|e| ShotError::Internal(format!("{}: {e}", path.display())))?;
     write_bytes(path, &bytes)?;
     Ok(path.to_path_buf())
 }
@@ -661,7 +709,7 @@ pub fn preview_frames(text: &str, range: &std::ops::RangeInclusive<i64>) -> Resu
     let mut frames = BTreeSet::new();
     for item in text.split(',') {
         let selection = squish_io::parse_frame_selection(item.trim(), &bounds)
-            .map_err(|e| CliError::input(format!("--preview: {e}")))?;
+            .map_err(|e| CliError::input(format!("--preview={}: {}", e.text, e.message)))?;
         frames.extend(selection);
     }
     Ok(frames)
@@ -726,5 +774,21 @@ mod tests {
         assert_eq!(UpAxis::Y.rotated_from_z_up(DVec3::Z), DVec3::Y);
         // The front view (looking along +y in z-up) looks along −z in y-up.
         assert_eq!(UpAxis::Y.rotated_from_z_up(DVec3::Y), -DVec3::Z);
+    }
+
+    /// Two armpits crossing themselves and one knee: the section goes through the armpit with
+    /// the most crossing vertices, not through the middle of the three.
+    #[test]
+    fn the_section_goes_through_the_densest_self_crossing() {
+        let cloud = |centre: DVec3, n: usize| (0..n).map(move |k| centre + DVec3::splat(0.001 * k as f64));
+        let left = DVec3::new(-1.0, 0.0, 1.5);
+        let points: Vec<DVec3> = cloud(left, 30)
+            .chain(cloud(DVec3::new(1.0, 0.0, 1.5), 20))
+            .chain(cloud(DVec3::new(0.3, 0.0, 0.5), 10))
+            .collect();
+        let centre = densest_cluster(&points).unwrap();
+        assert!((centre - left).length() < 0.05, "{centre}");
+        assert_eq!(densest_cluster(&[]), None);
+        assert_eq!(densest_cluster(&[left, left]), Some(left));
     }
 }

@@ -88,8 +88,18 @@ fn every_schema_key_reaches_the_library_from_every_entry_point() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = squish::mesh::shapes::icosphere(1.0, 1);
     let n = mesh.num_vertices();
-    squish_io::write_obj(&dir.path().join("a.obj"), &mesh).unwrap();
-    squish_io::write_obj(&dir.path().join("b.obj"), &mesh).unwrap();
+    // With UVs (one `vt` per vertex): the test values give the pair method A's shared
+    // parametrization, which reads them.
+    let mut obj = String::new();
+    for p in &mesh.positions {
+        obj += &format!("v {:?} {:?} {:?}\nvt {:?} {:?}\n", p.x, p.y, p.z, p.x, p.y);
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| v + 1);
+        obj += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
+    }
+    std::fs::write(dir.path().join("a.obj"), &obj).unwrap();
+    std::fs::write(dir.path().join("b.obj"), &obj).unwrap();
     let object = test_values::<ObjectParams>(n);
     let pair = test_values::<PairParams>(n);
     let articulation = test_values::<ArticulationParams>(n);

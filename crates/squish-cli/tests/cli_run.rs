@@ -129,6 +129,36 @@ fn frames_are_bit_identical_whatever_the_threads_and_the_split() {
     assert_eq!(report["summary"]["frames_computed"], 48);
 }
 
+/// A shot split into parts in the formats holding every frame: each part writes
+/// `<object>.A-B.<ext>`, and the run that completes the shot merges the folder's parts into the
+/// files an unsplit run writes, byte for byte (squish-shot's tests check glTF assets frame by
+/// frame).
+#[test]
+fn split_shots_merge_into_the_unsplit_files() {
+    let dir = tempfile::tempdir().unwrap();
+    write_meshes(dir.path(), 2);
+    let scene = write_scene(dir.path(), 12, "obj");
+    for format in ["pc2", "glb"] {
+        let (whole, split) = (dir.path().join(format!("whole_{format}")), dir.path().join(format!("split_{format}")));
+        run(&scene, &whole, &["--format", format]);
+        for (k, frames) in ["1:5", "6:6", "7:12"].into_iter().enumerate() {
+            let output = run(&scene, &split, &["--format", format, "--frames", frames]);
+            let stdout = String::from_utf8_lossy(&output.stdout);
+            assert_eq!(stdout.contains("merged the parts"), k == 2, "{stdout}");
+            assert_eq!(stdout.contains("frames 7:12 missing"), k == 1, "{stdout}");
+        }
+        for object in ["ball", "ground"] {
+            let file = format!("{object}.{format}");
+            assert!(split.join(format!("{object}.6-6.{format}")).is_file());
+            let (a, b) = (std::fs::read(whole.join(&file)).unwrap(), std::fs::read(split.join(&file)).unwrap());
+            assert!(a == b, "{file}: merged parts differ from the unsplit run's");
+        }
+        let report = read_report(&split);
+        assert_eq!(report["missing_frames"], serde_json::json!([]));
+        assert_eq!(report["outputs"]["merged_files"].as_array().map(Vec::len), Some(2), "{}", report["outputs"]);
+    }
+}
+
 #[test]
 fn frame_to_frame_steps_follow_the_input_through_first_contact() {
     let dir = tempfile::tempdir().unwrap();
@@ -267,25 +297,25 @@ fn the_example_scene_runs() {
 
 #[test]
 fn ctrl_c_stops_cleanly_with_a_report_of_the_frames_done() {
-    stops_cleanly_on("INT");
+    stops_cleanly_on("INT", 130);
 }
 
 /// What a job scheduler sends (`kill`, a farm's time limit): handled like Ctrl-C.
 #[test]
 fn sigterm_stops_cleanly_with_a_report_of_the_frames_done() {
-    stops_cleanly_on("TERM");
+    stops_cleanly_on("TERM", 143);
 }
 
 /// A closed terminal or SSH session: handled like Ctrl-C.
 #[test]
 fn sighup_stops_cleanly_with_a_report_of_the_frames_done() {
-    stops_cleanly_on("HUP");
+    stops_cleanly_on("HUP", 129);
 }
 
-/// Sends `signal` to a running `squish run` once its first frame is written: it exits 130 after
-/// the frames in progress, its report lists the frames done and the missing ones, exactly the
-/// frames reported are on disk and no temporary file is left.
-fn stops_cleanly_on(signal: &str) {
+/// Sends `signal` to a running `squish run` once its first frame is written: it exits with
+/// `code` (128 + the signal) after the frames in progress, its report lists the frames done and
+/// the missing ones, exactly the frames reported are on disk and no temporary file is left.
+fn stops_cleanly_on(signal: &str, code: i32) {
     let dir = tempfile::tempdir().unwrap();
     write_meshes(dir.path(), 3);
     let scene = write_scene(dir.path(), 400, "obj");
@@ -309,7 +339,7 @@ fn stops_cleanly_on(signal: &str) {
     let status = Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status().unwrap();
     assert!(status.success());
     let output = child.wait_with_output().unwrap();
-    assert_eq!(output.status.code(), Some(130), "{}", stderr(&output));
+    assert_eq!(output.status.code(), Some(code), "{}", stderr(&output));
     let message = stderr(&output);
     assert!(message.contains("interrupted") && message.contains("--frames"), "{message}");
 

@@ -68,6 +68,27 @@ fn articulations(report: &Value, name: &str, object: &str) -> Vec<Value> {
         .collect()
 }
 
+/// `--dry-run` says what a scene with self-contact and no pair will compute, rather than that
+/// its objects are copied unchanged.
+#[test]
+fn a_dry_run_lists_the_self_contact_it_will_compute() {
+    let dir = tempfile::tempdir().unwrap();
+    let dry_run = |scene: &Path| {
+        let output = squish().arg("run").arg(scene).arg("--dry-run").output().unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    };
+    let scene = write_bending_cylinder(
+        dir.path(),
+        "\n[[objects.self_contact]]\nname = \"elbow\"\njoints = [\"root\", \"elbow\"]\n",
+    );
+    let text = dry_run(&scene);
+    assert!(text.contains("self-contact \"elbow\"") && text.contains("the self-contact of arm"), "{text}");
+    assert!(!text.contains("copied unchanged"), "{text}");
+    let still = write_bending_cylinder(dir.path(), "");
+    assert!(dry_run(&still).contains("none (the objects are copied unchanged)"));
+}
+
 #[test]
 fn a_bending_skinned_cylinder_runs_with_self_contact() {
     let dir = tempfile::tempdir().unwrap();
@@ -240,6 +261,31 @@ fn cesium_man_walks_with_automatic_self_contact() {
     for knee in ["leg_joint_L_1 / leg_joint_L_2", "leg_joint_R_1 / leg_joint_R_2"] {
         for a in &articulations(&report, knee, "cesium_man") {
             assert_eq!(a["self_intersecting_faces_after"], 0, "{knee}: {a}");
+        }
+    }
+    // Every frame traced through the plan (issue 35): one self-contact job per articulation and
+    // per touching part pair, each with the stages it ran, none taking more of a stage than the
+    // frame spent on it.
+    for f in report["per_frame"].as_array().unwrap() {
+        let stats = &f["stats"];
+        let jobs = stats["jobs"].as_array().unwrap();
+        let of_kind = |kind: &str| jobs.iter().filter(|j| j["kind"] == kind && j["level"] == "self_contact").count();
+        assert_eq!(of_kind("articulation"), f["articulations"].as_array().unwrap().len(), "frame {}", f["frame"]);
+        assert_eq!(of_kind("parts"), f["part_pairs"].as_array().unwrap().len(), "frame {}", f["frame"]);
+        let frame_stages = stats["stages_ms"].as_object().unwrap();
+        let mut summed: std::collections::BTreeMap<&str, f64> = Default::default();
+        for job in jobs {
+            for (stage, ms) in job["stages_ms"].as_object().unwrap() {
+                *summed.entry(stage.as_str()).or_default() += ms.as_f64().unwrap();
+            }
+        }
+        for (stage, ms) in summed {
+            let total = frame_stages[stage].as_f64().unwrap();
+            assert!(
+                ms <= total * (1.0 + 1e-9) + 1e-6,
+                "frame {}: jobs spent {ms} ms on {stage}, the frame {total}",
+                f["frame"]
+            );
         }
     }
 }

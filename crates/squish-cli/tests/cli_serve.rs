@@ -25,8 +25,13 @@ impl Server {
         for file in ["press.toml", "ball.obj", "ground.obj"] {
             std::fs::copy(examples.join(file), folder.path().join(file)).unwrap();
         }
+        Self::start_in(folder, "press.toml")
+    }
+
+    /// `squish serve SCENE` in `folder`, on a free port.
+    fn start_in(folder: tempfile::TempDir, scene: &str) -> (Self, std::path::PathBuf) {
         let mut child = Command::new(env!("CARGO_BIN_EXE_squish"))
-            .args(["serve", "press.toml", "--port", "0"])
+            .args(["serve", scene, "--port", "0"])
             .current_dir(folder.path())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -160,23 +165,12 @@ fn a_downstream_edit_is_fast_and_the_export_renders_the_same_with_squish_run() {
     assert_eq!(status, 200, "{exported}");
     let (_, shown) = server.message("{\"type\": \"refresh\"}");
 
-    let out = folder.join("run");
-    let run = Command::new(env!("CARGO_BIN_EXE_squish"))
-        .args(["run", "edited.toml", "--frames", "24", "-o"])
-        .arg(&out)
-        .current_dir(&folder)
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = run_exported(&folder, 24);
     // The exported meshes of the page's frame and squish run's, both written by the same OBJ
     // writer (shortest round-trip decimals): the same text is the same bits.
-    let vertices = |path: &Path| -> Vec<String> {
-        let text = std::fs::read_to_string(path).unwrap();
-        text.lines().filter(|l| l.starts_with("v ")).map(str::to_string).collect()
-    };
     for (i, name) in ["ball", "ground"].iter().enumerate() {
-        let run = vertices(&out.join(name).join("0024.obj"));
-        let page = vertices(&folder.join("edited-frame-24").join(format!("{name}.obj")));
+        let run = obj_vertices(&out.join(name).join("0024.obj"));
+        let page = obj_vertices(&folder.join("edited-frame-24").join(format!("{name}.obj")));
         assert_eq!(run.len(), page.len(), "{name}: vertex count");
         let first_difference = run.iter().zip(&page).position(|(a, b)| a != b);
         assert_eq!(first_difference.map(|k| (&run[k], &page[k])), None, "{name}: squish run renders the page's frame");
@@ -285,4 +279,190 @@ fn a_radial_stroke_paints_only_the_selected_region_and_a_malformed_kind_is_refus
         assert_eq!(status, 400, "{bad}: {reply}");
         assert!(reply["message"].as_str().unwrap().contains(says), "{bad}: {reply}");
     }
+}
+
+/// The output positions of a frame the page was sent, per object.
+fn outputs(frame: &serde_json::Value) -> Vec<Vec<f64>> {
+    frame["frame"]["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o["output"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect())
+        .collect()
+}
+
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+/// `squish run edited.toml --frames N -o run` in `folder` (a page's export): the output folder.
+fn run_exported(folder: &Path, frame: i64) -> std::path::PathBuf {
+    let out = folder.join("run");
+    let run = Command::new(env!("CARGO_BIN_EXE_squish"))
+        .args(["run", "edited.toml", "--frames", &frame.to_string(), "-o"])
+        .arg(&out)
+        .current_dir(folder)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    out
+}
+
+/// The `v` lines of an OBJ file.
+fn obj_vertices(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines().filter(|l| l.starts_with("v ")).map(str::to_string).collect()
+}
+
+/// `squish run` of the scene the page exports renders the page's frame, bit for bit.
+fn assert_export_renders(server: &Server, folder: &Path, frame: i64, names: &[&str]) {
+    let (status, exported) = server.message("{\"type\": \"export\", \"name\": \"edited\"}");
+    assert_eq!(status, 200, "{exported}");
+    let out = run_exported(folder, frame);
+    for name in names {
+        let run = obj_vertices(&out.join(name).join(format!("{frame:04}.obj")));
+        let page = obj_vertices(&folder.join(format!("edited-frame-{frame}")).join(format!("{name}.obj")));
+        assert!(run == page, "{name}: squish run does not render the page's frame");
+    }
+}
+
+/// CesiumMan (`self_contact = "auto"`, ../shared/data): the page is told the world is y-up, gets
+/// the character's texture and the mesh split along its UV seams, lists its articulations and
+/// parts and marks the object's stiffness as having no effect (the object is in no pair); the
+/// self-contact's times are reported; an articulation's stiffness and the object's `untangle`
+/// change the result, and the exported scene renders it with `squish run`.
+#[test]
+fn cesium_man_is_upright_textured_and_its_self_contact_settings_take_effect() {
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/rigged/CesiumMan.glb");
+    if !glb.is_file() {
+        println!("skipped: {} is absent", glb.display());
+        return;
+    }
+    let folder = tempfile::tempdir().unwrap();
+    let scene = format!(
+        "frames = {{ start = 1, end = 48, fps = 24 }}\n[[objects]]\nname = \"cesium_man\"\nmesh = {{ file = {:?}, repeat = true }}\nself_contact = \"auto\"\n",
+        glb.canonicalize().unwrap().display().to_string()
+    );
+    std::fs::write(folder.path().join("cesium.toml"), scene).unwrap();
+    let (server, folder) = Server::start_in(folder, "cesium.toml");
+    let (status, body) = server.request("GET", "/api/scene", b"");
+    assert_eq!(status, 200);
+    let view: serde_json::Value = serde_json::from_str(&dechunk(&body)).unwrap();
+    let man = &view["objects"][0];
+    assert_eq!(view["up"], "y", "glTF is y-up");
+    let articulations: Vec<&str> =
+        man["articulations"].as_array().unwrap().iter().map(|a| a["name"].as_str().unwrap()).collect();
+    let parts = man["parts"].as_array().unwrap();
+    println!("CesiumMan: {} articulations ({}), {} parts", articulations.len(), articulations.join(", "), parts.len());
+    assert!(
+        articulations.len() >= 8 && man["articulations"].as_array().unwrap().iter().all(|a| a["automatic"] == true)
+    );
+    assert!(parts.len() >= 8);
+    assert!(man["inert"]["stiffness"].as_str().unwrap().contains("articulation's stiffness"));
+    let display = &man["display"];
+    let drawn = display["vertex"].as_array().unwrap().len();
+    assert!(drawn > 2338 && display["uv"].as_array().unwrap().len() == 2 * drawn, "{drawn} drawn vertices");
+    assert_eq!(man["texture"], "api/texture/0");
+    let mut stream = TcpStream::connect(&server.address).unwrap();
+    write!(stream, "GET /api/texture/0 HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").unwrap();
+    let mut response = Vec::new();
+    stream.read_to_end(&mut response).unwrap();
+    let split = response.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&response[..split]).to_lowercase();
+    // The mesh node's texture, as the file holds it (the node is the file's only one with a mesh).
+    let image = (0..64).find_map(|node| squish_io::base_color_image(&glb, node).ok().flatten()).unwrap();
+    assert!(head.starts_with("http/1.1 200") && head.contains(&format!("content-type: {}", image.mime)), "{head}");
+    assert!(
+        response[split + 4..].windows(image.bytes.len().min(64)).any(|w| w == &image.bytes[..w.len()]),
+        "the file's image"
+    );
+    assert_eq!(server.request("GET", "/api/texture/5", b"").0, 404);
+
+    let (_, base) = server.message("{\"type\": \"frame\", \"frame\": 9}");
+    let stages = base["frame"]["stages"].as_object().unwrap();
+    let parts_ms = stages["self-contact: parts"].as_f64().unwrap();
+    println!("frame 9 stages (ms): {stages:?}");
+    assert!(parts_ms > 0.0 && stages["self-contact: articulations"].as_f64().unwrap() > 0.0);
+    let knee = articulations.iter().position(|n| n.contains("leg_joint_L_1") && n.contains("leg_joint_L_2")).unwrap();
+    assert!(base["frame"]["articulations"][knee]["faces_before"].as_u64().is_some());
+
+    // The object's stiffness changes nothing (and the page says why) …
+    let (_, stiffer_object) =
+        server.message("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"stiffness\", \"value\": 4}");
+    assert_eq!(outputs(&stiffer_object), outputs(&base));
+    // … an articulation's does, and so does the object's untangling.
+    let message = format!(
+        "{{\"type\": \"set\", \"target\": {{\"articulation\": [0, {knee}]}}, \"key\": \"stiffness\", \"value\": [1, 4]}}"
+    );
+    let (status, stiffer_knee) = server.message(&message);
+    assert_eq!(status, 200, "{stiffer_knee}");
+    let moved = largest_difference(&outputs(&stiffer_knee)[0], &outputs(&base)[0]);
+    assert_eq!(stiffer_knee["frame"]["values"]["articulations"][0][knee]["stiffness"]["edited"], true);
+    let (_, raw) =
+        server.message("{\"type\": \"set\", \"target\": {\"object\": 0}, \"key\": \"untangle\", \"value\": false}");
+    let untangled = largest_difference(&outputs(&raw)[0], &outputs(&stiffer_knee)[0]);
+    println!("left knee stiffness [1, 4]: vertices move up to {moved:.2e}; untangle off: {untangled:.2e}");
+    assert!(moved > 1e-4 && untangled > 1e-4);
+    let (status, bad) = server
+        .message("{\"type\": \"set\", \"target\": {\"articulation\": [0, 99]}, \"key\": \"stiffness\", \"value\": 2}");
+    assert!(status == 400 && bad["message"].as_str().unwrap().contains("no articulation 99"), "{bad}");
+    assert_export_renders(&server, &folder, 9, &["cesium_man"]);
+}
+
+/// A pair switched to the shared parametrization on the page reads its objects' UVs (OBJ `vt`):
+/// the result changes, and the exported scene renders it; an object without UVs is an error
+/// naming its file.
+#[test]
+fn the_shared_parametrization_is_one_setting_away() {
+    let folder = tempfile::tempdir().unwrap();
+    let obj = |mesh: &squish::TriMesh, uvs: bool| -> String {
+        let mut text = String::new();
+        for p in &mesh.positions {
+            text += &format!("v {:?} {:?} {:?}\n", p.x, p.y, p.z);
+            if uvs {
+                // The projection along (0.5, 0, 1): matched along it, not along the normals.
+                text += &format!("vt {:?} {:?}\n", p.x - 0.5 * p.z, p.y);
+            }
+        }
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|v| v + 1);
+            text += &if uvs { format!("f {a}/{a} {b}/{b} {c}/{c}\n") } else { format!("f {a} {b} {c}\n") };
+        }
+        text
+    };
+    let mut ball = squish::mesh::shapes::icosphere(0.5, 3);
+    ball.map_positions(|p| p + glam::DVec3::new(0.1, 0.0, 0.4));
+    let ground = squish::mesh::shapes::grid(2.0, 2.0, 30, 30);
+    std::fs::write(folder.path().join("ball.obj"), obj(&ball, true)).unwrap();
+    std::fs::write(folder.path().join("ground.obj"), obj(&ground, true)).unwrap();
+    std::fs::write(folder.path().join("bare.obj"), obj(&ground, false)).unwrap();
+    let scene = |ground: &str| {
+        format!(
+            "frames = {{ start = 1, end = 1 }}\n[[objects]]\nname = \"ball\"\nmesh = \"ball.obj\"\nrigid = true\n\
+             [[objects]]\nname = \"ground\"\nmesh = \"{ground}\"\n[[pairs]]\nobjects = [\"ball\", \"ground\"]\n"
+        )
+    };
+    std::fs::write(folder.path().join("uv.toml"), scene("ground.obj")).unwrap();
+    std::fs::write(folder.path().join("bare.toml"), scene("bare.obj")).unwrap();
+    let bare_folder = tempfile::tempdir().unwrap();
+    for file in ["ball.obj", "bare.obj", "bare.toml"] {
+        std::fs::copy(folder.path().join(file), bare_folder.path().join(file)).unwrap();
+    }
+    let (server, folder) = Server::start_in(folder, "uv.toml");
+    let (_, unique) = server.message("{\"type\": \"refresh\"}");
+    let set =
+        "{\"type\": \"set\", \"target\": {\"pair\": 0}, \"key\": \"mapping\", \"value\": \"shared_parametrization\"}";
+    let (status, shared) = server.message(set);
+    assert_eq!(status, 200, "{shared}");
+    assert_eq!(shared["frame"]["pairs"][0]["in_contact"], true, "{}", shared["frame"]["pairs"]);
+    let changed = largest_difference(&outputs(&shared)[1], &outputs(&unique)[1]);
+    println!("the ground with the shared parametrization: {changed:.2e} from the unique direction's");
+    assert!(changed > 1e-6);
+    assert_export_renders(&server, &folder, 1, &["ball", "ground"]);
+
+    let (bare, _) = Server::start_in(bare_folder, "bare.toml");
+    let (status, error) = bare.message(set);
+    let message = error["message"].as_str().unwrap_or_default();
+    assert!(status == 422 && message.contains("bare.obj") && message.contains("'vt'"), "{status} {error}");
 }

@@ -36,12 +36,12 @@ use glam::DVec3;
 use squish::mesh::shapes;
 use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
 use squish::pipeline::Deformer;
-use squish_cli::cmd_deform::deform_pair;
 use squish_cli::input::{InputMesh, WeldChoice};
 use squish_cli::params::pair_settings;
-use squish_cli::scene_shot::SceneShot;
-use squish_cli::shot::ShotSource;
 use squish_io::Scene;
+use squish_shot::scene_shot::SceneShot;
+use squish_shot::shot::ShotSource;
+use squish_shot::two_objects::deform_pair;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
@@ -62,18 +62,35 @@ fn corpus_dir(target: Target) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus").join(target.name())
 }
 
-/// The files every case may refer to: a ball, a slab, a three-frame sequence, a per-vertex text
-/// file and a mesh that is not one.
+/// An OBJ of `mesh` with one `vt` per vertex (its x, y): the shared parametrization reads them.
+fn write_obj_with_uvs(path: &Path, mesh: &squish::TriMesh) {
+    let mut text = String::new();
+    for p in &mesh.positions {
+        text += &format!("v {:?} {:?} {:?}\nvt {:?} {:?}\n", p.x, p.y, p.z, p.x, p.y);
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| v + 1);
+        text += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// The files every case may refer to: a ball, a slab, a three-frame sequence (with UVs, so that
+/// the shared parametrization can run), a per-vertex text file and a mesh that is not one.
 fn write_assets(dir: &Path) {
     let ball = shapes::icosphere(0.6, 1);
-    squish_io::write_mesh(&dir.join("ball.obj"), &ball).unwrap();
+    write_obj_with_uvs(&dir.join("ball.obj"), &ball);
     let mut slab = shapes::cuboid(DVec3::new(2.0, 2.0, 0.5), 4);
     slab.map_positions(|p| p - DVec3::new(0.0, 0.0, 0.25));
-    squish_io::write_mesh(&dir.join("slab.ply"), &slab).unwrap();
+    let uv = |axis: usize| slab.positions.iter().map(|p| p[axis]).collect::<Vec<f64>>();
+    let properties = [squish_io::VertexProperty::double("u", &uv(0)), squish_io::VertexProperty::double("v", &uv(1))];
+    let options = squish_io::PlyWriteOptions::default();
+    squish_io::write_ply_with(&dir.join("slab.ply"), &slab.positions, Some(&slab.triangles), &properties, &options)
+        .unwrap();
     for frame in 1..=3 {
         let mut moved = ball.clone();
         moved.map_positions(|p| p + DVec3::new(0.0, 0.0, 0.1 * f64::from(frame)));
-        squish_io::write_mesh(&dir.join(format!("seq_{frame:04}.obj")), &moved).unwrap();
+        write_obj_with_uvs(&dir.join(format!("seq_{frame:04}.obj")), &moved);
     }
     let values: String = (0..ball.num_vertices()).map(|v| format!("{}\n", (v % 3) as f64 * 0.5)).collect();
     std::fs::write(dir.join("ball_map.txt"), values).unwrap();
@@ -123,7 +140,8 @@ fn exercise_set(dir: &Path, text: &str) -> bool {
     if settings.complete(&inputs).is_err() {
         return false;
     }
-    let _ = deform_pair(["ball", "slab"], [&inputs[0].mesh, &inputs[1].mesh], &settings, &mut Deformer::new());
+    let _ =
+        deform_pair(["ball", "slab"], [&inputs[0].mesh, &inputs[1].mesh], &settings.parameters(), &mut Deformer::new());
     true
 }
 

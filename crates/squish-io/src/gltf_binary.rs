@@ -121,7 +121,7 @@ pub(crate) fn load_buffers(
     Ok(buffers)
 }
 
-fn load_uri(path: &Path, element: &str, uri: &str) -> Result<Vec<u8>, IoError> {
+pub(crate) fn load_uri(path: &Path, element: &str, uri: &str) -> Result<Vec<u8>, IoError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((header, payload)) = rest.split_once(',') else {
             return Err(IoError::element(path, element, "malformed data URI (no ',')"));

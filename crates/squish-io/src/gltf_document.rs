@@ -37,9 +37,10 @@ use glam::{DQuat, DVec3};
 use serde_json::{Value, json};
 use squish::TriMesh;
 
-use crate::gltf_read::{GltfReadOptions, read_gltf_file};
+use crate::gltf_read::{GltfReadOptions, read_gltf, read_gltf_file};
 use crate::gltf_scene::{GltfMesh, GltfScene};
 use crate::gltf_write::write_glb_container;
+use crate::morph::{MorphFrame, MorphKeys, SparseDisplacement, sparse_accessor};
 use crate::{IoError, write_atomically};
 
 const FLOAT: u64 = 5126;
@@ -85,15 +86,14 @@ pub struct GltfAttributeCounts {
 pub struct MorphAnimation<'a> {
     /// The node whose mesh deforms.
     pub node: usize,
-    /// The file's animation that poses the node (its skin) at `times`; `None`: the rest pose.
-    /// The morph-weight channel is added to it, so that both play together.
+    /// The file's animation that poses the node (its skin) at the frames' times; `None`: the
+    /// rest pose. The morph-weight channel is added to it, so that both play together.
     pub animation: Option<usize>,
-    /// Animation time of each frame, in seconds, strictly increasing.
-    pub times: &'a [f64],
-    /// Per frame, the deformed posed positions of the node's mesh (file vertices, world space).
-    pub frames: &'a [Vec<DVec3>],
-    /// Per frame, the morph target's name (`extras.targetNames`, shape-key names in Blender).
-    pub names: &'a [String],
+    /// Per frame, in increasing time: the displacement of the node's mesh in its own (bind)
+    /// space, from [`GltfDocument::morph_displacement`].
+    pub frames: &'a [MorphFrame],
+    /// The keys that turn every frame's target off around the frames (a part of a shot).
+    pub keys: MorphKeys,
 }
 
 impl GltfDocument {
@@ -196,43 +196,157 @@ impl GltfDocument {
         edit.finish(path, binary)
     }
 
+    /// Writes `positions` — one per vertex of [`Self::mesh`] (`node: None`) or of node `node`'s
+    /// mesh, in any space — as an OBJ or PLY file (by `path`'s extension), atomically, with what
+    /// those formats hold of the glTF file: the first UV set (`TEXCOORD_0`, turned to their
+    /// convention: `v` = 1 − glTF's `v`) and normals recomputed for `positions` per the file's
+    /// splits (seam copies share theirs; a hard edge keeps one per side), when the file has
+    /// them. Faces are the file's triangles.
+    pub fn write_converted(&self, path: &Path, node: Option<usize>, positions: &[DVec3]) -> Result<(), IoError> {
+        let meshes: Vec<&GltfMesh> = match node {
+            Some(node) => vec![self.node_mesh(node)?],
+            None => {
+                let instances = self.scene.instances();
+                if instances.is_empty() {
+                    self.scene.meshes.iter().collect()
+                } else {
+                    instances.iter().map(|i| &self.scene.meshes[i.mesh]).collect()
+                }
+            }
+        };
+        let count: usize = meshes.iter().map(|m| m.positions.len()).sum();
+        if positions.len() != count {
+            return Err(IoError::invalid_input(
+                path,
+                format!("{} positions for the {count} vertices of {}", positions.len(), self.path.display()),
+            ));
+        }
+        let mut rest = Vec::with_capacity(count);
+        let mut triangles = Vec::new();
+        for mesh in &meshes {
+            let offset = rest.len() as u32;
+            triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
+            rest.extend_from_slice(&mesh.positions);
+        }
+        let normals: Option<Vec<DVec3>> = meshes
+            .iter()
+            .map(|m| m.normals.as_deref())
+            .collect::<Option<Vec<_>>>()
+            .map(|all| all.concat())
+            .map(|old| split_normals(&rest, &old, &triangles, positions));
+        let texcoords: Option<Vec<[f64; 2]>> = meshes.iter().any(|m| m.texcoords.is_some()).then(|| {
+            meshes
+                .iter()
+                .flat_map(|m| match &m.texcoords {
+                    Some(uv) => uv.clone(),
+                    None => vec![[0.0, 0.0]; m.positions.len()],
+                })
+                .map(|[u, v]| [u, 1.0 - v])
+                .collect()
+        });
+        let mesh = TriMesh { positions: positions.to_vec(), triangles };
+        match crate::MeshFormat::from_path(path)? {
+            crate::MeshFormat::Obj => crate::write_obj_with(path, &mesh, texcoords.as_deref(), normals.as_deref()),
+            crate::MeshFormat::Ply => {
+                use crate::{ScalarType, VertexProperty};
+                let mut properties = Vec::new();
+                if let Some(normals) = &normals {
+                    for (c, name) in ["nx", "ny", "nz"].into_iter().enumerate() {
+                        properties.push(VertexProperty::new(
+                            name,
+                            ScalarType::F32,
+                            normals.iter().map(|n| n[c]).collect(),
+                        ));
+                    }
+                }
+                if let Some(uv) = &texcoords {
+                    for (c, name) in ["u", "v"].into_iter().enumerate() {
+                        properties.push(VertexProperty::new(name, ScalarType::F32, uv.iter().map(|t| t[c]).collect()));
+                    }
+                }
+                mesh.check_structure().map_err(|e| IoError::mesh(path, e))?;
+                crate::write_ply_with(path, &mesh.positions, Some(&mesh.triangles), &properties, &Default::default())
+            }
+            crate::MeshFormat::Gltf | crate::MeshFormat::Glb => self.write_with_positions(path, positions),
+        }
+    }
+
+    /// The displacement, in the mesh's own (bind) space, of node `node`'s mesh posed by
+    /// `animation` at `time` into `posed` (its file vertices, world space): the posed positions
+    /// un-posed and taken from the mesh's base positions, for the vertices `moved` marks (the
+    /// others do not move: they get none, rather than the round-off of un-posing).
+    pub fn morph_displacement(
+        &self,
+        node: usize,
+        animation: Option<usize>,
+        time: f64,
+        posed: &[DVec3],
+        moved: &[bool],
+    ) -> Result<SparseDisplacement, IoError> {
+        let mesh = self.node_mesh(node)?;
+        if posed.len() != mesh.positions.len() || moved.len() != posed.len() {
+            return Err(IoError::invalid_input(
+                &self.path,
+                format!(
+                    "{} positions and {} flags for the {} vertices of node {node}'s mesh",
+                    posed.len(),
+                    moved.len(),
+                    mesh.positions.len()
+                ),
+            ));
+        }
+        let pose = self.scene.instance_pose(node, animation, time)?;
+        let local = pose.unpose(&self.scene, posed)?;
+        let delta: Vec<DVec3> = local
+            .iter()
+            .zip(&mesh.positions)
+            .zip(moved)
+            .map(|((a, b), &m)| if m { *a - *b } else { DVec3::ZERO })
+            .collect();
+        SparseDisplacement::from_dense(&delta).map_err(|v| {
+            IoError::invalid_input(&self.path, format!("vertex {v} of node {node}'s mesh moves by a non-finite amount"))
+        })
+    }
+
+    /// The mesh of node `node`.
+    fn node_mesh(&self, node: usize) -> Result<&GltfMesh, IoError> {
+        self.scene.nodes.get(node).and_then(|n| n.mesh).and_then(|m| self.scene.meshes.get(m)).ok_or_else(|| {
+            IoError::invalid_input(&self.path, format!("node {node} of {} has no mesh", self.path.display()))
+        })
+    }
+
     /// Writes a copy of the file to `path` with a shot's deformation of one node as morph
     /// targets (see [`MorphAnimation`]): target `k` holds frame `k`'s displacement from the
-    /// mesh's base positions in the mesh's own (bind) space — the posed positions un-posed with
-    /// the file's animation at that frame's time — and normal displacements when the mesh has
-    /// normals; an added STEP channel of the node's morph weights switches target `k` on from
-    /// time `times[k]` until the next frame. The file's own animation keeps posing the skin, so
-    /// the result plays in any glTF viewer: re-posing frame `k` gives `frames[k]` (to `f32`).
+    /// mesh's base positions in the mesh's own (bind) space, as a sparse accessor of the vertices
+    /// that move (a dense one when that is smaller), and the change of the normals it makes when
+    /// the mesh has normals — the difference of the area-weighted normals of the displaced and
+    /// the base positions, added to the file's own, so zero wherever no face around a vertex
+    /// moved; an added STEP channel of the node's morph weights switches target `k` on from the
+    /// frame's time until the next key. The file's own animation keeps posing the skin, so the
+    /// result plays in any glTF viewer: re-posing frame `k` gives its deformed positions (to
+    /// `f32`). The file's own morph targets and their weights are kept.
     pub fn write_animated(&self, path: &Path, animation: &MorphAnimation) -> Result<(), IoError> {
         let binary = is_glb(path)?;
-        let MorphAnimation { node, times, frames, names, .. } = *animation;
+        let MorphAnimation { node, frames, keys, .. } = *animation;
         let scene = &self.scene;
         let Some(mesh_index) = scene.nodes.get(node).and_then(|n| n.mesh) else {
             return Err(IoError::invalid_input(path, format!("node {node} of {} has no mesh", self.path.display())));
         };
         let mesh = &scene.meshes[mesh_index];
-        if frames.is_empty() || frames.len() != times.len() || frames.len() != names.len() {
+        if frames.is_empty() {
+            return Err(IoError::invalid_input(path, "no frame to write: give at least one"));
+        }
+        if let Some(k) = frames.iter().position(|f| f.displacement.count != mesh.positions.len()) {
             return Err(IoError::invalid_input(
                 path,
                 format!(
-                    "{} frames, {} times and {} names: give one of each per frame, at least one",
-                    frames.len(),
-                    times.len(),
-                    names.len()
+                    "frame {k} displaces {} vertices, node {node}'s mesh has {}",
+                    frames[k].displacement.count,
+                    mesh.positions.len()
                 ),
             ));
         }
-        if let Some(k) = times.windows(2).position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) {
-            return Err(IoError::invalid_input(
-                path,
-                format!(
-                    "frames {k} and {} play at animation times {} and {}: morph keys need increasing times (a looping animation repeats them; write per-frame files or a point cache instead)",
-                    k + 1,
-                    times[k],
-                    times[k + 1]
-                ),
-            ));
-        }
+        let times = keys.times(frames).map_err(|m| IoError::invalid_input(path, m))?;
         if let Some((a, anim)) =
             scene.animations.iter().enumerate().find(|(_, a)| a.morph_weights.iter().any(|t| t.node == node))
         {
@@ -250,21 +364,27 @@ impl GltfDocument {
         let json_mesh = if shared { edit.duplicate_mesh(node, mesh_index)? } else { mesh_index };
         let base_weights = scene.morph_weights(node, None, 0.0)?;
         let existing = mesh.morph_targets.len();
-        let primitives = mesh.primitive_vertices.len();
-        for (k, posed) in frames.iter().enumerate() {
-            let pose = scene.instance_pose(node, animation.animation, times[k])?;
-            let local = pose.unpose(scene, posed)?;
-            let delta: Vec<DVec3> = local.iter().zip(&mesh.positions).map(|(a, b)| *a - *b).collect();
-            let normal_delta = mesh.normals.as_ref().map(|normals| {
-                let new = split_normals(&mesh.positions, normals, &mesh.triangles, &local);
-                new.iter().zip(normals).map(|(a, b)| *a - *b).collect::<Vec<DVec3>>()
-            });
-            for p in 0..primitives {
-                let range = mesh.primitive_vertices[p].clone();
+        let base_normals =
+            mesh.normals.as_ref().map(|n| split_normals(&mesh.positions, n, &mesh.triangles, &mesh.positions));
+        for (k, frame) in frames.iter().enumerate() {
+            let normal_change = match (&mesh.normals, &base_normals) {
+                (Some(normals), Some(base)) => {
+                    let local: Vec<DVec3> =
+                        mesh.positions.iter().zip(frame.displacement.dense()).map(|(p, d)| *p + d).collect();
+                    let moved = split_normals(&mesh.positions, normals, &mesh.triangles, &local);
+                    let change: Vec<DVec3> = moved.iter().zip(base).map(|(a, b)| *a - *b).collect();
+                    Some(SparseDisplacement::from_dense(&change).map_err(|v| {
+                        IoError::invalid_input(path, format!("frame {k}: the normal of vertex {v} is not finite"))
+                    })?)
+                }
+                _ => None,
+            };
+            for (p, range) in mesh.primitive_vertices.iter().enumerate() {
                 let has_normal = edit.primitive(json_mesh, p)?.pointer("/attributes/NORMAL").is_some();
-                let mut target = json!({ "POSITION": edit.append_vec3(&delta[range.clone()], true) });
-                if let (true, Some(nd)) = (has_normal, &normal_delta) {
-                    target["NORMAL"] = json!(edit.append_vec3(&nd[range], false));
+                let mut target =
+                    json!({ "POSITION": edit.append_displacement(&frame.displacement.slice(range.clone()), true) });
+                if let (true, Some(change)) = (has_normal, &normal_change) {
+                    target["NORMAL"] = json!(edit.append_displacement(&change.slice(range.clone()), false));
                 }
                 let primitive = edit.primitive_mut(json_mesh, p)?;
                 match primitive.get_mut("targets").and_then(Value::as_array_mut) {
@@ -286,7 +406,7 @@ impl GltfDocument {
                 *name = format!("target_{t}");
             }
         }
-        target_names.extend(names.iter().cloned());
+        target_names.extend(frames.iter().map(|f| f.name.clone()));
         match json_mesh_value.get_mut("extras") {
             Some(Value::Object(extras)) => {
                 extras.insert("targetNames".into(), json!(target_names));
@@ -298,12 +418,13 @@ impl GltfDocument {
         if let Some(node_weights) = edit.json["nodes"][node].get_mut("weights") {
             *node_weights = json!(weights.iter().map(|&w| w as f32).collect::<Vec<_>>());
         }
-        // The weights channel: at key k, the file's weights for its targets and target k on.
+        // The weights channel: at each key, the file's weights for its targets and the key's
+        // frame on (none at the keys that turn the frames off).
         let key_times: Vec<f32> = times.iter().map(|&t| t as f32).collect();
-        let mut values = Vec::with_capacity(frames.len() * total);
-        for k in 0..frames.len() {
+        let mut values = Vec::with_capacity(times.len() * total);
+        for on in keys.frame_on(frames.len()) {
             for (t, &w) in weights.iter().enumerate() {
-                values.push(if t == existing + k {
+                values.push(if Some(t) == on.map(|k| existing + k) {
                     1.0
                 } else if t < existing {
                     w as f32
@@ -340,6 +461,41 @@ impl GltfDocument {
             }
         }
         edit.finish(path, binary)
+    }
+
+    /// The frames of a shot that [`Self::write_animated`] wrote into `part` (a copy of this
+    /// document) for node `node`: each added target's name and displacement, in order, as
+    /// written (bit for bit), so that the parts of a split shot merge into what one run writes.
+    pub fn shot_frames(&self, part: &Path, node: usize) -> Result<Vec<(String, SparseDisplacement)>, IoError> {
+        let source = self.node_mesh(node)?;
+        let written = read_gltf(part, &GltfReadOptions::default())?;
+        let mesh = written
+            .nodes
+            .get(node)
+            .and_then(|n| n.mesh)
+            .and_then(|m| written.meshes.get(m))
+            .filter(|m| m.positions.len() == source.positions.len() && m.morph_targets.len() >= source.morph_targets.len())
+            .ok_or_else(|| {
+                IoError::invalid_input(
+                    part,
+                    format!(
+                        "node {node} does not hold the {} vertices of {} with the shot's morph targets: not a part of this shot",
+                        source.positions.len(),
+                        self.path.display()
+                    ),
+                )
+            })?;
+        let existing = source.morph_targets.len();
+        mesh.morph_targets[existing..]
+            .iter()
+            .enumerate()
+            .map(|(k, target)| {
+                let name = mesh.target_names.get(existing + k).cloned().unwrap_or_default();
+                let displacement = SparseDisplacement::from_dense(target)
+                    .map_err(|v| IoError::invalid_input(part, format!("target {name}: vertex {v} is not finite")))?;
+                Ok((name, displacement))
+            })
+            .collect()
     }
 }
 
@@ -633,20 +789,31 @@ impl<'a> Edit<'a> {
         Ok(())
     }
 
-    /// Appends float data as a new buffer view and accessor; returns the accessor's index.
-    fn append_accessor(&mut self, values: &[f32], components: usize, target: Option<u64>, with_bounds: bool) -> usize {
+    /// Appends `bytes` as a new buffer view (4-byte aligned); returns its index.
+    fn append_view(&mut self, bytes: &[u8], target: Option<u64>) -> usize {
         while !self.appended.len().is_multiple_of(4) {
             self.appended.push(0);
         }
         let offset = self.appended.len();
-        for v in values {
-            self.appended.extend_from_slice(&v.to_le_bytes());
-        }
-        let mut view = json!({ "buffer": self.new_buffer(), "byteOffset": offset, "byteLength": 4 * values.len() });
+        self.appended.extend_from_slice(bytes);
+        let mut view = json!({ "buffer": self.new_buffer(), "byteOffset": offset, "byteLength": bytes.len() });
         if let Some(t) = target {
             view["target"] = json!(t);
         }
-        let views = push(&mut self.json, "bufferViews", view);
+        push(&mut self.json, "bufferViews", view)
+    }
+
+    /// Appends a displacement as a `VEC3` float accessor (see [`sparse_accessor`]); returns its
+    /// index.
+    fn append_displacement(&mut self, displacement: &SparseDisplacement, with_bounds: bool) -> usize {
+        let accessor = sparse_accessor(displacement, with_bounds, |bytes| self.append_view(bytes, None));
+        push(&mut self.json, "accessors", accessor)
+    }
+
+    /// Appends float data as a new buffer view and accessor; returns the accessor's index.
+    fn append_accessor(&mut self, values: &[f32], components: usize, target: Option<u64>, with_bounds: bool) -> usize {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let views = self.append_view(&bytes, target);
         let ty = match components {
             1 => "SCALAR",
             2 => "VEC2",
@@ -660,11 +827,6 @@ impl<'a> Edit<'a> {
             accessor["max"] = json!(max);
         }
         push(&mut self.json, "accessors", accessor)
-    }
-
-    fn append_vec3(&mut self, values: &[DVec3], with_bounds: bool) -> usize {
-        let flat: Vec<f32> = values.iter().flat_map(|v| v.to_array()).map(|x| x as f32).collect();
-        self.append_accessor(&flat, 3, None, with_bounds)
     }
 
     fn append_scalars(&mut self, values: &[f32], with_bounds: bool) -> usize {

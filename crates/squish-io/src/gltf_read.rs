@@ -14,8 +14,9 @@
 //! - positions (float or quantized), indices (u8/u16/u32, or none), skin attributes
 //!   (`JOINTS_n` u8/u16, `WEIGHTS_n` float or normalized u8/u16; with more than one set, the
 //!   four largest influences are kept), morph-target position displacements, normals and
-//!   tangents (for writing back, [`crate::GltfDocument`]). Texture coordinates and colours are
-//!   left in the file (checked to hold one element per vertex, like every attribute);
+//!   tangents (for writing back, [`crate::GltfDocument`]), the first texture coordinates
+//!   (`TEXCOORD_0`, for writing OBJ and PLY files). Other UV sets and colours are left in the
+//!   file (checked to hold one element per vertex, like every attribute);
 //! - nodes (names, hierarchy, TRS or matrix), skins (joints as node ids, inverse bind matrices,
 //!   identity when absent, skeleton root), animations (translation / rotation / scale channels
 //!   as [`AnimationClip`]s, morph-target weight channels as [`MorphWeightsTrack`]s).
@@ -26,7 +27,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DMat4, DQuat, DVec3};
+use glam::{DMat4, DQuat, DVec2, DVec3};
 use gltf::json::validation::Checked;
 use squish::animation::{
     AnimationClip, Channel, ChannelValues, Interpolation, NodeTransform, Sampler, Skeleton, SkeletonNode, Trs,
@@ -331,6 +332,9 @@ impl<'a> Reader<'a> {
         let mut primitive_vertices = Vec::new();
         let mut normals: Vec<DVec3> = Vec::new();
         let mut tangents: Vec<[f64; 4]> = Vec::new();
+        let mut texcoords: Vec<[f64; 2]> = Vec::new();
+        // The per-corner UVs of the shared parametrization need TEXCOORD_0 on every primitive.
+        let mut every_primitive_has_uvs = true;
         for primitive in mesh.primitives() {
             let element = format!("mesh {} '{name}' primitive {}", mesh.index(), primitive.index());
             let mode = primitive.mode();
@@ -442,6 +446,18 @@ impl<'a> Reader<'a> {
                 tangents.resize(offset, [0.0; 4]);
                 tangents.extend(d.rows::<4>());
             }
+            // The first UV set, for writing into formats that hold one (OBJ `vt`, PLY `u, v`).
+            if let Some(acc) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+                let what = format!("TEXCOORD_0 of {element}");
+                let d = self.data.accessor_with(acc.index(), &what, 2, "VEC2")?;
+                if d.values.iter().any(|x| !x.is_finite()) {
+                    return Err(self.err(format!("accessor {} ({what})", acc.index()), "has a non-finite UV"));
+                }
+                texcoords.resize(offset, [0.0; 2]);
+                texcoords.extend(d.rows::<2>());
+            } else {
+                every_primitive_has_uvs = false;
+            }
 
             // Skin attributes: every set JOINTS_k/WEIGHTS_k, the four largest influences kept.
             let mut influences: Vec<Vec<(u32, f64)>> = Vec::new();
@@ -544,9 +560,17 @@ impl<'a> Reader<'a> {
             tangents.resize(file_vertex_count, [0.0; 4]);
             tangents
         });
+        let corner_uvs = (every_primitive_has_uvs && !texcoords.is_empty())
+            .then(|| triangles.iter().map(|t| t.map(|v| DVec2::from_array(texcoords[v as usize]))).collect());
+        let texcoords = (!texcoords.is_empty()).then(|| {
+            texcoords.resize(file_vertex_count, [0.0; 2]);
+            texcoords
+        });
         let mut out = GltfMesh {
+            corner_uvs,
             normals,
             tangents,
+            texcoords,
             name,
             positions,
             triangles,
@@ -577,8 +601,22 @@ impl<'a> Reader<'a> {
                 *normals =
                     average_rows(normals, &welded.vertex_map, kept).iter().map(|n| n.normalize_or_zero()).collect();
             }
-            // Tangents follow the UV layout, which welding across seams does not keep.
+            // Tangents and UVs follow the UV layout, which welding across seams does not keep.
             out.tangents = None;
+            out.texcoords = None;
+            // The corners' UVs stay those of their triangles; collapsed triangles are dropped.
+            if let Some(corners) = &mut out.corner_uvs {
+                let mut kept = corners.iter();
+                *corners = out
+                    .triangles
+                    .iter()
+                    .filter_map(|t| {
+                        let corner = kept.next().copied();
+                        let w = t.map(|v| welded.vertex_map[v as usize]);
+                        (w[0] != w[1] && w[1] != w[2] && w[0] != w[2]).then_some(corner).flatten()
+                    })
+                    .collect();
+            }
             out.positions = welded.positions;
             out.triangles = welded.triangles;
             out.vertex_map = Some(welded.vertex_map);

@@ -5,7 +5,7 @@
 use std::ops::Range;
 use std::path::PathBuf;
 
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec2, DVec3};
 use squish::TriMesh;
 use squish::animation::{AnimationClip, NodeTransform, Sampler, Skeleton};
 use squish::skinning::{Skin, SkinWeights, joint_matrices, linear_blend_skinning};
@@ -58,9 +58,16 @@ pub struct GltfMesh {
     /// Vertex normals (`NORMAL`), when a primitive has them (zero for the vertices of
     /// primitives without); averaged and normalized over welded vertices.
     pub normals: Option<Vec<DVec3>>,
+    /// Texture coordinates (`TEXCOORD_0`, as stored: v points down the image) of the three
+    /// corners of each triangle of [`Self::triangles`], when every primitive has them; a welded
+    /// vertex on a UV seam has different UVs at its corners.
+    pub corner_uvs: Option<Vec<[DVec2; 3]>>,
     /// Tangents (`TANGENT`, xyz and the handedness w), when a primitive has them (zero
     /// elsewhere); dropped by welding.
     pub tangents: Option<Vec<[f64; 4]>>,
+    /// Texture coordinates (`TEXCOORD_0`, glTF's convention: origin at the image's top left),
+    /// when a primitive has them (zero elsewhere); dropped by welding, which joins UV seams.
+    pub texcoords: Option<Vec<[f64; 2]>>,
     /// Skin weights, when the primitives have `JOINTS_0` / `WEIGHTS_0`.
     pub skin_weights: Option<SkinWeights>,
     /// Position displacements of each morph target (one per vertex).
@@ -349,6 +356,22 @@ impl GltfScene {
         }
         merged.check_structure().map_err(|e| IoError::mesh(&self.path, e))?;
         Ok(merged)
+    }
+
+    /// The UVs of [`Self::merged_mesh`]'s triangles, three per triangle (`TEXCOORD_0`), or
+    /// `None` when a mesh of it has none.
+    pub fn merged_corner_uvs(&self) -> Option<Vec<[DVec2; 3]>> {
+        let instances = self.instances();
+        let meshes: Vec<&GltfMesh> = if instances.is_empty() {
+            self.meshes.iter().collect()
+        } else {
+            instances.iter().filter_map(|i| self.meshes.get(i.mesh)).collect()
+        };
+        let mut corners = Vec::new();
+        for mesh in meshes {
+            corners.extend_from_slice(mesh.corner_uvs.as_ref()?);
+        }
+        Some(corners)
     }
 }
 

@@ -18,6 +18,8 @@ use serde_json::{Value, json};
 use squish::TriMesh;
 use squish::mesh::vertex_normals;
 
+use crate::gltf_read::{GltfReadOptions, read_gltf};
+use crate::morph::{MorphFrame, MorphKeys, SparseDisplacement};
 use crate::{IoError, write_atomically};
 
 /// Options of the glTF writers.
@@ -192,91 +194,126 @@ pub fn write_gltf_meshes(path: &Path, meshes: &[NamedMesh], options: &GltfWriteO
     finish(path, builder, extra, binary)
 }
 
-/// Writes an animated mesh as `.glb` or `.gltf`: `frames[k]` are the positions at time `k / fps`,
-/// on the topology of `triangles` (the same for every frame, as the deformer never changes
-/// connectivity). For a glTF source, [`crate::GltfDocument::write_animated`] keeps the asset.
+/// Writes an animated mesh as `.glb` or `.gltf`: `base` is the mesh's base positions (a shot's
+/// input at its first frame), on the topology of `triangles` (the same for every frame, as the
+/// deformer never changes connectivity), and `frames` each frame's displacement from `base`.
+/// For a glTF source, [`crate::GltfDocument::write_animated`] keeps the asset instead.
 ///
-/// Encoding: one mesh whose base positions are frame 0, one morph target per further frame
-/// (target `k − 1` holds `frames[k] − frames[0]`), and a STEP animation of the morph weights
-/// that sets weight `k − 1` to one and all others to zero from time `k / fps` on. Why morph
-/// targets rather than one node per frame shown or hidden by a STEP scale animation:
+/// Encoding: one mesh, one morph target per frame holding its displacement as a sparse accessor
+/// of the vertices that move (dense when that is smaller; see [`crate::morph`]), and a STEP
+/// animation of the morph weights that sets the frame's weight to one and all others to zero
+/// from its time on (and every weight to zero at `keys`' times). Why morph targets rather than
+/// one node per frame shown or hidden by a STEP scale animation:
 /// - the result is one object with one topology: Blender imports the targets as shape keys
-///   (named `frame_0001` … from `extras.targetNames`) driven by an action with constant
+///   (named after their frame, from `extras.targetNames`) driven by an action with constant
 ///   interpolation, so the user gets a single mesh that plays back, can be modified or
 ///   re-exported, instead of hundreds of objects in the outliner;
 /// - scale-0 hiding needs degenerate node matrices, which some importers reject or turn into
 ///   NaN normals, and a viewer interpolating (not stepping) the scale would show two frames at
 ///   once;
-/// - the index buffer is stored once.
+/// - the index buffer is stored once, and the base positions.
 ///
 /// No normals are written: importers keep custom normals fixed while shape keys move the
 /// vertices (wrong shading on every frame but the first), whereas without normals they are
-/// recomputed from each frame's geometry. Set the importing scene's frame rate to `fps` so keys
-/// fall on whole frames. The weights output grows as frames² (4 bytes each; 1000 frames ≈ 4 MB).
+/// recomputed from each frame's geometry. Set the importing scene's frame rate to the shot's so
+/// keys fall on whole frames. The weights output grows as frames² (4 bytes each; 1000 frames ≈
+/// 4 MB).
 pub fn write_animated_glb(
     path: &Path,
     name: &str,
     triangles: &[[u32; 3]],
-    frames: &[Vec<DVec3>],
-    fps: f64,
+    base: &[DVec3],
+    frames: &[MorphFrame],
+    keys: MorphKeys,
 ) -> Result<(), IoError> {
     let binary = is_glb(path)?;
-    let Some(first) = frames.first() else {
+    if frames.is_empty() {
         return Err(IoError::invalid_input(path, "no frame to write"));
-    };
-    if !(fps.is_finite() && fps > 0.0) {
-        return Err(IoError::invalid_input(path, format!("frame rate {fps} must be a positive number")));
     }
-    TriMesh::new(first.clone(), triangles.to_vec()).map_err(|e| IoError::mesh(path, e))?;
-    for (k, frame) in frames.iter().enumerate() {
-        if frame.len() != first.len() {
-            return Err(IoError::invalid_input(
-                path,
-                format!("frame {k} has {} vertices but frame 0 has {}", frame.len(), first.len()),
-            ));
-        }
+    TriMesh::new(base.to_vec(), triangles.to_vec()).map_err(|e| IoError::mesh(path, e))?;
+    if let Some(k) = frames.iter().position(|f| f.displacement.count != base.len()) {
+        return Err(IoError::invalid_input(
+            path,
+            format!("frame {k} displaces {} vertices but the mesh has {}", frames[k].displacement.count, base.len()),
+        ));
     }
+    let times = keys.times(frames).map_err(|m| IoError::invalid_input(path, m))?;
     let mut builder = Builder::default();
-    let base = to_f32(path, first, "frame 0")?;
+    let base = to_f32(path, base, "the base mesh's")?;
     let position = builder.vec3(&base, Some(ARRAY_BUFFER));
     let indices = builder.indices(triangles);
-    let mut targets = Vec::new();
-    let mut names = Vec::new();
-    for (k, frame) in frames.iter().enumerate().skip(1) {
-        // Differences in f64 first, then one rounding to f32: base + delta is then as close to
-        // the frame as f32 arithmetic allows.
-        if let Some(v) = frame.iter().position(|p| !p.is_finite()) {
-            return Err(IoError::invalid_input(path, format!("frame {k} vertex {v} has a non-finite coordinate")));
-        }
-        let deltas: Vec<DVec3> = frame.iter().zip(first).map(|(p, q)| *p - *q).collect();
-        let deltas = to_f32(path, &deltas, &format!("frame {k}"))?;
-        targets.push(json!({ "POSITION": builder.vec3(&deltas, None) }));
-        names.push(format!("frame_{k:04}"));
-    }
+    let targets: Vec<Value> = frames
+        .iter()
+        .map(|frame| {
+            let accessor = crate::morph::sparse_accessor(&frame.displacement, true, |bytes| builder.view(bytes, None));
+            builder.accessors.push(accessor);
+            json!({ "POSITION": builder.accessors.len() - 1 })
+        })
+        .collect();
+    let names: Vec<&str> = frames.iter().map(|f| f.name.as_str()).collect();
     let n_targets = targets.len();
-    let mut primitive = json!({ "attributes": { "POSITION": position }, "indices": indices, "mode": 4 });
-    let mut mesh = json!({ "name": name, "primitives": [] });
-    let mut extra = json!({ "scenes": [{ "nodes": [0] }], "nodes": [{ "name": name, "mesh": 0 }] });
-    if n_targets > 0 {
-        primitive["targets"] = json!(targets);
-        mesh["weights"] = json!(vec![0.0f32; n_targets]);
-        mesh["extras"] = json!({ "targetNames": names });
-        let times: Vec<f32> = (0..frames.len()).map(|k| (k as f64 / fps) as f32).collect();
-        let mut weights = vec![0.0f32; frames.len() * n_targets];
-        for k in 1..frames.len() {
-            weights[k * n_targets + (k - 1)] = 1.0;
+    let primitive =
+        json!({ "attributes": { "POSITION": position }, "indices": indices, "mode": 4, "targets": targets });
+    let mesh = json!({
+        "name": name,
+        "primitives": [primitive],
+        "weights": vec![0.0f32; n_targets],
+        "extras": { "targetNames": names },
+    });
+    let key_times: Vec<f32> = times.iter().map(|&t| t as f32).collect();
+    let mut weights = vec![0.0f32; times.len() * n_targets];
+    for (k, on) in keys.frame_on(n_targets).into_iter().enumerate() {
+        if let Some(frame) = on {
+            weights[k * n_targets + frame] = 1.0;
         }
-        let input = builder.scalars(&times, true);
-        let output = builder.scalars(&weights, false);
-        extra["animations"] = json!([{
+    }
+    let input = builder.scalars(&key_times, true);
+    let output = builder.scalars(&weights, false);
+    let extra = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "name": name, "mesh": 0 }],
+        "meshes": [mesh],
+        "animations": [{
             "name": name,
             "samplers": [{ "input": input, "output": output, "interpolation": "STEP" }],
             "channels": [{ "sampler": 0, "target": { "node": 0, "path": "weights" } }],
-        }]);
-    }
-    mesh["primitives"] = json!([primitive]);
-    extra["meshes"] = json!([mesh]);
+        }],
+    });
     finish(path, builder, extra, binary)
+}
+
+/// A file [`write_animated_glb`] wrote, read back: the base positions, the triangles, and each
+/// frame's target name and displacement, as written (bit for bit), so that the parts of a split
+/// shot merge into what one run writes.
+pub fn read_animated_glb(path: &Path) -> Result<AnimatedMesh, IoError> {
+    let scene = read_gltf(path, &GltfReadOptions::default())?;
+    let [mesh] = scene.meshes.as_slice() else {
+        return Err(IoError::invalid_input(
+            path,
+            format!("{} meshes: a shot's file of positions over time holds one", scene.meshes.len()),
+        ));
+    };
+    let frames = mesh
+        .morph_targets
+        .iter()
+        .enumerate()
+        .map(|(k, target)| {
+            let name = mesh.target_names.get(k).cloned().unwrap_or_default();
+            let displacement = SparseDisplacement::from_dense(target)
+                .map_err(|v| IoError::invalid_input(path, format!("target {name}: vertex {v} is not finite")))?;
+            Ok((name, displacement))
+        })
+        .collect::<Result<_, IoError>>()?;
+    Ok(AnimatedMesh { base: mesh.positions.clone(), triangles: mesh.triangles.clone(), frames })
+}
+
+/// What [`read_animated_glb`] reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimatedMesh {
+    pub base: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per target: its name and displacement.
+    pub frames: Vec<(String, SparseDisplacement)>,
 }
 
 fn is_glb(path: &Path) -> Result<bool, IoError> {

@@ -23,11 +23,14 @@ mod gltf_binary;
 mod gltf_document;
 mod gltf_read;
 mod gltf_scene;
+mod gltf_texture;
 mod gltf_write;
+mod morph;
 mod obj;
 mod pc2;
 mod ply;
 pub mod scene;
+mod uvs;
 mod weld;
 
 use std::path::Path;
@@ -42,14 +45,19 @@ pub use gltf_read::{GltfReadOptions, read_gltf};
 pub use gltf_scene::{
     GltfAnimation, GltfMesh, GltfNode, GltfScene, GltfSkin, InstancePose, MeshInstance, MorphWeightsTrack,
 };
-pub use gltf_write::{GltfWriteOptions, NamedMesh, write_animated_glb, write_gltf, write_gltf_meshes};
-pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj};
+pub use gltf_texture::{GltfImage, base_color_image};
+pub use gltf_write::{
+    AnimatedMesh, GltfWriteOptions, NamedMesh, read_animated_glb, write_animated_glb, write_gltf, write_gltf_meshes,
+};
+pub use morph::{MorphFrame, MorphKeys, SparseDisplacement};
+pub use obj::{ObjAttributeCounts, ObjDocument, parse_obj, read_obj, write_obj, write_obj_with};
 pub use pc2::{PointCache, read_pc2, write_pc2};
 pub use ply::{
     PlyColumn, PlyData, PlyDocument, PlyElement, PlyFormat, PlyProperty, PlyWriteOptions, ScalarType, VertexProperty,
     read_ply, read_ply_data, write_ply, write_ply_with, write_point_cloud_ply,
 };
 pub use scene::{Scene, SceneDescription, parse_frame_selection};
+pub use uvs::{document_uvs, welded_uvs};
 pub use weld::{WeldMode, Welded, weld_positions};
 
 /// The mesh formats, recognized by extension (case-insensitive).
@@ -162,8 +170,9 @@ impl MeshDocument {
     }
 
     /// Writes `positions` (one per vertex of [`Self::mesh`]) to `path`, atomically: into a copy
-    /// of the document when [`Self::passes_through_to`] holds, else as a plain mesh of the
-    /// output's format (positions and faces).
+    /// of the document when [`Self::passes_through_to`] holds, else as a mesh of the output's
+    /// format: positions and faces, and for a glTF document its first UV set and normals
+    /// ([`GltfDocument::write_converted`]).
     pub fn write_with_positions(&self, path: &Path, positions: &[DVec3]) -> Result<(), IoError> {
         if self.passes_through_to(path) {
             return match self {
@@ -174,6 +183,10 @@ impl MeshDocument {
                 Self::Ply(d) => d.write_with_positions(path, positions),
                 Self::Gltf(d) => d.write_with_positions(path, positions),
             };
+        }
+        if let Self::Gltf(d) = self {
+            // UVs and normals, which OBJ and PLY hold too.
+            return d.write_converted(path, None, positions);
         }
         let mesh = self.mesh()?;
         if positions.len() != mesh.num_vertices() {

@@ -564,17 +564,53 @@ impl<'a> LogicalLines<'a> {
 
 /// Writes a mesh as OBJ (`v` and `f` lines, 1-based indices), atomically.
 pub fn write_obj(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
-    mesh.check_structure().map_err(|e| IoError::mesh(path, e))?;
-    write_atomically(path, |w| write_obj_to(w, mesh))
+    write_obj_with(path, mesh, None, None)
 }
 
-fn write_obj_to(w: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> {
+/// Writes a mesh as OBJ, atomically, with one texture coordinate (`vt`, OBJ's convention: origin
+/// at the image's bottom left) and one normal (`vn`) per vertex when given: faces are then
+/// `f v/vt/vn` with the vertex's own index three times.
+pub fn write_obj_with(
+    path: &Path,
+    mesh: &TriMesh,
+    texcoords: Option<&[[f64; 2]]>,
+    normals: Option<&[DVec3]>,
+) -> Result<(), IoError> {
+    mesh.check_structure().map_err(|e| IoError::mesh(path, e))?;
+    let n = mesh.num_vertices();
+    if texcoords.is_some_and(|t| t.len() != n) || normals.is_some_and(|v| v.len() != n) {
+        return Err(IoError::invalid_input(path, format!("texture coordinates or normals not one per vertex ({n})")));
+    }
+    write_atomically(path, |w| write_obj_to(w, mesh, texcoords, normals))
+}
+
+fn write_obj_to(
+    w: &mut dyn Write,
+    mesh: &TriMesh,
+    texcoords: Option<&[[f64; 2]]>,
+    normals: Option<&[DVec3]>,
+) -> std::io::Result<()> {
     writeln!(w, "# Squish: {} vertices, {} triangles", mesh.num_vertices(), mesh.num_triangles())?;
     for p in &mesh.positions {
         writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
     }
+    for [u, v] in texcoords.unwrap_or_default() {
+        writeln!(w, "vt {u} {v}")?;
+    }
+    for n in normals.unwrap_or_default() {
+        writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+    }
+    let corner = |v: u32| {
+        let k = v as u64 + 1;
+        match (texcoords.is_some(), normals.is_some()) {
+            (false, false) => format!("{k}"),
+            (true, false) => format!("{k}/{k}"),
+            (false, true) => format!("{k}//{k}"),
+            (true, true) => format!("{k}/{k}/{k}"),
+        }
+    };
     for [a, b, c] in &mesh.triangles {
-        writeln!(w, "f {} {} {}", *a as u64 + 1, *b as u64 + 1, *c as u64 + 1)?;
+        writeln!(w, "f {} {} {}", corner(*a), corner(*b), corner(*c))?;
     }
     Ok(())
 }

@@ -68,16 +68,33 @@ fn bending_frames(n: usize) -> (TriMesh, Vec<Vec<DVec3>>) {
     (mesh, frames)
 }
 
+/// Frames of the mesh as displacements from its base positions, keyed at `k / fps`.
+fn morph_frames(base: &[DVec3], frames: &[Vec<DVec3>], fps: f64) -> Vec<MorphFrame> {
+    frames
+        .iter()
+        .enumerate()
+        .map(|(k, frame)| {
+            let delta: Vec<DVec3> = frame.iter().zip(base).map(|(p, q)| *p - *q).collect();
+            MorphFrame {
+                name: format!("frame_{k:04}"),
+                time: k as f64 / fps,
+                displacement: SparseDisplacement::from_dense(&delta).unwrap(),
+            }
+        })
+        .collect()
+}
+
 #[test]
 fn animated_glb_reproduces_every_frame() {
     let dir = tempfile::tempdir().unwrap();
     let (mesh, frames) = bending_frames(7);
     let fps = 24.0;
     let path = dir.path().join("anim.glb");
-    write_animated_glb(&path, "bend", &mesh.triangles, &frames, fps).unwrap();
+    let morphs = morph_frames(&mesh.positions, &frames, fps);
+    write_animated_glb(&path, "bend", &mesh.triangles, &mesh.positions, &morphs, MorphKeys::default()).unwrap();
     let scene = read_gltf(&path, &GltfReadOptions::default()).unwrap();
-    assert_eq!(scene.meshes[0].morph_targets.len(), 6);
-    assert_eq!(scene.meshes[0].target_names[0], "frame_0001");
+    assert_eq!(scene.meshes[0].morph_targets.len(), 7);
+    assert_eq!(scene.meshes[0].target_names[1], "frame_0001");
     assert_eq!(scene.animations.len(), 1);
     let anim = &scene.animations[0];
     assert!((anim.duration() - 6.0 / fps).abs() < 1e-6);
@@ -90,33 +107,78 @@ fn animated_glb_reproduces_every_frame() {
             assert!((*a - *b).length() < 1e-6, "frame {k}: {a} vs {b}");
         }
     }
-    // The rest pose (no animation) is frame 0.
+    // The rest pose (no animation) is the base mesh.
     let rest = scene.posed_mesh(0, None, 0.0).unwrap();
-    assert_eq!(rest.positions, f32_rounded(&frames[0]));
+    assert_eq!(rest.positions, f32_rounded(&mesh.positions));
     let json = json_of(&path);
     assert_eq!(json["animations"][0]["samplers"][0]["interpolation"], "STEP");
     assert_eq!(json["animations"][0]["channels"][0]["target"]["path"], "weights");
-    assert!(json["accessors"][json["meshes"][0]["primitives"][0]["targets"][0]["POSITION"].as_u64().unwrap() as usize]["min"].is_array());
+    let target = |k: usize| {
+        let accessor = json["meshes"][0]["primitives"][0]["targets"][k]["POSITION"].as_u64().unwrap() as usize;
+        json["accessors"][accessor].clone()
+    };
+    // Frame 0 does not bend: a target of one zero entry. The others store only the bending half,
+    // as sparse accessors, with bounds.
+    assert_eq!(
+        (&target(0)["sparse"]["count"], &target(0)["max"]),
+        (&serde_json::json!(1), &serde_json::json!([0.0, 0.0, 0.0]))
+    );
+    assert!(morphs[0].displacement.is_empty());
+    let moving = morphs[3].displacement.indices.len();
+    assert!(moving > 0 && moving < mesh.positions.len() * 2 / 3, "{moving} of {}", mesh.positions.len());
+    assert_eq!(target(3)["sparse"]["count"], moving);
+    assert!(target(3)["min"].is_array() && target(3).get("bufferView").is_none());
+    // Read back, every frame's displacement is the one written, bit for bit.
+    let back = read_animated_glb(&path).unwrap();
+    assert_eq!(back.triangles, mesh.triangles);
+    assert_eq!(back.base, f32_rounded(&mesh.positions));
+    for (written, (name, read)) in morphs.iter().zip(&back.frames) {
+        assert_eq!((&written.name, &written.displacement), (name, read));
+    }
 
-    // A single frame is a static mesh.
-    write_animated_glb(&path, "still", &mesh.triangles, &frames[..1], fps).unwrap();
+    // A part: every target off before its first frame and after its last.
+    let keys = MorphKeys { off_before: Some(1.0 / fps), off_after: Some(6.0 / fps) };
+    write_animated_glb(&path, "part", &mesh.triangles, &mesh.positions, &morphs[2..6], keys).unwrap();
     let scene = read_gltf(&path, &GltfReadOptions::default()).unwrap();
-    assert!(scene.animations.is_empty() && scene.meshes[0].morph_targets.is_empty());
+    for (time, expected) in [
+        (0.0, &mesh.positions),
+        (1.5 / fps, &mesh.positions),
+        (4.5 / fps, &frames[4]),
+        (6.5 / fps, &mesh.positions),
+        (9.0 / fps, &mesh.positions),
+    ] {
+        let posed = scene.posed_mesh(0, Some(0), time).unwrap();
+        for (a, b) in posed.positions.iter().zip(expected) {
+            assert!((*a - *b).length() < 1e-6, "time {time}: {a} vs {b}");
+        }
+    }
 
     // Bad input leaves the previous file.
     let before = std::fs::read(&path).unwrap();
-    let mut bad = frames.clone();
-    bad[3].pop();
-    let e = write_animated_glb(&path, "bad", &mesh.triangles, &bad, fps).unwrap_err();
+    let mut bad = morphs.clone();
+    bad[3].displacement.count -= 1;
+    let e = write_animated_glb(&path, "bad", &mesh.triangles, &mesh.positions, &bad, MorphKeys::default()).unwrap_err();
     assert!(e.to_string().contains("frame 3"), "{e}");
-    bad = frames.clone();
-    bad[2][5].x = f64::INFINITY;
-    assert!(write_animated_glb(&path, "bad", &mesh.triangles, &bad, fps).is_err());
-    assert!(write_animated_glb(&path, "bad", &mesh.triangles, &frames, 0.0).is_err());
-    assert!(write_animated_glb(&dir.path().join("a.txt"), "bad", &mesh.triangles, &frames, fps).is_err());
+    let mut far = mesh.positions.clone();
+    far[5].x = f64::INFINITY;
+    assert!(write_animated_glb(&path, "bad", &mesh.triangles, &far, &morphs, MorphKeys::default()).is_err());
+    let late = MorphKeys { off_before: Some(1.0), off_after: None };
+    let e = write_animated_glb(&path, "bad", &mesh.triangles, &mesh.positions, &morphs, late).unwrap_err();
+    assert!(e.to_string().contains("increasing"), "{e}");
+    assert!(
+        write_animated_glb(
+            &dir.path().join("a.txt"),
+            "bad",
+            &mesh.triangles,
+            &mesh.positions,
+            &morphs,
+            MorphKeys::default()
+        )
+        .is_err()
+    );
     assert_eq!(std::fs::read(&path).unwrap(), before);
     // The same animation as a .gltf JSON file.
     let json = dir.path().join("a.gltf");
-    write_animated_glb(&json, "json", &mesh.triangles, &frames, fps).unwrap();
-    assert_eq!(read_gltf(&json, &GltfReadOptions::default()).unwrap().meshes[0].morph_targets.len(), frames.len() - 1);
+    write_animated_glb(&json, "json", &mesh.triangles, &mesh.positions, &morphs, MorphKeys::default()).unwrap();
+    assert_eq!(read_animated_glb(&json).unwrap().frames, back.frames);
 }

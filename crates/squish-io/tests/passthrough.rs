@@ -373,6 +373,60 @@ fn textured_cylinder() -> Fixture {
     f
 }
 
+/// A glTF asset written as OBJ or PLY carries what those formats hold of it: its first UV set
+/// (in their convention, v = 1 − glTF's v) and normals recomputed for the new positions.
+#[test]
+fn gltf_written_as_obj_or_ply_keeps_its_uvs_and_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = textured_cylinder().write_glb(dir.path(), "cylinder");
+    let document = MeshDocument::read(&input).unwrap();
+    let rest = document.mesh().unwrap();
+    let moved = deform(&rest.positions);
+    let n = rest.num_vertices();
+    // The fixture's UVs, as f32 in the file.
+    let uv = |v: usize| [(v as f64 / n as f64) as f32 as f64, 1.0 - ((v % 7) as f64 / 7.0) as f32 as f64];
+    // Unit normals, which on the rings between the rims (9 rings of 12) point away from the
+    // cylinder's axis (x); the rims' lean over the caps.
+    let radial = |v: usize, normal: DVec3| {
+        let p = moved[v];
+        let away = DVec3::new(0.0, p.y, p.z).normalize_or_zero();
+        (normal.length() - 1.0).abs() < 1e-6 && (!(12..8 * 12).contains(&v) || normal.dot(away) > 0.8)
+    };
+
+    let obj = dir.path().join("cylinder.obj");
+    document.write_with_positions(&obj, &moved).unwrap();
+    let back = ObjDocument::read(&obj).unwrap();
+    assert_eq!(back.mesh().positions, moved);
+    assert_eq!(back.mesh().triangles, rest.triangles);
+    let (texcoords, corners) = back.texcoords();
+    assert_eq!(texcoords.len(), n);
+    for (v, t) in texcoords.iter().enumerate() {
+        assert_eq!(*t, uv(v), "vt of vertex {v}");
+    }
+    for (face, vt) in back.faces().iter().zip(corners) {
+        for ((vertex, vn), t) in face.iter().zip(vt) {
+            assert_eq!((Some(*vertex), *vn), (*t, Some(*vertex)), "corners name the vertex's own vt and vn");
+        }
+    }
+    assert_eq!(back.normals().len(), n);
+    for (v, normal) in back.normals().iter().enumerate() {
+        assert!(radial(v, *normal), "vertex {v} at {}: normal {normal}", moved[v]);
+    }
+
+    let ply = dir.path().join("cylinder.ply");
+    document.write_with_positions(&ply, &moved).unwrap();
+    let data = read_ply_data(&ply).unwrap();
+    assert_eq!((data.positions.as_slice(), data.triangles.as_slice()), (moved.as_slice(), rest.triangles.as_slice()));
+    let column = |name: &str| data.property(name).unwrap_or_else(|| panic!("no {name}")).values.clone();
+    let (u, v) = (column("u"), column("v"));
+    for k in 0..n {
+        assert!((u[k] - uv(k)[0]).abs() < 1e-7 && (v[k] - uv(k)[1]).abs() < 1e-7, "u, v of vertex {k}");
+        let normal = DVec3::new(column("nx")[k], column("ny")[k], column("nz")[k]);
+        // Stored as f32.
+        assert!(radial(k, normal.normalize()) && (normal.length() - 1.0).abs() < 1e-6, "vertex {k}: normal {normal}");
+    }
+}
+
 #[test]
 fn gltf_keeps_the_document_procedural() {
     let dir = tempfile::tempdir().unwrap();
@@ -528,17 +582,28 @@ fn shared_characters_keep_their_documents() {
 }
 
 /// The deformation of a shot as morph targets: re-posing the output with its animation at each
-/// frame's time gives back the deformed posed positions.
+/// frame's time gives back the deformed posed positions; the frames read back from the file are
+/// the ones written, bit for bit.
 fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) {
     let doc = GltfDocument::read(input).unwrap();
     let scene = doc.scene();
     let node = scene.instances()[0].node;
     let frames: Vec<Vec<DVec3>> =
         times.iter().map(|&t| deform(&scene.posed_mesh(node, animation, t).unwrap().positions)).collect();
-    let names: Vec<String> = (0..times.len()).map(|k| format!("frame_{k:04}")).collect();
+    let morphs: Vec<MorphFrame> = times
+        .iter()
+        .zip(&frames)
+        .enumerate()
+        .map(|(k, (&time, posed))| MorphFrame {
+            name: format!("frame_{k:04}"),
+            time,
+            displacement: doc.morph_displacement(node, animation, time, posed, &vec![true; posed.len()]).unwrap(),
+        })
+        .collect();
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("animated.glb");
-    doc.write_animated(&output, &MorphAnimation { node, animation, times, frames: &frames, names: &names }).unwrap();
+    doc.write_animated(&output, &MorphAnimation { node, animation, frames: &morphs, keys: MorphKeys::default() })
+        .unwrap();
     let _ = open_with_gltf_crate(&output);
     let back = GltfDocument::read(&output).unwrap();
     let back_scene = back.scene();
@@ -553,6 +618,11 @@ fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) 
     }
     let scale = squish::mesh::bounding_box(&doc.mesh().unwrap()).diagonal();
     assert!(worst < 2e-6 * scale.max(1.0), "{}: re-posed within {worst} (scale {scale})", input.display());
+    let read: Vec<(String, SparseDisplacement)> = doc.shot_frames(&output, node).unwrap();
+    assert_eq!(read.len(), morphs.len());
+    for (m, (name, displacement)) in morphs.iter().zip(&read) {
+        assert_eq!((&m.name, &m.displacement), (name, displacement));
+    }
     // Materials, skins and the original channels are still there.
     let (a, b) = (json_of(input), json_of(&output));
     for key in ["skins", "materials", "textures", "images", "scenes"] {
@@ -563,6 +633,41 @@ fn check_morph_animation(input: &Path, animation: Option<usize>, times: &[f64]) 
         assert_eq!(ca.as_array().unwrap()[..], cb.as_array().unwrap()[..ca.as_array().unwrap().len()]);
     }
     assert_eq!(primitive_data(input).len(), primitive_data(&output).len());
+}
+
+/// Vertices that do not move get no displacement, and their normals none: the targets hold only
+/// the vertices around the deformation, as sparse accessors.
+#[test]
+fn morph_targets_store_only_what_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = textured_cylinder().write_glb(dir.path(), "cylinder");
+    let doc = GltfDocument::read(&input).unwrap();
+    let scene = doc.scene();
+    let node = scene.instances()[0].node;
+    let posed = scene.posed_mesh(node, Some(0), 0.5).unwrap().positions;
+    // A dent in a few vertices.
+    let moved: Vec<bool> = (0..posed.len()).map(|v| v % 17 == 3).collect();
+    let dented: Vec<DVec3> =
+        posed.iter().zip(&moved).map(|(p, &m)| if m { *p + DVec3::new(0.0, 0.0, 0.01) } else { *p }).collect();
+    let displacement = doc.morph_displacement(node, Some(0), 0.5, &dented, &moved).unwrap();
+    let count = moved.iter().filter(|&&m| m).count();
+    assert_eq!(displacement.indices.len(), count);
+    let frame = MorphFrame { name: "dent".into(), time: 0.5, displacement };
+    let output = dir.path().join("dented.glb");
+    doc.write_animated(
+        &output,
+        &MorphAnimation { node, animation: Some(0), frames: &[frame], keys: MorphKeys::default() },
+    )
+    .unwrap();
+    let json = json_of(&output);
+    let target = &json["meshes"][0]["primitives"][0]["targets"][0];
+    let position = &json["accessors"][target["POSITION"].as_u64().unwrap() as usize];
+    assert_eq!(position["sparse"]["count"], count);
+    assert!(position.get("bufferView").is_none());
+    let normal = &json["accessors"][target["NORMAL"].as_u64().unwrap() as usize];
+    let changed = normal["sparse"]["count"].as_u64().unwrap() as usize;
+    assert!(changed >= count && changed < posed.len() / 2, "{changed} normals change for {count} moved vertices");
+    assert!(std::fs::metadata(&output).unwrap().len() < std::fs::metadata(&input).unwrap().len() * 3 / 2);
 }
 
 #[test]
@@ -586,12 +691,17 @@ fn morph_animation_refuses_repeated_times() {
     let dir = tempfile::tempdir().unwrap();
     let input = textured_cylinder().write_glb(dir.path(), "cylinder");
     let doc = GltfDocument::read(&input).unwrap();
-    let frames = vec![doc.mesh().unwrap().positions; 2];
-    let names = vec!["a".to_string(), "b".to_string()];
+    let count = doc.mesh().unwrap().positions.len();
+    let frame = |name: &str| MorphFrame {
+        name: name.into(),
+        time: 0.5,
+        displacement: SparseDisplacement { count, ..Default::default() },
+    };
+    let frames = [frame("a"), frame("b")];
     let err = doc
         .write_animated(
             &dir.path().join("x.glb"),
-            &MorphAnimation { node: 0, animation: Some(0), times: &[0.5, 0.5], frames: &frames, names: &names },
+            &MorphAnimation { node: 0, animation: Some(0), frames: &frames, keys: MorphKeys::default() },
         )
         .unwrap_err()
         .to_string();

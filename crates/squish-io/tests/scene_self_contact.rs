@@ -370,3 +370,36 @@ fn auto_errors_name_the_key_and_the_fix() {
     let e = Scene::load(&path).err().unwrap().to_string();
     assert!(e.contains("skinned glTF"), "{e}");
 }
+
+/// `[objects.articulations."parent / child"]` sets the parameters of one automatic articulation
+/// (constant or keyed), the others keep the defaults; a name that is not one of them, a bad key
+/// and the table without `self_contact = "auto"` are errors naming them.
+#[test]
+fn auto_articulations_take_their_parameters_by_name() {
+    let shot = Shot::new();
+    let scene = shot.load("self_contact = \"auto\"", "").unwrap();
+    let names: Vec<String> =
+        scene.evaluate(1.0).unwrap().objects[0].params.self_contact.iter().map(|a| a.name.clone()).collect();
+    assert!(!names.is_empty());
+    let table = format!(
+        "[objects.articulations.\"{}\"]\nstiffness = [1, 4]\ncontact_tau = {{ keys = [[1, -1], [25, 0.5]] }}\n",
+        names[0]
+    );
+    let scene = shot.load("self_contact = \"auto\"", &table).unwrap();
+    let frame = scene.evaluate(25.0).unwrap();
+    let articulations = &frame.objects[0].params.self_contact;
+    assert_eq!((articulations[0].params.stiffness, articulations[0].params.contact_tau), ([1.0, 4.0], 0.5));
+    for other in &articulations[1..] {
+        assert_eq!(other.params, squish::params::ArticulationParams::default());
+    }
+    // Written back as it reads.
+    let json = scene.to_json().unwrap();
+    assert!(json.contains("articulations"), "{json}");
+
+    let e = shot.error("self_contact = \"auto\"", "[objects.articulations.\"elbo\"]\nstiffness = 2\n");
+    assert!(e.contains("\"elbo\"") && e.contains(&names[0]), "{e}");
+    let e = shot.error("self_contact = \"auto\"", &format!("[objects.articulations.\"{}\"]\nstifness = 2\n", names[0]));
+    assert!(e.contains("stifness") && e.contains("stiffness"), "{e}");
+    let e = shot.error("", "[objects.articulations.\"a / b\"]\nstiffness = 2\n");
+    assert!(e.contains("self_contact = \"auto\""), "{e}");
+}

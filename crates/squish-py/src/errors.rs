@@ -1,10 +1,12 @@
 //! Rust errors as the package's Python exceptions (declared in `python/squish/_errors.py`, so
 //! that they share the base `squish.SquishError` and are also `ValueError`s), and JSON reports as
-//! Python objects.
+//! Python objects. The shot machinery's errors ([`ShotError`], data) are worded here, once, in
+//! Python's terms ([`PythonWords`]: `frames=range(3, 5)`, `threads=0`, `output=`,
+//! `pair_direction=(0, 0, 1)`), and given their exception class by their kind.
 
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
-use squish_cli::error::CliError;
+use squish_shot::error::{ErrorKind, SettingValue, ShotError, Wording};
 
 pyo3::import_exception!(squish._errors, SquishError);
 pyo3::import_exception!(squish._errors, ParameterError);
@@ -21,13 +23,57 @@ pub fn input_error(message: impl ToString) -> PyErr {
     InputError::new_err(message.to_string())
 }
 
-/// An error of the command line's machinery, by its exit code: bad input (2) is `InputError`,
-/// a stop (130) `KeyboardInterrupt`, anything else `SquishError`.
-pub fn cli_error(error: CliError) -> PyErr {
-    match error.exit_code() {
-        2 => InputError::new_err(error.to_string()),
-        130 => PyKeyboardInterrupt::new_err(error.to_string()),
-        _ => SquishError::new_err(error.to_string()),
+/// Python's names for the settings a message tells the user to change: the keyword arguments
+/// of `Scene.run`, `Frame.deform` and the two-mesh calls.
+pub struct PythonWords;
+
+impl Wording for PythonWords {
+    fn frames_option(&self) -> &'static str {
+        "the frames= argument"
+    }
+    fn frames_given(&self, text: &str) -> String {
+        // `Scene.run` reads a range, a list or a frame as the text `A:B` (inclusive): show the range.
+        let pair = text
+            .split_once(':')
+            .and_then(|(a, b)| Some((a.trim().parse::<i64>().ok()?, b.trim().parse::<i64>().ok()?)));
+        match pair {
+            Some((a, b)) => format!("frames=range({a}, {})", b + 1),
+            None => format!("frames={text:?}"),
+        }
+    }
+    fn frames(&self, first: i64, last: i64) -> String {
+        format!("frames=range({first}, {})", last + 1)
+    }
+    fn threads(&self, n: usize) -> String {
+        format!("threads={n}")
+    }
+    fn output(&self) -> &'static str {
+        "output="
+    }
+    fn place(&self) -> &'static str {
+        "in Python"
+    }
+    fn parameter(&self, prefix: &str, key: &str, value: SettingValue) -> String {
+        let value = match value {
+            SettingValue::Vector([x, y, z]) => format!("({x:?}, {y:?}, {z:?})"),
+            SettingValue::Word(word) => format!("\"{word}\""),
+            SettingValue::Bool(true) => "True".to_string(),
+            SettingValue::Bool(false) => "False".to_string(),
+        };
+        format!("{prefix}_{key}={value}")
+    }
+}
+
+/// An error of the shot machinery, by its kind: bad input is `InputError`, a parameter
+/// `ParameterError`, a stop `KeyboardInterrupt`, anything else `SquishError`; the message in
+/// Python's words.
+pub fn shot_error(error: ShotError) -> PyErr {
+    let message = error.message(&PythonWords);
+    match error.kind() {
+        ErrorKind::Input => InputError::new_err(message),
+        ErrorKind::Parameter => ParameterError::new_err(message),
+        ErrorKind::Interrupted => PyKeyboardInterrupt::new_err(message),
+        ErrorKind::Failure => SquishError::new_err(message),
     }
 }
 

@@ -1,8 +1,8 @@
 //! One frame: `squish.deform` and `squish.contact` (two meshes, as `squish deform` and `squish
 //! contact`), and `squish.Frame` (any number of objects, pairs and self-contact articulations).
 //!
-//! The two-mesh calls build their frame with the command line's own functions
-//! ([`squish_cli::cmd_deform::deform_pair`], [`squish_cli::cmd_contact::define_contact`]), so the
+//! The two-mesh calls build their frame with the functions `squish deform` and `squish contact` use
+//! ([`squish_shot::two_objects::deform_pair`], [`squish_shot::two_objects::define_contact`]), so the
 //! results are those of the command on the same meshes and parameters, bit for bit, and the
 //! report dicts hold the figures of its report files. `Frame.deform` reports the figures of a
 //! `report.json` frame entry. The GIL is released while computing.
@@ -12,16 +12,17 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use squish::params::Articulation;
-use squish::params::{ArticulationParams, ObjectParams, PairParams, Params};
+use squish::params::{ArticulationParams, MappingMethod, ObjectParams, PairParams, Params};
 use squish::pipeline::{Deformer, FramePair};
 use squish::pipeline::{OwnedFrame, OwnedObject};
-use squish_cli::params::PairSettings;
-use squish_cli::quality::FrameEntry;
-use squish_cli::shot::{frame_record, worker_pool};
+use squish_shot::quality::FrameEntry;
+use squish_shot::shot::{frame_record, worker_pool};
+use squish_shot::two_objects::PairParameters as PairSettings;
 
-use crate::errors::{cli_error, input_error, parameter_error, pipeline_error, to_python};
-use crate::mesh::{Mesh, positions_array, vertices_from};
-use crate::params::{apply, check_per_vertex, from_python};
+use crate::errors::{input_error, parameter_error, pipeline_error, shot_error, to_python};
+use crate::mesh::{Mesh, mesh_from, positions_array, vertices_from};
+use crate::params::{apply, check_per_vertex, from_python, refuse_twice};
+use crate::skin::{Skin, matrices_from};
 
 /// The settings of a two-mesh call: `a_params`, `b_params`, `pair` and keyword arguments
 /// `a_KEY`, `b_KEY`, `pair_KEY`, checked for the two meshes.
@@ -40,6 +41,17 @@ fn pair_settings(
     }
     if let Some(dict) = pair {
         apply(&mut settings.pair, "pair", dict)?;
+    }
+    // A key in a dict and as a keyword argument: refused (which one was meant is a guess).
+    let keywords: Vec<(String, Bound<'_, PyAny>)> =
+        kwargs.into_iter().flat_map(|k| k.iter()).filter_map(|(k, v)| Some((k.extract::<String>().ok()?, v))).collect();
+    for (prefix, dict, dict_name) in [("a", a_params, "a_params"), ("b", b_params, "b_params"), ("pair", pair, "pair")]
+    {
+        let mine: Vec<(String, Bound<'_, PyAny>)> = keywords
+            .iter()
+            .filter_map(|(k, v)| Some((k.strip_prefix(&format!("{prefix}_"))?.to_string(), v.clone())))
+            .collect();
+        refuse_twice(prefix, dict, dict_name, &mine, |key| format!("{prefix}_{key}"))?;
     }
     if let Some(kwargs) = kwargs {
         for (name, value) in kwargs.iter() {
@@ -69,7 +81,24 @@ fn pair_settings(
     settings.pair.validate().map_err(|e| parameter_error(e.with_prefix("pair")))?;
     check_per_vertex(&settings.a, "a", meshes[0].mesh.num_vertices())?;
     check_per_vertex(&settings.b, "b", meshes[1].mesh.num_vertices())?;
+    if settings.pair.mapping == MappingMethod::SharedParametrization {
+        for (prefix, mesh) in [("a", meshes[0]), ("b", meshes[1])] {
+            let uvs = Some(mesh_uvs(mesh, prefix)?);
+            if prefix == "a" { settings.a.uvs = uvs } else { settings.b.uvs = uvs }
+        }
+    }
     Ok(settings)
+}
+
+/// The UVs the shared-parametrization mapping needs of `mesh` (named `name`), or the fix.
+fn mesh_uvs(mesh: &Mesh, name: &str) -> PyResult<squish::params::Uvs> {
+    mesh.uvs.clone().ok_or_else(|| {
+        parameter_error(squish::ParamError::new(
+            &format!("{name}.uvs"),
+            None,
+            "mapping = \"shared_parametrization\" matches the meshes in UV space (thesis §4.2.1), but this mesh has none; read it from a file with UVs, give squish.Mesh(vertices, faces, uvs=...), or use mapping = \"unique_direction\"",
+        ))
+    })
 }
 
 /// Deforms two intersecting meshes into clean contact (one frame); see the package docs for the
@@ -78,17 +107,20 @@ fn pair_settings(
 #[pyo3(signature = (a, b, a_params=None, b_params=None, pair=None, **params))]
 pub fn deform<'py>(
     py: Python<'py>,
-    a: &Mesh,
-    b: &Mesh,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
     a_params: Option<&Bound<'py, PyDict>>,
     b_params: Option<&Bound<'py, PyDict>>,
     pair: Option<&Bound<'py, PyDict>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyTuple>, Bound<'py, PyAny>)> {
+    let (a, b) = (&mesh_from(a, "a")?, &mesh_from(b, "b")?);
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let (result, figures) = py
-        .detach(|| squish_cli::cmd_deform::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new()))
-        .map_err(cli_error)?;
+        .detach(|| {
+            squish_shot::two_objects::deform_pair(["a", "b"], [&a.mesh, &b.mesh], &settings, &mut Deformer::new())
+        })
+        .map_err(shot_error)?;
     let vertices =
         PyTuple::new(py, [positions_array(py, &result.positions[0])?, positions_array(py, &result.positions[1])?])?;
     Ok((vertices, to_python(py, &figures)?))
@@ -101,17 +133,18 @@ pub fn deform<'py>(
 #[pyo3(signature = (a, b, a_params=None, b_params=None, pair=None, **params))]
 pub fn contact<'py>(
     py: Python<'py>,
-    a: &Mesh,
-    b: &Mesh,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
     a_params: Option<&Bound<'py, PyDict>>,
     b_params: Option<&Bound<'py, PyDict>>,
     pair: Option<&Bound<'py, PyDict>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (a, b) = (&mesh_from(a, "a")?, &mesh_from(b, "b")?);
     let settings = pair_settings([a, b], a_params, b_params, pair, params)?;
     let definition = py
-        .detach(|| squish_cli::cmd_contact::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None]))
-        .map_err(cli_error)?;
+        .detach(|| squish_shot::two_objects::define_contact(["a", "b"], [&a.mesh, &b.mesh], &settings, [None, None]))
+        .map_err(shot_error)?;
     let report = to_python(py, &definition.figures)?;
     let labels = definition.labels.map(|l| PyArray1::from_vec(py, l));
     report.set_item("labels", PyTuple::new(py, labels)?)?;
@@ -145,6 +178,15 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The object (index or name) an articulation `name` belongs to, and the articulation's
+    /// prefix in messages (`object.name`).
+    fn articulation_owner(&mut self, object: &Bound<'_, PyAny>, name: &str) -> PyResult<(&mut OwnedObject, String)> {
+        let index = self.object_index(object)?;
+        let target = &mut self.frame.objects[index];
+        let prefix = format!("{}.{name}", target.name);
+        Ok((target, prefix))
+    }
+
     /// The index of an object given by index or name.
     fn object_index(&self, object: &Bound<'_, PyAny>) -> PyResult<usize> {
         if let Ok(i) = object.extract::<usize>() {
@@ -168,24 +210,120 @@ impl Frame {
         Self::default()
     }
 
-    /// Adds an object; returns its index. Parameters: a dict and/or keyword arguments (the
-    /// object parameters of `squish.params_schema()`).
-    #[pyo3(signature = (name, mesh, params=None, **kwargs))]
+    /// Adds an object; returns its index. `mesh`: a `squish.Mesh`, a `(vertices, faces)` pair or
+    /// an object with `vertices` and `faces` (its UVs, if any, serve the shared-parametrization
+    /// mapping). Parameters: a dict and/or keyword arguments (the object parameters of
+    /// `squish.params_schema()`). `self_contact="auto"` with `skin` (a `squish.Skin` of this
+    /// mesh) and `joint_matrices` (the joints' world matrices at this frame, `(J, 4, 4)`): the
+    /// articulations of its skeleton and the contacts between its parts, as a scene file's
+    /// `self_contact = "auto"` (parameters of one articulation: `set_articulation`).
+    #[pyo3(signature = (name, mesh, params=None, *, self_contact=None, skin=None, joint_matrices=None, **kwargs))]
+    #[allow(clippy::too_many_arguments)] // the Python signature
     fn add_object(
         &mut self,
         name: String,
-        mesh: &Mesh,
+        mesh: &Bound<'_, PyAny>,
         params: Option<&Bound<'_, PyDict>>,
+        self_contact: Option<&Bound<'_, PyAny>>,
+        skin: Option<&Skin>,
+        joint_matrices: Option<&Bound<'_, PyAny>>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<usize> {
         if self.frame.objects.iter().any(|o| o.name == name) {
             return Err(input_error(format!("an object is already named \"{name}\"; give each object its own name")));
         }
+        let mesh = mesh_from(mesh, &name)?;
         let prefix = name.clone();
-        let params: ObjectParams = from_python(&prefix, params, kwargs)?;
+        let mut params: ObjectParams = from_python(&prefix, params, kwargs)?;
         check_per_vertex(&params, &prefix, mesh.mesh.num_vertices())?;
-        self.frame.objects.push(OwnedObject { name, mesh: mesh.mesh.clone(), params });
+        params.uvs = mesh.uvs.clone();
+        let wrong = |message: String| {
+            parameter_error(squish::ParamError::new(&format!("{prefix}.self_contact"), None, message))
+        };
+        let auto = match self_contact {
+            None => false,
+            Some(value) => match value.extract::<String>().ok().as_deref() {
+                Some("auto") => true,
+                _ => {
+                    return Err(wrong(format!(
+                        "{}: give \"auto\" (with skin=squish.Skin(...) and joint_matrices=...), or add articulations one by one with add_articulation",
+                        value.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+                    )));
+                }
+            },
+        };
+        match (auto, skin) {
+            (true, Some(skin)) => {
+                if skin.rest.triangles != mesh.mesh.triangles || skin.rest.num_vertices() != mesh.mesh.num_vertices() {
+                    return Err(wrong(format!(
+                        "the skin's mesh has {} vertices and {} faces, this mesh {} and {}; give the Skin of this mesh (its bind pose)",
+                        skin.rest.num_vertices(),
+                        skin.rest.num_triangles(),
+                        mesh.mesh.num_vertices(),
+                        mesh.mesh.num_triangles()
+                    )));
+                }
+                let Some(matrices) = joint_matrices else {
+                    return Err(wrong(
+                        "needs joint_matrices: the joints' world matrices at this frame, (J, 4, 4), for the articulations' directions".into(),
+                    ));
+                };
+                let world = matrices_from(matrices, &format!("{prefix}: joint_matrices"), skin.joint_names.len())?;
+                params.self_contact.extend(skin.posed(&world)?);
+                params.self_contact_parts = Some(skin.parts.clone());
+                params.rest_positions = Some(skin.rest.positions.clone());
+            }
+            (true, None) => {
+                return Err(wrong("\"auto\" needs skin=squish.Skin(rest mesh, joints, weights, parents, bind_matrices): the parts and articulations come from the skeleton".into()));
+            }
+            (false, _) if joint_matrices.is_some() || skin.is_some() => {
+                return Err(wrong("skin and joint_matrices serve self_contact=\"auto\"; add it".into()));
+            }
+            (false, _) => {}
+        }
+        self.frame.objects.push(OwnedObject { name, mesh: mesh.mesh, params });
         Ok(self.frame.objects.len() - 1)
+    }
+
+    /// The names of an object's articulations (given with `add_articulation`, then those of
+    /// `self_contact="auto"`).
+    fn articulations(&self, object: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+        let index = self.object_index(object)?;
+        Ok(self.frame.objects[index].params.self_contact.iter().map(|a| a.name.clone()).collect())
+    }
+
+    /// Sets parameters of an object's articulation (by name; automatic ones included) over its
+    /// current ones: a dict and/or keyword arguments of the articulation parameters.
+    #[pyo3(signature = (object, name, params=None, **kwargs))]
+    fn set_articulation(
+        &mut self,
+        object: &Bound<'_, PyAny>,
+        name: &str,
+        params: Option<&Bound<'_, PyDict>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<()> {
+        let (target, prefix) = self.articulation_owner(object, name)?;
+        let names: Vec<String> = target.params.self_contact.iter().map(|a| format!("\"{}\"", a.name)).collect();
+        let Some(articulation) = target.params.self_contact.iter_mut().find(|a| a.name == name) else {
+            return Err(input_error(format!(
+                "{}: no articulation is named \"{name}\"; its articulations are {}",
+                target.name,
+                if names.is_empty() { "none".to_string() } else { names.join(", ") }
+            )));
+        };
+        let keywords: Vec<(String, Bound<'_, PyAny>)> = kwargs
+            .into_iter()
+            .flat_map(|k| k.iter())
+            .filter_map(|(k, v)| Some((k.extract::<String>().ok()?, v)))
+            .collect();
+        refuse_twice(&prefix, params, "params", &keywords, str::to_string)?;
+        let mut updated = articulation.params.clone();
+        for items in [params, kwargs].into_iter().flatten() {
+            apply(&mut updated, &prefix, items)?;
+        }
+        updated.validate().map_err(|e| parameter_error(e.with_prefix(&prefix)))?;
+        articulation.params = updated;
+        Ok(())
     }
 
     /// Adds a pair of objects (indices or names) that may be in contact; the mapping direction is
@@ -201,6 +339,18 @@ impl Frame {
         let objects = [self.object_index(a)?, self.object_index(b)?];
         let prefix = format!("{}/{}", self.frame.objects[objects[0]].name, self.frame.objects[objects[1]].name);
         let params: PairParams = from_python(&prefix, params, kwargs)?;
+        if params.mapping == MappingMethod::SharedParametrization
+            && let Some(&i) = objects.iter().find(|&&i| self.frame.objects[i].params.uvs.is_none())
+        {
+            return Err(parameter_error(squish::ParamError::new(
+                &format!("{prefix}.mapping"),
+                None,
+                format!(
+                    "\"shared_parametrization\" matches the meshes in UV space (thesis §4.2.1), but object \"{}\" has no UVs; add it with a mesh that has them (a file with UVs, or squish.Mesh(vertices, faces, uvs=...)) or use \"unique_direction\"",
+                    self.frame.objects[i].name
+                ),
+            )));
+        }
         self.frame.pairs.push(FramePair { objects, params });
         Ok(self.frame.pairs.len() - 1)
     }
@@ -220,9 +370,7 @@ impl Frame {
         params: Option<&Bound<'_, PyDict>>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<()> {
-        let index = self.object_index(object)?;
-        let target = &mut self.frame.objects[index];
-        let prefix = format!("{}.{name}", target.name);
+        let (target, prefix) = self.articulation_owner(object, &name)?;
         let params: ArticulationParams = from_python(&prefix, params, kwargs)?;
         let count = target.mesh.num_vertices();
         for region in [&regions.0, &regions.1] {
@@ -284,7 +432,8 @@ impl Frame {
 
     /// The mesh of an object (index or name).
     fn mesh(&self, object: &Bound<'_, PyAny>) -> PyResult<Mesh> {
-        Ok(Mesh { mesh: self.frame.objects[self.object_index(object)?].mesh.clone() })
+        let object = &self.frame.objects[self.object_index(object)?];
+        Ok(Mesh { mesh: object.mesh.clone(), uvs: object.params.uvs.clone() })
     }
 
     /// The parameters of an object (index or name), as a dict of the schema's keys.
@@ -298,7 +447,7 @@ impl Frame {
     /// every core).
     #[pyo3(signature = (threads=None))]
     fn deform<'py>(&self, py: Python<'py>, threads: Option<usize>) -> PyResult<FrameOutput<'py>> {
-        let pool = worker_pool(threads).map_err(cli_error)?;
+        let pool = worker_pool(threads).map_err(shot_error)?;
         let shot = &self.frame;
         let (result, record) = py
             .detach(|| {

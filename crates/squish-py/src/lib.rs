@@ -1,5 +1,5 @@
 //! The native part of the Python package `squish` (`squish._squish`), thin over the core library
-//! and the shot machinery the `squish` command shares (`squish_cli`'s library).
+//! and the shot machinery it shares with the `squish` command (`squish-shot`).
 //!
 //! # Contract
 //! - Meshes cross the boundary as NumPy arrays: float64 `(n, 3)` vertices and integer `(m, 3)`
@@ -10,7 +10,8 @@
 //!   names, ranges and messages are the command line's ([`params`]).
 //! - Errors are Python exceptions, never panics: `squish.ParameterError` (a `ValueError`) for a
 //!   parameter, `squish.InputError` (a `ValueError`) for a mesh or a file, `squish.SquishError`
-//!   for other failures; the message is the command line's one line ([`errors`]).
+//!   for other failures; the message is the command line's one line, with Python's names for
+//!   the settings it tells to change ([`errors`]).
 //! - The GIL is released while computing; `threads=` bounds every thread a call uses; a scene run
 //!   stopped by Ctrl-C finishes the frames in progress, writes its report, then raises
 //!   `KeyboardInterrupt` ([`scene`]).
@@ -20,6 +21,7 @@ mod frame;
 mod mesh;
 mod params;
 mod scene;
+mod skin;
 
 use pyo3::prelude::*;
 
@@ -27,7 +29,7 @@ use pyo3::prelude::*;
 /// `output`) as a list of dicts: the rows of `squish params --json`.
 #[pyfunction]
 fn params_schema(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    let text = squish_cli::cmd_params::schema_json().map_err(errors::cli_error)?;
+    let text = squish_shot::schema::schema_json().map_err(errors::shot_error)?;
     let schema = errors::json_to_python(py, &text)?;
     schema.get_item("parameters")
 }
@@ -49,6 +51,7 @@ fn _squish(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(frame::deform, m)?)?;
     m.add_function(wrap_pyfunction!(frame::contact, m)?)?;
     m.add_class::<frame::Frame>()?;
+    m.add_class::<skin::Skin>()?;
     m.add_class::<scene::Scene>()?;
     m.add_class::<scene::ShotResult>()?;
     m.add_function(wrap_pyfunction!(scene::merge_reports, m)?)?;

@@ -1,16 +1,21 @@
 //! `squish.Mesh`: a triangle mesh from NumPy arrays, and reading and writing mesh files.
 //!
 //! Vertices are float64 `(n, 3)` and faces integer `(m, 3)` (any integer dtype; counter-clockwise
-//! seen from outside). The arrays are copied once, into the library's mesh; other dtypes are
-//! converted by NumPy first. Results are new float64 arrays.
+//! seen from outside), and optionally UVs for the shared-parametrization mapping (thesis §4.2.1):
+//! `(n, 2)` per vertex or `(m, 3, 2)` per face corner (seams). The arrays are copied once, into
+//! the library's mesh; lists, tuples and other dtypes are converted by NumPy first. Results are
+//! new float64 arrays. Wherever a mesh goes, a `Mesh`, a `(vertices, faces)` pair or an object
+//! with `vertices` and `faces` attributes (a trimesh) is taken ([`mesh_from`]).
 
 use std::path::PathBuf;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use numpy::ndarray::ArrayView2;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 use squish::TriMesh;
+use squish::params::Uvs;
 
 use crate::errors::{input_error, io_error};
 
@@ -20,16 +25,35 @@ use crate::errors::{input_error, io_error};
 #[derive(Clone, Debug)]
 pub struct Mesh {
     pub mesh: TriMesh,
+    /// Its UVs, if it has any: per vertex, or per face corner.
+    pub uvs: Option<Uvs>,
 }
 
 #[pymethods]
 impl Mesh {
     #[new]
-    fn new(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>) -> PyResult<Self> {
+    #[pyo3(signature = (vertices, faces, uvs=None))]
+    fn new(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>, uvs: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
         let positions = vertices_from(vertices)?;
         let triangles = faces_from(faces, positions.len())?;
         let mesh = TriMesh::new(positions, triangles).map_err(input_error)?;
-        Ok(Self { mesh })
+        let uvs = uvs.map(|uvs| uvs_from(uvs, &mesh)).transpose()?;
+        Ok(Self { mesh, uvs })
+    }
+
+    /// The UVs (texture coordinates) the shared-parametrization mapping reads: a new float64
+    /// array `(n, 2)` (per vertex) or `(m, 3, 2)` (per face corner: a vertex on a seam has one UV
+    /// per chart), or `None`.
+    #[getter]
+    fn uvs<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(uvs) = &self.uvs else { return Ok(None) };
+        let (flat, shape): (Vec<f64>, Vec<usize>) = match uvs {
+            Uvs::PerVertex(values) => (values.iter().flat_map(|q| q.to_array()).collect(), vec![values.len(), 2]),
+            Uvs::PerCorner(corners) => {
+                (corners.iter().flatten().flat_map(|q| q.to_array()).collect(), vec![corners.len(), 3, 2])
+            }
+        };
+        Ok(Some(PyArray1::from_vec(py, flat).reshape(shape)?.into_any()))
     }
 
     /// The vertices, a new float64 array `(n, 3)`.
@@ -81,7 +105,7 @@ impl Mesh {
             )));
         }
         let mesh = TriMesh::new(positions, self.mesh.triangles.clone()).map_err(input_error)?;
-        Ok(Self { mesh })
+        Ok(Self { mesh, uvs: self.uvs.clone() })
     }
 
     /// A sphere of `radius` centred at the origin: an icosahedron subdivided `subdivisions` times
@@ -94,23 +118,99 @@ impl Mesh {
                 "icosphere(radius={radius}, subdivisions={subdivisions}): give a radius > 0 and 0 to 7 subdivisions"
             )));
         }
-        Ok(Self { mesh: squish::mesh::shapes::icosphere(radius, subdivisions) })
+        Ok(Self { mesh: squish::mesh::shapes::icosphere(radius, subdivisions), uvs: None })
     }
 
     /// A closed box of `size` (x, y, z) centred at the origin, each face an `n` × `n` grid of quads
     /// split into triangles (n from 1 to 256).
     #[staticmethod]
     #[pyo3(signature = (size, n=8))]
-    fn cuboid(size: (f64, f64, f64), n: u32) -> PyResult<Self> {
-        let size = DVec3::new(size.0, size.1, size.2);
+    fn cuboid(size: &Bound<'_, PyAny>, n: u32) -> PyResult<Self> {
+        let size = vector_from(size, "size")?;
         if !(size.is_finite() && size.min_element() > 0.0 && (1..=256).contains(&n)) {
             return Err(input_error(format!("cuboid(size={size}, n={n}): give sizes > 0 and n from 1 to 256")));
         }
-        Ok(Self { mesh: squish::mesh::shapes::cuboid(size, n) })
+        Ok(Self { mesh: squish::mesh::shapes::cuboid(size, n), uvs: None })
     }
 
     fn __repr__(&self) -> String {
         format!("squish.Mesh({} vertices, {} faces)", self.mesh.num_vertices(), self.mesh.num_triangles())
+    }
+}
+
+/// A mesh as Python code holds one: a `squish.Mesh`, a `(vertices, faces)` pair (arrays, lists or
+/// tuples), or an object with `vertices` and `faces` attributes (a trimesh). `what` names the
+/// argument in messages.
+pub fn mesh_from(object: &Bound<'_, PyAny>, what: &str) -> PyResult<Mesh> {
+    if let Ok(mesh) = object.cast::<Mesh>() {
+        return Ok(mesh.get().clone());
+    }
+    let parts = if let Ok(tuple) = object.cast::<PyTuple>()
+        && tuple.len() == 2
+    {
+        Some((tuple.get_item(0)?, tuple.get_item(1)?))
+    } else if let (Ok(vertices), Ok(faces)) = (object.getattr("vertices"), object.getattr("faces")) {
+        Some((vertices, faces))
+    } else if let Ok(list) = object.cast::<pyo3::types::PyList>()
+        && list.len() == 2
+    {
+        Some((list.get_item(0)?, list.get_item(1)?))
+    } else {
+        None
+    };
+    let Some((vertices, faces)) = parts else {
+        return Err(input_error(format!(
+            "{what}: cannot read {} as a mesh; give a squish.Mesh, a (vertices, faces) pair or an object with vertices and faces",
+            object.get_type().name().map_or_else(|_| "the value".into(), |n| n.to_string())
+        )));
+    };
+    let prefix = |e: PyErr| input_error(format!("{what}: {}", e.value(object.py())));
+    let positions = vertices_from(&vertices).map_err(prefix)?;
+    let triangles = faces_from(&faces, positions.len()).map_err(prefix)?;
+    let mesh = TriMesh::new(positions, triangles).map_err(|e| input_error(format!("{what}: {e}")))?;
+    Ok(Mesh { mesh, uvs: None })
+}
+
+/// Three numbers from any sequence or array (`[x, y, z]`, a tuple, an array of shape (3,)).
+pub fn vector_from(value: &Bound<'_, PyAny>, what: &str) -> PyResult<DVec3> {
+    let numbers = value.py().import("numpy")?.call_method1("asarray", (value, "float64"));
+    let read = numbers.ok().and_then(|a| a.extract::<PyReadonlyArrayDyn<'_, f64>>().ok());
+    match read {
+        Some(array) if array.shape() == [3] => {
+            let v = array.as_array();
+            Ok(DVec3::new(v[0], v[1], v[2]))
+        }
+        _ => Err(input_error(format!(
+            "{what}: {}: give three numbers [x, y, z]",
+            value.repr().map_or_else(|_| "the value".to_string(), |r| r.to_string())
+        ))),
+    }
+}
+
+/// UVs of `mesh` from an array: `(n, 2)` per vertex or `(m, 3, 2)` per face corner.
+pub fn uvs_from(value: &Bound<'_, PyAny>, mesh: &TriMesh) -> PyResult<Uvs> {
+    let numbers = value.py().import("numpy")?.call_method1("asarray", (value, "float64"));
+    let array = numbers.ok().and_then(|a| a.extract::<PyReadonlyArrayDyn<'_, f64>>().ok());
+    let (n, m) = (mesh.num_vertices(), mesh.num_triangles());
+    let wrong = |shape: String| {
+        input_error(format!(
+            "uvs: shape {shape}; give ({n}, 2) (one UV per vertex) or ({m}, 3, 2) (per face corner, for seams)"
+        ))
+    };
+    let Some(array) = array else { return Err(wrong("unreadable".into())) };
+    let view = array.as_array();
+    let values: Vec<f64> = view.iter().copied().collect();
+    if !values.iter().all(|x| x.is_finite()) {
+        return Err(input_error("uvs: every UV must be finite"));
+    }
+    let pairs = || values.chunks_exact(2).map(|c| DVec2::new(c[0], c[1]));
+    match array.shape() {
+        [rows, 2] if *rows == n => Ok(Uvs::PerVertex(pairs().collect())),
+        [rows, 3, 2] if *rows == m => {
+            let corners: Vec<DVec2> = pairs().collect();
+            Ok(Uvs::PerCorner(corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()))
+        }
+        shape => Err(wrong(format!("{shape:?}"))),
     }
 }
 
@@ -221,11 +321,15 @@ pub fn faces_array<'py>(py: Python<'py>, triangles: &[[u32; 3]]) -> PyResult<Bou
 }
 
 /// Reads a mesh file (`.obj`, `.ply`, `.gltf`, `.glb`), keeping the file's vertices in number
-/// and order (a glTF file: every mesh instance at rest, concatenated; seams not welded).
+/// and order (a glTF file: every mesh instance at rest, concatenated; seams not welded), with its
+/// UVs when it has them (OBJ `vt` and glTF `TEXCOORD_0` per corner, PLY `u, v` per vertex).
 #[pyfunction]
 pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Mesh> {
-    let mesh = py.detach(|| squish_io::read_mesh(&path)).map_err(io_error)?;
-    Ok(Mesh { mesh })
+    let document = py.detach(|| squish_io::MeshDocument::read(&path)).map_err(io_error)?;
+    let mesh = document.mesh().map_err(io_error)?;
+    // A file without usable UVs is still a mesh: the shared parametrization says so if asked.
+    let uvs = squish_io::document_uvs(&document).ok();
+    Ok(Mesh { mesh, uvs })
 }
 
 /// Writes `mesh` to `path` (format from the extension), atomically. With `like`, the file it was
@@ -234,8 +338,8 @@ pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Mesh> {
 /// the mesh's vertex count.
 #[pyfunction]
 #[pyo3(signature = (path, mesh, like=None))]
-pub fn write_mesh(py: Python<'_>, path: PathBuf, mesh: &Mesh, like: Option<PathBuf>) -> PyResult<()> {
-    let mesh = &mesh.mesh;
+pub fn write_mesh(py: Python<'_>, path: PathBuf, mesh: &Bound<'_, PyAny>, like: Option<PathBuf>) -> PyResult<()> {
+    let mesh = &mesh_from(mesh, "mesh")?.mesh;
     py.detach(|| -> PyResult<()> {
         match like {
             None => squish_io::write_mesh(&path, mesh).map_err(io_error),

@@ -64,13 +64,44 @@ pub fn apply<P: Params>(params: &mut P, prefix: &str, items: &Bound<'_, PyDict>)
     Ok(())
 }
 
-/// `P` from its defaults, a dict (may be `None`) and keyword arguments (may be `None`), in that
-/// order, validated.
+/// Refuses a key given both in a parameters dict (`dict_name`) and as a keyword argument
+/// (`keyword(key)`): which one was meant is not for us to guess.
+pub fn refuse_twice(
+    prefix: &str,
+    dict: Option<&Bound<'_, PyDict>>,
+    dict_name: &str,
+    kwargs: &[(String, Bound<'_, PyAny>)],
+    keyword: impl Fn(&str) -> String,
+) -> PyResult<()> {
+    let Some(dict) = dict else { return Ok(()) };
+    for (key, value) in kwargs {
+        if let Ok(Some(first)) = dict.get_item(key) {
+            let repr = |v: &Bound<'_, PyAny>| v.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+            let message = format!(
+                "given twice: {dict_name}['{key}'] = {} and {} = {}; give it once",
+                repr(&first),
+                keyword(key),
+                repr(value)
+            );
+            return Err(parameter_error(ParamError::new(&format!("{prefix}.{key}"), None, message)));
+        }
+    }
+    Ok(())
+}
+
+/// `P` from its defaults, a dict (may be `None`) and keyword arguments (may be `None`), validated.
+/// A key in both is an error ([`refuse_twice`]).
 pub fn from_python<P: Params>(
     prefix: &str,
     dict: Option<&Bound<'_, PyDict>>,
     kwargs: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<P> {
+    let keywords: Vec<(String, Bound<'_, PyAny>)> = kwargs
+        .into_iter()
+        .flat_map(|k| k.iter())
+        .filter_map(|(key, value)| Some((key.extract::<String>().ok()?, value)))
+        .collect();
+    refuse_twice(prefix, dict, "params", &keywords, str::to_string)?;
     let mut params = P::default();
     for items in [dict, kwargs].into_iter().flatten() {
         apply(&mut params, prefix, items)?;

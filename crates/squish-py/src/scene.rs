@@ -1,5 +1,5 @@
 //! `squish.Scene`: a scene file, its frames, and runs of its shot that write the same files and
-//! report as `squish run` ([`squish_cli::cmd_run::RunPlan`], the command's own code).
+//! report as `squish run` ([`squish_shot::scene_run::RunPlan`], the command's own code).
 //!
 //! A run computes its frames in parallel with the GIL released, on a worker thread, while the
 //! calling thread watches for Ctrl-C (`Python::check_signals`, every 50 ms): a `KeyboardInterrupt`
@@ -17,12 +17,14 @@ use glam::DVec3;
 use numpy::PyArray2;
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
-use squish_cli::cmd_run::{RunPlan, RunRequest};
-use squish_cli::interrupt::Interrupt;
+use pyo3::types::PyDict;
 use squish_io::Scene as SceneFile;
-use squish_io::scene::{MeshSource, OutputFormat};
+use squish_io::scene::{MeshSource, OutputFormat, OutputSpec};
+use squish_shot::Interrupt;
+use squish_shot::ShotError;
+use squish_shot::scene_run::{RunPlan, RunRequest};
 
-use crate::errors::{cli_error, input_error, io_error, json_to_python};
+use crate::errors::{input_error, io_error, json_to_python, shot_error};
 use crate::frame::Frame;
 use crate::mesh::{faces_array, positions_array};
 
@@ -32,38 +34,59 @@ pub struct Scene {
     scene: Arc<SceneFile>,
 }
 
-/// Frames as the user gives them: `None` (the scene's), `(a, b)` inclusive, a `range`, an int, or
-/// text `"A:B"` as `squish run --frames`.
+/// Frames as the user gives them, by Python's conventions (docs/python.md, "Frames"): `None` (the
+/// scene's), an int (that frame), a `range` (half-open, as Python's: `range(1, 4)` is frames 1, 2
+/// and 3), a list, tuple or array of frames (those frames, which must follow each other: `[1, 2,
+/// 3]`), or text `"A:B"` (inclusive, as `squish run --frames`). A sequence that skips frames —
+/// `(1, 3)`, which once meant 1 to 3 — is refused with the spellings that say what was meant.
 fn frame_selection(scene: &SceneFile, frames: Option<&Bound<'_, PyAny>>) -> PyResult<Option<RangeInclusive<i64>>> {
     let Some(frames) = frames else { return Ok(None) };
-    let invalid = || {
+    let shown = frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+    let invalid = |why: &str| {
         input_error(format!(
-            "frames: {}: give (first, last), a range, a frame, or \"A:B\"",
-            frames.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+            "frames={shown}: {why}; give a frame (12), a range (range(1, 25) is frames 1 to 24), consecutive frames ([1, 2, 3]) or \"1:24\" (inclusive, as --frames)"
         ))
     };
     let text = if let Ok(text) = frames.extract::<String>() {
         text
+    } else if frames.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(invalid("a boolean is not a frame"));
     } else if let Ok(frame) = frames.extract::<i64>() {
         format!("{frame}")
-    } else if let Ok((a, b)) = frames.extract::<(i64, i64)>() {
-        format!("{a}:{b}")
     } else if frames.get_type().name()? == "range" {
         let (start, stop, step): (i64, i64, i64) = (
             frames.getattr("start")?.extract()?,
             frames.getattr("stop")?.extract()?,
             frames.getattr("step")?.extract()?,
         );
-        if step != 1 || stop <= start {
-            return Err(invalid());
+        if step != 1 {
+            return Err(invalid("a run computes consecutive frames (step 1)"));
+        }
+        if stop <= start {
+            return Err(invalid("the range is empty"));
         }
         format!("{start}:{}", stop - 1)
+    } else if let Ok(list) = frames.extract::<Vec<i64>>() {
+        let (Some(&first), Some(&last)) = (list.first(), list.last()) else {
+            return Err(invalid("no frame"));
+        };
+        if list.windows(2).any(|w| w[1] != w[0] + 1) {
+            let hint = if list.len() == 2 && last > first {
+                format!(" (for frames {first} to {last}: range({first}, {}) or \"{first}:{last}\")", last + 1)
+            } else {
+                String::new()
+            };
+            return Err(invalid(&format!(
+                "a list gives the frames themselves, and these do not follow each other{hint}"
+            )));
+        }
+        format!("{first}:{last}")
     } else {
-        return Err(invalid());
+        return Err(invalid("not a frame selection"));
     };
     squish_io::parse_frame_selection(&text, &scene.frame_range())
         .map(Some)
-        .map_err(|e| input_error(format!("{}: frames {text}: {e}", scene.path().display())))
+        .map_err(|error| shot_error(ShotError::Frames { scene: scene.path().to_path_buf(), error }))
 }
 
 /// An output format by its extension.
@@ -92,11 +115,18 @@ impl Scene {
         self.scene.path().to_path_buf()
     }
 
-    /// The scene's frames, `(first, last)` inclusive.
+    /// The scene's frames, `(first, last)` inclusive (the scene file's `frames`).
     #[getter]
     fn frame_range(&self) -> (i64, i64) {
         let r = self.scene.frame_range();
         (r.start, r.end)
+    }
+
+    /// The scene's frames as a Python `range` (`range(first, last + 1)`).
+    #[getter]
+    fn frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let r = self.scene.frame_range();
+        py.import("builtins")?.getattr("range")?.call1((r.start, r.end + 1))
     }
 
     /// Frames per second.
@@ -132,8 +162,9 @@ impl Scene {
     /// Runs the shot as `squish run` does: frames in parallel, each frame's files written
     /// atomically as it is done, `report.A-B.json` for the frames run and `report.json` merging
     /// every part in the folder. `output`: the folder (default: the scene's); `frames`: the frames
-    /// to run, as `(first, last)`, a range or `"A:B"` (default: every frame; a selection writes a
-    /// part, like `--frames`); `threads`: worker threads (default: every core); `format`: "obj",
+    /// to run — a frame, a `range` (half-open: `range(1, 25)` is 1 to 24), consecutive frames
+    /// `[1, 2, 3]`, or `"A:B"` (inclusive, as `--frames`); default every frame; a selection writes
+    /// a part, like `--frames`; `threads`: worker threads (default: every core); `format`: "obj",
     /// "ply", "glb", "gltf" or "pc2" (default: the scene's); `keep_points`: keep every frame's
     /// output vertices in the result (`ShotResult.points`, `squish.usd.write_shot`).
     ///
@@ -158,7 +189,7 @@ impl Scene {
             allow_missing_files: false,
         };
         let scene = &self.scene;
-        let plan = py.detach(|| RunPlan::new(scene, &request)).map_err(cli_error)?;
+        let plan = py.detach(|| RunPlan::new(scene, &request)).map_err(shot_error)?;
         let interrupt = Interrupt::new();
         let (run, keyboard) = py.detach(|| {
             std::thread::scope(|s| {
@@ -174,27 +205,24 @@ impl Scene {
                     }
                 }
                 let run = worker.join().unwrap_or_else(|_| {
-                    Err(squish_cli::error::CliError::failure("internal error: the run's worker thread panicked"))
+                    Err(ShotError::Internal("internal error: the run's worker thread panicked".into()))
                 });
                 (run, keyboard)
             })
         });
-        let mut run = run.map_err(cli_error)?;
+        let mut run = run.map_err(shot_error)?;
         if let Some(error) = run.animated_error.take() {
-            return Err(cli_error(error));
+            return Err(shot_error(error));
         }
         if let Some(failed) = run.failed_error() {
-            return Err(cli_error(failed));
+            return Err(shot_error(failed));
         }
         if let Some(stopped) = run.interrupted_error() {
             // A KeyboardInterrupt that is not Python's own (a signal handler raising something
             // else) is raised as it was.
             return Err(match keyboard {
-                Some(error) if error.is_instance_of::<PyKeyboardInterrupt>(py) => {
-                    PyKeyboardInterrupt::new_err(stopped.to_string())
-                }
-                Some(error) => error,
-                None => cli_error(stopped),
+                Some(error) if !error.is_instance_of::<PyKeyboardInterrupt>(py) => error,
+                _ => shot_error(stopped),
             });
         }
         let report_text = std::fs::read_to_string(&run.report)
@@ -227,38 +255,42 @@ impl Scene {
     }
 
     /// The frames whose results are already in `output` (default: the scene's folder): listed by
-    /// a report part there, with every object's file of the frame present. Per-frame formats
-    /// (obj, ply) only; other formats give an empty list.
+    /// a report part there, with every object's file of the frame present (for glb, gltf and pc2,
+    /// the file of the run that computed it: its part `<object>.A-B.<ext>`, or the whole shot's).
     #[pyo3(signature = (output=None, format=None))]
     fn completed_frames(&self, output: Option<PathBuf>, format: Option<&str>) -> PyResult<Vec<i64>> {
-        let mut spec = self.scene.output().clone();
-        if let Some(dir) = output {
-            spec.dir = std::path::absolute(&dir).unwrap_or(dir);
-        }
-        if let Some(format) = output_format(format)? {
-            spec.format = format;
-        }
-        if !spec.format.per_frame() {
-            return Ok(Vec::new());
-        }
-        let names = self.objects();
-        let mut done = std::collections::BTreeSet::new();
-        let Ok(entries) = std::fs::read_dir(&spec.dir) else { return Ok(Vec::new()) };
-        for entry in entries.flatten() {
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if !(name.starts_with("report.") && name.ends_with(".json") && name != "report.json") {
-                continue;
-            }
-            // A part that cannot be read lists nothing: its frames are computed again.
-            let Ok(text) = std::fs::read_to_string(entry.path()) else { continue };
-            let Ok(part) = serde_json::from_str::<serde_json::Value>(&text) else { continue };
-            for frame in part["per_frame"].as_array().into_iter().flatten().filter_map(|f| f["frame"].as_i64()) {
-                if names.iter().all(|n| spec.path_for(n, frame).is_file()) {
-                    done.insert(frame);
-                }
-            }
-        }
-        Ok(done.into_iter().collect())
+        let spec = self.output_spec(output, format)?;
+        Ok(squish_shot::parts::completed_frames(&self.scene, &spec))
+    }
+
+    /// Merges what the runs of parts of the shot (`run(frames=…)`, Ray tasks) wrote into `output`
+    /// (default: the scene's folder): the report parts into `report.json`, and for glb, gltf and
+    /// pc2 the parts `<object>.A-B.<ext>` into `<object>.<ext>` — the file one run of the whole
+    /// shot writes, byte for byte — once they hold every frame. Returns a dict: `report` (the
+    /// merged report's path), `files` (the merged files), `incomplete` (per object whose parts
+    /// miss frames, the frames missing as `"A:B"` runs).
+    #[pyo3(signature = (output=None, format=None))]
+    fn merge<'py>(
+        &self,
+        py: Python<'py>,
+        output: Option<PathBuf>,
+        format: Option<&str>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let spec = self.output_spec(output, format)?;
+        let scene = &self.scene;
+        let range = scene.frame_range();
+        let (report, merged) = py
+            .detach(|| {
+                let merged = squish_shot::parts::merge_parts(scene, &spec)?;
+                let report = squish_shot::report_parts::merge_reports(&spec.dir, range.start, range.end)?;
+                Ok((report, merged))
+            })
+            .map_err(shot_error)?;
+        let result = PyDict::new(py);
+        result.set_item("report", report)?;
+        result.set_item("files", merged.files)?;
+        result.set_item("incomplete", merged.incomplete.into_iter().collect::<BTreeMap<String, Vec<String>>>())?;
+        Ok(result)
     }
 
     fn __repr__(&self) -> String {
@@ -270,6 +302,20 @@ impl Scene {
             r.start,
             r.end
         )
+    }
+}
+
+impl Scene {
+    /// The scene's output folder and format, or the ones given.
+    fn output_spec(&self, output: Option<PathBuf>, format: Option<&str>) -> PyResult<OutputSpec> {
+        let mut spec = self.scene.output().clone();
+        if let Some(dir) = output {
+            spec.dir = std::path::absolute(&dir).unwrap_or(dir);
+        }
+        if let Some(format) = output_format(format)? {
+            spec.format = format;
+        }
+        Ok(spec)
     }
 }
 
@@ -410,5 +456,5 @@ impl ShotResult {
 #[pyfunction]
 pub fn merge_reports(py: Python<'_>, output: PathBuf, first: i64, last: i64) -> PyResult<PathBuf> {
     let dir: &Path = &output;
-    py.detach(|| squish_cli::report_parts::merge_reports(dir, first, last)).map_err(cli_error)
+    py.detach(|| squish_shot::report_parts::merge_reports(dir, first, last)).map_err(shot_error)
 }

@@ -61,7 +61,7 @@ def test_a_scene_run_writes_the_files_of_squish_run(cli, example_scene, tmp_path
     cli("run", example_scene, "-o", tmp_path / "cli", "--frames", "20:25", "--threads", "2")
     scene = squish.Scene.load(example_scene)
     assert scene.objects == ["ball", "ground"] and scene.frame_range == (1, 48) and scene.fps == 24
-    result = scene.run(tmp_path / "py", frames=(20, 25), threads=1)
+    result = scene.run(tmp_path / "py", frames=range(20, 26), threads=1)
     assert result.frames == list(range(20, 26))
     assert_same_files(tmp_path / "cli", tmp_path / "py")
 
@@ -101,3 +101,30 @@ def test_self_intersecting_faces_counts_as_squish_info(cli, tmp_path):
     count = both.self_intersecting_faces()
     assert count == info["self_intersecting_faces"] > 0
     assert ball.self_intersecting_faces() == 0
+
+
+def test_the_shared_parametrization_reads_uvs_as_the_cli(cli, tmp_path):
+    """Method A's mapping from the files' UVs (OBJ vt, planar here, with a seam cut into the slab's):
+    ``squish.deform`` on meshes read with ``read_mesh`` gives ``squish deform``'s files bit for bit."""
+    ball, slab = ball_and_slab(depth=0.25, subdivisions=3, cells=12)
+    for name, mesh in (("ball", ball), ("slab", slab)):
+        v, f = mesh.vertices, mesh.faces
+        lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in v]
+        corners = v[f][:, :, :2].copy()
+        if name == "slab":  # the faces right of x = 0.1 in another chart (rotated, scaled, moved)
+            right = v[f][:, :, 0].mean(axis=1) > 0.1
+            c, s = np.cos(1.1), np.sin(1.1)
+            corners[right] = corners[right] @ np.array([[c, s], [-s, c]]) * 0.6 + [4.0, 2.0]
+        lines += [f"vt {float(x)!r} {float(y)!r}" for x, y in corners.reshape(-1, 2)]
+        lines += [" ".join(["f"] + [f"{vi + 1}/{3 * k + i + 1}" for i, vi in enumerate(t)]) for k, t in enumerate(f)]
+        (tmp_path / f"{name}.obj").write_text("\n".join(lines) + "\n")
+    a, b = squish.read_mesh(tmp_path / "ball.obj"), squish.read_mesh(tmp_path / "slab.obj")
+    assert a.uvs.shape == (a.num_faces, 3, 2)
+    cli("deform", tmp_path / "ball.obj", tmp_path / "slab.obj", "-o", tmp_path / "out", "--set", "pair.mapping=shared_parametrization")
+    (ball_out, slab_out), report = squish.deform(a, b, pair_mapping="shared_parametrization")
+    assert report["frame"]["pairs"][0]["in_contact"]
+    assert np.array_equal(ball_out, squish.read_mesh(tmp_path / "out" / "ball.obj").vertices)
+    assert np.array_equal(slab_out, squish.read_mesh(tmp_path / "out" / "slab.obj").vertices)
+    # The UVs matter: the unique direction gives another result.
+    (other, _), _ = squish.deform(a, b)
+    assert not np.array_equal(other, ball_out)

@@ -50,6 +50,24 @@ def test_ray_frames_are_the_files_of_squish_run(local_cluster, cli, example_scen
     assert_same_files(tmp_path / "cli", tmp_path / "ray")
 
 
+def test_ray_shots_in_files_holding_every_frame_merge_into_squish_runs(local_cluster, cli, example_scene, tmp_path):
+    # glb and pc2: each task writes its part, the driver merges them into the file one run writes.
+    text = example_scene.read_text()
+    for format in ("glb", "pc2"):
+        example_scene.write_text(text.replace('format = "obj"', f'format = "{format}"'))
+        cli("run", example_scene, "-o", tmp_path / f"cli_{format}", "--threads", "2")
+        run = run_shot(example_scene, tmp_path / f"ray_{format}", chunk=12, progress=False)
+        assert run.complete and not run.incomplete and run.computed == list(range(1, 49))
+        assert sorted(f.name for f in run.files) == [f"ball.{format}", f"ground.{format}"]
+        for name in ("ball", "ground"):
+            assert (tmp_path / f"ray_{format}" / f"{name}.13-24.{format}").is_file()
+            merged = (tmp_path / f"ray_{format}" / f"{name}.{format}").read_bytes()
+            assert merged == (tmp_path / f"cli_{format}" / f"{name}.{format}").read_bytes(), f"{name}.{format}"
+        # A re-run finds every frame complete in the parts.
+        again = run_shot(example_scene, tmp_path / f"ray_{format}", chunk=12, progress=False)
+        assert again.computed == [] and len(again.skipped) == 48 and again.complete
+
+
 def test_failing_chunks_are_retried_once_then_listed(local_cluster, tmp_path):
     # A mesh sequence whose frame 3 file is missing: the chunk holding frame 3 fails twice.
     scene_path = write_scene(tmp_path, frames=6)

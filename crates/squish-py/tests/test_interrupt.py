@@ -36,7 +36,8 @@ def test_ctrl_c_stops_a_run_cleanly(tmp_path):
     child.send_signal(signal.SIGINT)
     stdout, stderr = child.communicate(timeout=120)
     assert child.returncode == 130, stdout + stderr
-    assert "interrupted:" in stdout and "--frames" in stdout, stdout
+    assert "interrupted:" in stdout and "run the missing frames: frames=range(" in stdout, stdout
+    assert "--frames" not in stdout, stdout
 
     report = json.loads((out / "report.json").read_text())
     assert report["run"]["status"] == "interrupted" and report["missing_frames"]

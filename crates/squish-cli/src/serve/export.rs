@@ -16,7 +16,7 @@ use squish_io::write_obj;
 use toml::Value;
 
 use super::session::{Computed, Session, relative_to};
-use crate::scene_shot::file_numbering;
+use squish_shot::scene_shot::file_numbering;
 
 /// Longest export name.
 const MAX_NAME_LEN: usize = 64;
@@ -84,6 +84,27 @@ pub fn export(session: &Session, computed: &Computed, name: &str) -> Result<Expo
     for (i, pair) in description.pairs.iter_mut().enumerate() {
         for (key, value) in session.edits.pairs.get(i).into_iter().flatten() {
             pair.params.insert(key.clone(), value.clone());
+        }
+    }
+    // Articulations: an entry's own table, or `[objects.articulations."name"]` for the automatic.
+    for (i, object) in description.objects.iter_mut().enumerate() {
+        let names = session.articulations.get(i).map(Vec::as_slice).unwrap_or(&[]);
+        for (k, edited) in session.edits.articulations.get(i).into_iter().flatten().enumerate() {
+            let Some((name, automatic)) = names.get(k) else { continue };
+            let table = if *automatic {
+                if edited.is_empty() {
+                    continue;
+                }
+                object.articulations.entry(name.clone()).or_default()
+            } else {
+                match object.self_contact.get_mut(k) {
+                    Some(entry) => &mut entry.params,
+                    None => continue,
+                }
+            };
+            for (key, value) in edited {
+                table.insert(key.clone(), value.clone());
+            }
         }
     }
     description.output.dir = PathBuf::from(format!("{name}-out"));

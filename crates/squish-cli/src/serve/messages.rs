@@ -3,7 +3,7 @@
 //! session's edits.
 //!
 //! - `{"type": "frame", "frame": N}`: show frame N;
-//! - `{"type": "set", "target": {"object": i} | {"pair": i}, "key": K, "value": V, "keyframe": bool}`:
+//! - `{"type": "set", "target": {"object": i} | {"pair": i} | {"articulation": [i, k]}, "key": K, "value": V, "keyframe": bool}`:
 //!   a parameter's value (a number, a boolean, a list, or `"auto"`), constant or, with
 //!   `keyframe`, as a key at the current frame;
 //! - `{"type": "revert", "target": …, "key": K}`: back to the scene file's value;
@@ -16,6 +16,7 @@
 //! - `{"type": "export", "name": N}`: write the edited scene and the frame's meshes.
 
 use serde::Deserialize;
+use squish::params::ArticulationParams;
 use squish::params::{ParamValue, Params};
 use squish::{ObjectParams, PairParams};
 
@@ -153,6 +154,8 @@ fn check_key(target: Target, key: &str) -> Result<(), String> {
         Target::Pair(_) => {
             PairParams::info(key).ok_or_else(|| squish::params::unknown_key::<PairParams>(key).to_string())
         }
+        Target::Articulation(_) => ArticulationParams::info(key)
+            .ok_or_else(|| squish::params::unknown_key::<ArticulationParams>(key).to_string()),
     }?;
     if info.kind == squish::params::ParamKind::PerVertex {
         return Err(format!("{key} is per vertex: paint it (bulge_map) or set it in the scene file"));

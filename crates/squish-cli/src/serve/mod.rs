@@ -200,6 +200,7 @@ fn router(app: Arc<App>) -> Router {
             }),
         )
         .route("/api/scene", get(scene_handler))
+        .route("/api/texture/{object}", get(texture_handler))
         .route("/api/frame", get(frame_handler))
         .route("/api/message", post(message_handler))
         .route("/api/ws", get(ws_handler))
@@ -226,6 +227,18 @@ async fn scene_handler(State(app): State<Arc<App>>) -> Response {
     match SceneView::of(&session).and_then(|v| serde_json::to_string(&v).map_err(|e| e.to_string())) {
         Ok(json) => json_response(StatusCode::OK, json),
         Err(message) => json_response(StatusCode::INTERNAL_SERVER_ERROR, error_json(&message)),
+    }
+}
+
+/// An object's base-colour texture, as the glTF file holds it (404 without one).
+async fn texture_handler(
+    State(app): State<Arc<App>>,
+    axum::extract::Path(object): axum::extract::Path<usize>,
+) -> Response {
+    let session = lock(&app.session);
+    match session.textures.get(object).and_then(Option::as_ref) {
+        Some(image) => ([(header::CONTENT_TYPE, image.mime.clone())], image.bytes.clone()).into_response(),
+        None => (StatusCode::NOT_FOUND, "no texture").into_response(),
     }
 }
 

@@ -13,15 +13,15 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::Serialize;
-use squish::params::{ParamValue, Params};
+use squish::params::{ArticulationParams, MappingMethod, ParamValue, Params};
 use squish::pipeline::FrameResult;
 use squish::{Deformer, ObjectParams, PairParams, TriMesh};
 use squish_io::Scene;
 use squish_io::scene::{ObjectSpec, PairSpec, ParamTracks, RawParams, param_value, toml_value};
 use toml::Value;
 
-use crate::frame_quality::{self, ObjectQuality, PairQuality};
 use squish::pipeline::OwnedFrame;
+use squish_shot::frame_quality::{self, ObjectQuality, PairQuality};
 
 /// What a parameter edit applies to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, Serialize)]
@@ -29,6 +29,9 @@ use squish::pipeline::OwnedFrame;
 pub enum Target {
     Object(usize),
     Pair(usize),
+    /// Articulation `[object, k]`: the object's `[[objects.self_contact]]` entries in order, then
+    /// those of `self_contact = "auto"`.
+    Articulation([usize; 2]),
 }
 
 /// The page's edits over the scene, as the scene file writes them.
@@ -40,6 +43,8 @@ pub struct Edits {
     pub objects: Vec<RawParams>,
     /// Per pair: its edited parameter keys.
     pub pairs: Vec<RawParams>,
+    /// Per object and articulation: its edited parameter keys.
+    pub articulations: Vec<Vec<RawParams>>,
     /// Per object: a painted bulge map (η per vertex, §5.5.1), over the scene's.
     pub painted: Vec<Option<Vec<f64>>>,
 }
@@ -50,6 +55,11 @@ pub struct Session {
     /// The folder the server may read and write in: the scene file's.
     pub folder: PathBuf,
     pub edits: Edits,
+    /// Per object, its articulations as the scene evaluates them: name and whether
+    /// `self_contact = "auto"` found it (fixed for the scene).
+    pub articulations: Vec<Vec<(String, bool)>>,
+    /// Per object read from a glTF node, its base-colour texture (for the page's view).
+    pub textures: Vec<Option<squish_io::GltfImage>>,
 }
 
 /// A frame computed for the page.
@@ -65,13 +75,33 @@ impl Session {
         let objects = scene.description().objects.len();
         let pairs = scene.description().pairs.len();
         let frame = *scene.frames().start();
+        let articulations: Vec<Vec<(String, bool)>> = match scene.evaluate(frame as f64) {
+            Ok(spec) => spec
+                .objects
+                .iter()
+                .map(|o| o.params.self_contact.iter().map(|a| (a.name.clone(), a.automatic)).collect())
+                .collect(),
+            Err(_) => vec![Vec::new(); objects],
+        };
         let edits = Edits {
             frame,
             objects: vec![RawParams::new(); objects],
             pairs: vec![RawParams::new(); pairs],
+            articulations: articulations.iter().map(|a| vec![RawParams::new(); a.len()]).collect(),
             painted: vec![None; objects],
         };
-        Self { scene, folder, edits }
+        let textures = (0..objects)
+            .map(|i| {
+                let pose = scene.gltf_pose(i, frame as f64)?;
+                let file = scene.description().objects[i].mesh.file();
+                // A texture that cannot be read leaves the object untextured, with a note.
+                squish_io::base_color_image(file, pose.node)
+                    .map_err(|e| eprintln!("note: {e}; the object is drawn without its texture"))
+                    .ok()
+                    .flatten()
+            })
+            .collect();
+        Self { scene, folder, edits, articulations, textures }
     }
 
     /// The frame `edits` ask for: the scene's frame with every edit applied. Errors name the
@@ -95,12 +125,26 @@ impl Session {
             if let Some(Some(map)) = edits.painted.get(i) {
                 object.params.bulge_map = Some(map.clone());
             }
+            for (k, articulation) in object.params.self_contact.iter_mut().enumerate() {
+                let Some(raw) = edits.articulations.get(i).and_then(|a| a.get(k)) else { continue };
+                apply::<ArticulationParams>(&mut articulation.params, raw, at)
+                    .map_err(|m| format!("object \"{}\", articulation \"{}\": {m}", object.name, articulation.name))?;
+            }
         }
         for i in 0..spec.pairs.len() {
             let raw = edits.pairs.get(i).cloned().unwrap_or_default();
             let [a, b] = spec.pair_names(&spec.pairs[i]).map(str::to_string);
             apply::<PairParams>(&mut spec.pairs[i].params, &raw, at)
                 .map_err(|m| format!("pair (\"{a}\", \"{b}\"): {m}"))?;
+            // A pair switched to the shared parametrization here reads its objects' UVs now.
+            if spec.pairs[i].params.mapping == MappingMethod::SharedParametrization {
+                for object in spec.pairs[i].objects {
+                    if spec.objects[object].params.uvs.is_none() {
+                        let uvs = self.scene.object_uvs(object).map_err(|e| e.to_string())?;
+                        spec.objects[object].params.uvs = Some((*uvs).clone());
+                    }
+                }
+            }
         }
         Ok(spec)
     }
@@ -139,6 +183,7 @@ impl Session {
         match target {
             Target::Object(_) => check::<ObjectParams>(&raw, ObjectSpec::TABLE_KEYS)?,
             Target::Pair(_) => check::<PairParams>(&raw, PairSpec::TABLE_KEYS)?,
+            Target::Articulation(_) => check::<ArticulationParams>(&raw, &[])?,
         }
         *self.table(target)? = raw;
         Ok(())
@@ -183,16 +228,58 @@ impl Session {
         match target {
             Target::Object(i) => description.objects.get(i).and_then(|o| o.params.get(key)).cloned(),
             Target::Pair(i) => description.pairs.get(i).and_then(|p| p.params.get(key)).cloned(),
+            Target::Articulation([i, k]) => self.scene_articulation(i, k).and_then(|raw| raw.get(key)).cloned(),
         }
+    }
+
+    /// The scene file's table of articulation `k` of object `i`: its `[[objects.self_contact]]`
+    /// entry's parameters, or for an automatic one its `[objects.articulations."name"]` table.
+    fn scene_articulation(&self, i: usize, k: usize) -> Option<&RawParams> {
+        let object = self.scene.description().objects.get(i)?;
+        let (name, automatic) = self.articulations.get(i)?.get(k)?;
+        if *automatic { object.articulations.get(name) } else { object.self_contact.get(k).map(|e| &e.params) }
     }
 
     fn table(&mut self, target: Target) -> Result<&mut RawParams, String> {
         let (tables, i, what) = match target {
             Target::Object(i) => (&mut self.edits.objects, i, "object"),
             Target::Pair(i) => (&mut self.edits.pairs, i, "pair"),
+            Target::Articulation([i, k]) => {
+                let objects = self.edits.articulations.len();
+                let list = self
+                    .edits
+                    .articulations
+                    .get_mut(i)
+                    .ok_or_else(|| format!("no object {i}: the scene has {objects}"))?;
+                let count = list.len();
+                return list.get_mut(k).ok_or_else(|| format!("no articulation {k} of object {i}: it has {count}"));
+            }
         };
         let count = tables.len();
         tables.get_mut(i).ok_or_else(|| format!("no {what} {i}: the scene has {count}"))
+    }
+
+    /// The edits' value of every key of every articulation as the page shows it, per object.
+    pub fn articulation_values(&self, frame: &OwnedFrame) -> Vec<Vec<ShownValues>> {
+        frame
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                o.params
+                    .self_contact
+                    .iter()
+                    .enumerate()
+                    .map(|(k, a)| {
+                        shown(
+                            &a.params,
+                            self.scene_articulation(i, k),
+                            self.edits.articulations.get(i).and_then(|e| e.get(k)),
+                        )
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The edits' value of every key as the page shows it: per object and pair, key → the

@@ -14,6 +14,9 @@ use super::session::{Computed, Session, ShownValues};
 #[derive(Serialize)]
 pub struct SceneView {
     pub name: String,
+    /// The world's up axis, `"y"` or `"z"`: the scene's `preview.up`, else y when an object is
+    /// read from glTF (a y-up format), z otherwise (as `squish run --preview --up auto`).
+    pub up: &'static str,
     pub frames: FramesView,
     pub objects: Vec<ObjectView>,
     pub pairs: Vec<PairView>,
@@ -33,6 +36,52 @@ pub struct ObjectView {
     pub name: String,
     /// Flat vertex indices, three per triangle.
     pub triangles: Vec<u32>,
+    /// Its articulations (self-contact, thesis ch. 6): `[[objects.self_contact]]` entries, then
+    /// those `self_contact = "auto"` found, each named by its joints.
+    pub articulations: Vec<ArticulationView>,
+    /// With `self_contact = "auto"`: the parts of its skin (named by their joints).
+    pub parts: Vec<String>,
+    /// Keys that change nothing for this object, and why (the page greys them).
+    pub inert: std::collections::BTreeMap<&'static str, String>,
+    /// The URL of its base-colour texture (a glTF material's), drawn on `display`.
+    pub texture: Option<String>,
+    /// With a texture: the mesh split along its UV seams for drawing — per drawn vertex, the
+    /// object's vertex it shows and its UV, and the triangles on the drawn vertices.
+    pub display: Option<DisplayMesh>,
+}
+
+#[derive(Serialize)]
+pub struct ArticulationView {
+    pub name: String,
+    /// Found by `self_contact = "auto"`.
+    pub automatic: bool,
+}
+
+#[derive(Serialize)]
+pub struct DisplayMesh {
+    pub vertex: Vec<u32>,
+    pub uv: Vec<f32>,
+    pub triangles: Vec<u32>,
+}
+
+impl DisplayMesh {
+    /// The mesh split where its corners' UVs differ (`corners`: three UVs per triangle).
+    fn split(triangles: &[[u32; 3]], corners: &[[glam::DVec2; 3]]) -> Self {
+        let mut index = std::collections::HashMap::new();
+        let (mut vertex, mut uv, mut drawn) = (Vec::new(), Vec::new(), Vec::with_capacity(3 * triangles.len()));
+        for (t, c) in triangles.iter().zip(corners) {
+            for k in 0..3 {
+                let key = (t[k], c[k].x.to_bits(), c[k].y.to_bits());
+                let id = *index.entry(key).or_insert_with(|| {
+                    vertex.push(t[k]);
+                    uv.extend([c[k].x as f32, c[k].y as f32]);
+                    (vertex.len() - 1) as u32
+                });
+                drawn.push(id);
+            }
+        }
+        Self { vertex, uv, triangles: drawn }
+    }
 }
 
 #[derive(Serialize)]
@@ -46,8 +95,18 @@ impl SceneView {
         let description = session.scene.description();
         let frame = session.frame(&session.edits)?;
         let name = session.scene.path().file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let gltf = (0..frame.objects.len()).any(|i| session.scene.gltf_pose(i, 0.0).is_some());
+        let up = match description.preview.as_ref().and_then(|p| p.up) {
+            Some(squish_io::scene::UpAxisName::Y) => "y",
+            Some(squish_io::scene::UpAxisName::Z) => "z",
+            None if gltf => "y",
+            None => "z",
+        };
+        let in_pairs: Vec<bool> =
+            (0..frame.objects.len()).map(|i| frame.pairs.iter().any(|p| p.objects.contains(&i))).collect();
         Ok(Self {
             name,
+            up,
             frames: FramesView {
                 start: *session.scene.frames().start(),
                 end: *session.scene.frames().end(),
@@ -56,9 +115,38 @@ impl SceneView {
             objects: frame
                 .objects
                 .iter()
-                .map(|o| ObjectView {
-                    name: o.name.clone(),
-                    triangles: o.mesh.triangles.iter().flatten().copied().collect(),
+                .enumerate()
+                .map(|(i, o)| {
+                    let mut inert = std::collections::BTreeMap::new();
+                    let self_contact = !o.params.self_contact.is_empty() || o.params.self_contact_parts.is_some();
+                    if !in_pairs[i] && self_contact {
+                        inert.insert(
+                            "stiffness",
+                            "in no pair: the two sides of its self-contact share its stiffness; set an articulation's stiffness [parent side, child side]".to_string(),
+                        );
+                    }
+                    let textured = session.textures.get(i).and_then(Option::as_ref).filter(|t| t.texcoord == 0);
+                    let display = textured.and_then(|_| match session.scene.object_uvs(i).ok().as_deref() {
+                        Some(squish::params::Uvs::PerCorner(corners)) if corners.len() == o.mesh.num_triangles() => {
+                            Some(DisplayMesh::split(&o.mesh.triangles, corners))
+                        }
+                        _ => None,
+                    });
+                    ObjectView {
+                        name: o.name.clone(),
+                        triangles: o.mesh.triangles.iter().flatten().copied().collect(),
+                        articulations: session
+                            .articulations
+                            .get(i)
+                            .into_iter()
+                            .flatten()
+                            .map(|(name, automatic)| ArticulationView { name: name.clone(), automatic: *automatic })
+                            .collect(),
+                        parts: o.params.self_contact_parts.as_ref().map(|p| p.names.clone()).unwrap_or_default(),
+                        inert,
+                        texture: display.as_ref().map(|_| format!("api/texture/{i}")),
+                        display,
+                    }
                 })
                 .collect(),
             pairs: description
@@ -86,7 +174,9 @@ pub struct FrameView {
     /// Per stage, milliseconds.
     pub stages: std::collections::BTreeMap<String, f64>,
     pub objects: Vec<ObjectFrameView>,
-    pub pairs: Vec<crate::frame_quality::PairQuality>,
+    pub pairs: Vec<squish_shot::frame_quality::PairQuality>,
+    /// Every articulation's figures at this frame.
+    pub articulations: Vec<ArticulationFrameView>,
     /// Per object and pair, the value of every parameter at this frame.
     pub values: ValuesView,
     pub warnings: Vec<String>,
@@ -96,6 +186,23 @@ pub struct FrameView {
 pub struct ValuesView {
     pub objects: Vec<ShownValues>,
     pub pairs: Vec<ShownValues>,
+    /// Per object, per articulation.
+    pub articulations: Vec<Vec<ShownValues>>,
+}
+
+/// An articulation's figures at one frame (thesis ch. 6).
+#[derive(Serialize)]
+pub struct ArticulationFrameView {
+    pub object: usize,
+    pub name: String,
+    pub in_contact: bool,
+    pub contact_area: f64,
+    /// Faces of its regions that intersect another face, before and after.
+    pub faces_before: usize,
+    pub faces_after: usize,
+    pub time_ms: f64,
+    /// Why an automatic articulation was left inactive at this frame.
+    pub error: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -104,7 +211,7 @@ pub struct ObjectFrameView {
     /// Flat x, y, z of the input and of the output.
     pub input: Vec<f64>,
     pub output: Vec<f64>,
-    pub quality: crate::frame_quality::ObjectQuality,
+    pub quality: squish_shot::frame_quality::ObjectQuality,
     /// Overlays, per vertex (absent when the object was not deformed): u in [0, 1] inside the
     /// deformable region and −1 elsewhere; contact and deformable as 0/1; η.
     pub overlays: Option<Overlays>,
@@ -153,7 +260,7 @@ fn intersecting_vertices(meshes: &[&TriMesh]) -> Vec<Vec<u8>> {
     meshes
         .iter()
         .zip(&faces)
-        .map(|(mesh, faces)| crate::shot::face_vertex_flags(mesh, faces).into_iter().map(u8::from).collect())
+        .map(|(mesh, faces)| squish_shot::shot::face_vertex_flags(mesh, faces).into_iter().map(u8::from).collect())
         .collect()
 }
 
@@ -235,7 +342,36 @@ impl FrameView {
             .collect();
         let (objects_values, pairs_values) = session.values(&computed.shot);
         let stats = &result.stats;
-        let stages = stage_milliseconds(serde_json::to_value(stats.stages).unwrap_or_default());
+        let mut stages = stage_milliseconds(serde_json::to_value(stats.stages).unwrap_or_default());
+        // Self-contact (ch. 6, issue 27) runs before the stages and is timed apart.
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        let self_contact = [
+            ("self-contact: articulations", stats.articulations.iter().map(|a| ms(a.total_time)).sum::<f64>()),
+            ("self-contact: parts", stats.part_pairs.iter().map(|p| ms(p.time)).sum::<f64>()),
+            (
+                "self-contact: untangle",
+                stats.objects.iter().filter_map(|o| o.untangled.as_ref()).map(|u| ms(u.time)).sum::<f64>(),
+            ),
+        ];
+        for (stage, time) in self_contact {
+            if time > 0.0 {
+                stages.insert(stage.to_string(), time);
+            }
+        }
+        let articulations = stats
+            .articulations
+            .iter()
+            .map(|a| ArticulationFrameView {
+                object: a.object,
+                name: a.name.clone(),
+                in_contact: a.in_contact,
+                contact_area: a.contact_area,
+                faces_before: a.self_intersecting_faces_before,
+                faces_after: a.self_intersecting_faces_after,
+                time_ms: ms(a.total_time),
+                error: a.error.clone(),
+            })
+            .collect();
         Self {
             version,
             frame,
@@ -244,7 +380,12 @@ impl FrameView {
             stages,
             objects,
             pairs: computed.pairs.clone(),
-            values: ValuesView { objects: objects_values, pairs: pairs_values },
+            articulations,
+            values: ValuesView {
+                objects: objects_values,
+                pairs: pairs_values,
+                articulations: session.articulation_values(&computed.shot),
+            },
             warnings: stats.warnings.iter().map(|w| w.message.clone()).collect(),
         }
     }

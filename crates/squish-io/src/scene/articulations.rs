@@ -17,16 +17,17 @@ use std::sync::Arc;
 use glam::{DMat4, DVec3};
 use squish::mesh::{Topology, TriMesh};
 use squish::params::{Articulation, ArticulationParams, SkinParts, did_you_mean};
-use squish::skinning::{ArticulationSetup, parts_from_skin, regions_from_skin_weights};
+use squish::skinning::{ArticulationSetup, SkinWeights, parts_from_skin, regions_from_skin_weights};
 
 use super::source::SourceAssets;
 use super::tracks::ParamTracks;
 use super::types::{ObjectSpec, SelfContactSpec, VertexData};
 use crate::IoError;
 
-/// Where an articulation's three direction points come from.
+/// Where an articulation's three direction points come from (indices of world transforms: glTF
+/// node ids for a scene, skin joint ids for other callers of [`automatic_self_contact`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum JointPoints {
+pub enum JointPoints {
     /// Node ids of the parent joint, the joint and the end of the child bone.
     Nodes([usize; 3]),
     /// Node ids of the parent joint and the joint; the third point is `end_local` in the
@@ -35,8 +36,29 @@ pub(crate) enum JointPoints {
 }
 
 impl JointPoints {
-    /// The three points in the skeleton's world space for these node world transforms.
-    pub(crate) fn points(self, world: &[DMat4]) -> Option<[DVec3; 3]> {
+    /// The direction points of the articulation `[parent, child]` (skin joint ids, `parents` the
+    /// skin's hierarchy): the child's first child joint, or the parent bone continued beyond the
+    /// child at rest and carried by it (see the module doc). `id` maps a skin joint to the index
+    /// of its transforms, `rest` holds the rest world transforms by that index.
+    pub fn of(
+        parents: &[Option<usize>],
+        [parent, child]: [usize; 2],
+        id: impl Fn(usize) -> usize,
+        rest: &[DMat4],
+    ) -> Option<Self> {
+        match (0..parents.len()).find(|&c| parents[c] == Some(child)) {
+            Some(end) => Some(Self::Nodes([id(parent), id(child), id(end)])),
+            None => {
+                let (a, b) = (id(parent), id(child));
+                let (rest_a, rest_b) = (rest.get(a)?, rest.get(b)?);
+                let (pa, pb) = (rest_a.w_axis.truncate(), rest_b.w_axis.truncate());
+                Some(Self::Extended { nodes: [a, b], end_local: rest_b.inverse().transform_point3(pb + (pb - pa)) })
+            }
+        }
+    }
+
+    /// The three points in the skeleton's world space for these world transforms.
+    pub fn points(self, world: &[DMat4]) -> Option<[DVec3; 3]> {
         let at = |n: usize| world.get(n).map(|m| m.w_axis.truncate());
         match self {
             Self::Nodes([a, b, c]) => Some([at(a)?, at(b)?, at(c)?]),
@@ -154,7 +176,23 @@ pub(crate) fn load_articulations(
                 object.name
             )));
         };
-        let auto = auto_self_contact(object, g, vertex_count).map_err(located_auto)?;
+        let mut auto = auto_self_contact(object, g, vertex_count).map_err(&located_auto)?;
+        // `[objects.articulations."parent / child"]`: the parameters of one of them.
+        for (name, raw) in &object.articulations {
+            let Some(found) = auto.names.iter().position(|n| n == name) else {
+                let hint = match did_you_mean(name, &auto.names.iter().map(String::as_str).collect::<Vec<_>>()) {
+                    Some(s) => format!(" (did you mean \"{s}\"?)"),
+                    None => String::new(),
+                };
+                return Err(located_auto(format!(
+                    "[objects.articulations.\"{name}\"]: no automatic articulation of \"{}\" has that name{hint}; they are {}",
+                    object.name,
+                    auto.names.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ")
+                )));
+            };
+            auto.articulations[found].params = ParamTracks::<ArticulationParams>::parse(raw, &[], |_, _| Ok(None))
+                .map_err(|e| located_auto(format!("[objects.articulations.\"{name}\"]: {}: {}", e.key, e.message)))?;
+        }
         names.extend(auto.names);
         articulations.extend(auto.articulations);
         parts = Some(Arc::new(auto.parts));
@@ -169,9 +207,71 @@ struct AutoSelfContact {
     names: Vec<String>,
 }
 
-/// The parts of the object's skin and an articulation for every joint and its parent whose two
-/// sides give a valid pair of overlapping regions on the bind pose (each side with skin of its
-/// own next to a shared region); the parent/child part pairs are left to them.
+/// What `self_contact = "auto"` finds on a skinned mesh, whatever it comes from (a glTF skin, a
+/// Python caller's arrays, a Blender armature): its parts and the articulations of its skeleton.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AutomaticSelfContact {
+    pub parts: SkinParts,
+    pub articulations: Vec<AutomaticArticulation>,
+}
+
+/// An articulation found by [`automatic_self_contact`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutomaticArticulation {
+    /// `"parent / child"`, the joints' names.
+    pub name: String,
+    /// Region 1 (parent side) and region 2 (child side), sorted vertex ids.
+    pub regions: [Vec<u32>; 2],
+    /// The skin joints `[parent, child]`.
+    pub joints: [usize; 2],
+}
+
+/// The parts of the skin of `rest` (the bind pose) and an articulation for every joint and its
+/// parent whose two sides give a valid pair of overlapping regions on the bind pose (each side
+/// with skin of its own next to a shared region) and for which `has_direction` holds (its
+/// direction points can be found); the parent/child part pairs are left to them. `parents[j]`
+/// is joint j's parent in the skin, `names[j]` its name.
+pub fn automatic_self_contact(
+    rest: &TriMesh,
+    weights: &SkinWeights,
+    parents: &[Option<usize>],
+    names: &[String],
+    has_direction: impl Fn([usize; 2]) -> bool,
+) -> AutomaticSelfContact {
+    let min_faces = MIN_PART_FACES.max((MIN_PART_FRACTION * rest.num_triangles() as f64).ceil() as usize);
+    let mut parts = parts_from_skin(rest, weights, parents, names, min_faces);
+    let topology = Topology::new(rest);
+    let params = ArticulationParams::default();
+    let mut articulations = Vec::new();
+    let mut covered = Vec::new();
+    let part_of_joint = |j: usize| parts.names.iter().position(|n| *n == names[j]);
+    for child in 0..parents.len() {
+        let Some(parent) = parents[child] else { continue };
+        let (Some(a), Some(b)) = (part_of_joint(parent), part_of_joint(child)) else { continue };
+        let Ok(regions) = regions_from_skin_weights(weights, parents, parent, child, params.min_weight) else {
+            continue;
+        };
+        let candidate = Articulation { regions, params: params.clone(), ..Articulation::default() };
+        if ArticulationSetup::new(rest, &topology, &candidate, rest).is_err() || !has_direction([parent, child]) {
+            continue;
+        }
+        articulations.push(AutomaticArticulation {
+            name: format!("{} / {}", names[parent], names[child]),
+            regions: candidate.regions,
+            joints: [parent, child],
+        });
+        covered.push([a.min(b) as u32, a.max(b) as u32]);
+    }
+    covered.sort_unstable();
+    covered.dedup();
+    // Parent/child part pairs without an articulation stay left alone too (their seam is a fold).
+    parts.parent_child.extend(covered);
+    parts.parent_child.sort_unstable();
+    parts.parent_child.dedup();
+    AutomaticSelfContact { parts, articulations }
+}
+
+/// `self_contact = "auto"` on the object's skinned glTF node ([`automatic_self_contact`]).
 fn auto_self_contact(
     object: &ObjectSpec,
     g: &super::source::GltfAssets,
@@ -201,66 +301,23 @@ fn auto_self_contact(
         .iter()
         .map(|&n| scene.nodes.get(n).and_then(|node| node.parent).and_then(|p| joints.iter().position(|&j| j == p)))
         .collect();
-    let min_faces = MIN_PART_FACES.max((MIN_PART_FRACTION * rest.num_triangles() as f64).ceil() as usize);
-    let mut parts = parts_from_skin(&rest, weights, &parents, &names, min_faces);
-    let topology = Topology::new(&rest);
-    let params = ArticulationParams::default();
-    let mut articulations = Vec::new();
-    let mut articulation_names = Vec::new();
-    let mut covered = Vec::new();
-    let part_of_joint = |j: usize| parts.names.iter().position(|n| *n == names[j]);
-    for child in 0..joints.len() {
-        let Some(parent) = parents[child] else { continue };
-        let (Some(a), Some(b)) = (part_of_joint(parent), part_of_joint(child)) else { continue };
-        let Ok(regions) = regions_from_skin_weights(weights, &parents, parent, child, params.min_weight) else {
-            continue;
-        };
-        let candidate = Articulation { regions, params: params.clone(), ..Articulation::default() };
-        if ArticulationSetup::new(&rest, &topology, &candidate, &rest).is_err() {
-            continue;
-        }
-        let Some(points) = joint_points(g, parent, child, &parents) else { continue };
+    let rest_world = scene.skeleton.rest_world_transforms();
+    let points = |pair: [usize; 2]| JointPoints::of(&parents, pair, |j| joints[j], &rest_world);
+    let found = automatic_self_contact(&rest, weights, &parents, &names, |pair| points(pair).is_some());
+    let mut articulations = Vec::with_capacity(found.articulations.len());
+    let mut articulation_names = Vec::with_capacity(found.articulations.len());
+    for a in found.articulations {
         let tracks = ParamTracks::<ArticulationParams>::parse(&super::tracks::RawParams::new(), &[], |_, _| Ok(None))
             .map_err(|e| format!("{}: {}", e.key, e.message))?;
-        articulation_names.push(format!("{} / {}", names[parent], names[child]));
         articulations.push(ArticulationAssets {
-            regions: Arc::new(candidate.regions),
-            joints: Some(points),
+            regions: Arc::new(a.regions),
+            joints: points(a.joints),
             params: tracks,
             automatic: true,
         });
-        covered.push([a.min(b) as u32, a.max(b) as u32]);
+        articulation_names.push(a.name);
     }
-    covered.sort_unstable();
-    covered.dedup();
-    // Parent/child part pairs without an articulation stay left alone too (their seam is a fold).
-    parts.parent_child.extend(covered);
-    parts.parent_child.sort_unstable();
-    parts.parent_child.dedup();
-    Ok(AutoSelfContact { parts, articulations, names: articulation_names })
-}
-
-/// The direction points of the articulation `[parent, child]` (skin joint ids): the child's
-/// first child joint, or the parent bone continued beyond the child (see the module doc).
-fn joint_points(
-    g: &super::source::GltfAssets,
-    parent: usize,
-    child: usize,
-    parents: &[Option<usize>],
-) -> Option<JointPoints> {
-    let scene = &g.scene;
-    let skin = scene.nodes[g.node].skin.and_then(|s| scene.skins.get(s))?;
-    let joints = &skin.skin.joints;
-    match (0..joints.len()).find(|&c| parents[c] == Some(child)) {
-        Some(end) => Some(JointPoints::Nodes([joints[parent], joints[child], joints[end]])),
-        None => {
-            let rest = scene.skeleton.rest_world_transforms();
-            let (a, b) = (joints[parent], joints[child]);
-            let (rest_a, rest_b) = (rest.get(a)?, rest.get(b)?);
-            let (pa, pb) = (rest_a.w_axis.truncate(), rest_b.w_axis.truncate());
-            Some(JointPoints::Extended { nodes: [a, b], end_local: rest_b.inverse().transform_point3(pb + (pb - pa)) })
-        }
-    }
+    Ok(AutoSelfContact { parts: found.parts, articulations, names: articulation_names })
 }
 
 /// The regions and direction joints of `joints = [A, B]` on a glTF source.
@@ -358,7 +415,8 @@ fn skin_regions(
     let min_weight = entry_params.at(0.0).map_err(|e| located(k, "min_weight", e.to_string()))?.min_weight;
     let regions = regions_from_skin_weights(weights, &parents, parent, child, min_weight)
         .map_err(|e| located(k, "joints", format!("articulation \"{name}\": {e}")))?;
-    let Some(points) = joint_points(g, parent, child, &parents) else {
+    let rest_world = scene.skeleton.rest_world_transforms();
+    let Some(points) = JointPoints::of(&parents, [parent, child], |j| joints[j], &rest_world) else {
         return Err(located(k, "joints", format!("articulation \"{name}\": the joints' nodes are missing in {file}")));
     };
     Ok((regions, points))

@@ -4,12 +4,12 @@
 //! for that frame, with no reference to other frames (the method is time-independent).
 
 use glam::{DQuat, DVec3};
-use squish::params::Articulation;
+use squish::params::{Articulation, MappingMethod};
 use squish::pipeline::{FramePair, OwnedFrame, OwnedObject};
 
 use super::Scene;
 use super::source::{SourceAssets, source_mesh};
-use super::types::{AxisAngle, Scale, Transform};
+use super::transform::{AxisAngle, Scale, Transform};
 use crate::IoError;
 
 /// The affine map T·R·S of a transform at `frame`, as a function on points. Errors (zero
@@ -74,6 +74,13 @@ impl Scene {
                     format!("frame {frame}: [[pairs]] [\"{}\", \"{}\"]: {e}", pair.objects[0], pair.objects[1]),
                 )
             })?;
+            if params.mapping == MappingMethod::SharedParametrization {
+                for i in *ids {
+                    if objects[i].params.uvs.is_none() {
+                        objects[i].params.uvs = Some((*self.object_uvs(i)?).clone());
+                    }
+                }
+            }
             pairs.push(FramePair { objects: *ids, params });
         }
         Ok(OwnedFrame { objects, pairs })

@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 
 use super::types::{FrameRange, OutputSpec};
 
-/// A `--frames` argument that is malformed or outside the scene's range.
+/// A frame selection (`squish run --frames`, `Scene.run(frames=…)`) that is malformed or outside
+/// the scene's range: the text read and what is wrong with it (front ends name their option).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("--frames {text}: {message}")]
+#[error("frames {text}: {message}")]
 pub struct FrameSelectionError {
     pub text: String,
     pub message: String,

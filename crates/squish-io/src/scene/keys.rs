@@ -16,8 +16,6 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use squish::animation::{KeyInterpolation, KeyValue, Keyframed};
 use toml::Value;
 
-use super::types::{AxisAngle, Scale};
-
 /// A value type of the scene file: a [`KeyValue`] with its spelling.
 pub trait SceneValue: KeyValue {
     /// True if one number stands for every component (`scale = 2`, `stiffness = 1` for a pair).
@@ -27,10 +25,6 @@ pub trait SceneValue: KeyValue {
 impl SceneValue for f64 {}
 impl SceneValue for bool {}
 impl SceneValue for DVec3 {}
-impl SceneValue for AxisAngle {}
-impl SceneValue for Scale {
-    const BROADCAST: bool = true;
-}
 impl SceneValue for [f64; 2] {
     const BROADCAST: bool = true;
 }
@@ -195,6 +189,7 @@ impl<'de, T: SceneValue> Deserialize<'de> for Keyed<T> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::scene::Scale;
 
     fn parse(text: &str) -> Value {
         let table: toml::Table = toml::from_str(&format!("v = {text}")).unwrap();

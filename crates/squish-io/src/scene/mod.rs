@@ -18,12 +18,14 @@
 //! data file name that file (and the frame, for sequences).
 
 mod articulations;
+pub use articulations::{AutomaticArticulation, AutomaticSelfContact, JointPoints, automatic_self_contact};
 mod diagnostics;
 mod evaluate;
 mod frames;
 mod keys;
 mod source;
 mod tracks;
+mod transform;
 mod types;
 mod validate;
 mod vertex_data;
@@ -35,16 +37,17 @@ use std::sync::Arc;
 pub use frames::{FramePattern, FrameSelectionError, format_frame, parse_frame_selection};
 pub use keys::Keyed;
 pub use tracks::{ParamTracks, RawParams, Track, TrackError, names_vertex_data, param_value, toml_value};
+pub use transform::{AxisAngle, Scale, Transform};
 pub use types::{
-    AxisAngle, FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreviewCamera,
-    PreviewSpec, Scale, SceneDescription, SelfContactSpec, Transform, UpAxisName, VertexData, Weld,
+    FrameRange, GltfSource, MeshSource, ObjectSpec, OutputFormat, OutputSpec, PairSpec, PreviewCamera, PreviewSpec,
+    SceneDescription, SelfContactSpec, UpAxisName, VertexData, Weld,
 };
 pub use vertex_data::read_vertex_map;
 
 use articulations::{ArticulationAssets, load_articulations};
 use diagnostics::{Seg, SourceText};
 use source::{GltfCache, SourceAssets, VertexNumbering, load_source};
-use squish::params::{ObjectParams, PairParams, ParamValue, Params, RegionChoice};
+use squish::params::{MappingMethod, ObjectParams, PairParams, ParamValue, Params, RegionChoice};
 use vertex_data::{OwnGltf, load_vertex_values};
 
 use crate::IoError;
@@ -86,6 +89,9 @@ struct ObjectAssets {
     parts: Option<Arc<squish::params::SkinParts>>,
     /// The bind pose of a glTF mesh with articulations.
     rest_positions: Option<Arc<[glam::DVec3]>>,
+    /// Its texture coordinates (or why it has none), read the first time a pair with the
+    /// shared-parametrization mapping needs them ([`Scene::object_uvs`]).
+    uvs: std::sync::OnceLock<Result<Arc<squish::params::Uvs>, String>>,
 }
 
 impl SceneDescription {
@@ -266,6 +272,7 @@ impl Scene {
                 articulation_names: self_contact.names,
                 parts: self_contact.parts,
                 rest_positions: self_contact.rest_positions,
+                uvs: std::sync::OnceLock::new(),
             });
         }
         let index = |name: &str| description.objects.iter().position(|o| o.name == name);
@@ -285,7 +292,37 @@ impl Scene {
                 .map_err(|e| IoError::format(path, format!("[[pairs]] #{}: {}: {}", p + 1, e.key, e.message)))?;
             pair_params.push(tracks);
         }
-        Ok(Self { path: path.to_path_buf(), description, assets, pair_objects, pair_params })
+        let scene = Self { path: path.to_path_buf(), description, assets, pair_objects, pair_params };
+        // The shared parametrization's UVs are read now, so that a mesh without them fails at load.
+        for (p, tracks) in scene.pair_params.iter().enumerate() {
+            if tracks.at(frames.0 as f64).is_ok_and(|params| params.mapping == MappingMethod::SharedParametrization) {
+                for object in scene.pair_objects[p] {
+                    scene.object_uvs(object)?;
+                }
+            }
+        }
+        Ok(scene)
+    }
+
+    /// The texture coordinates of object `i` in its numbering, for the shared-parametrization
+    /// mapping (thesis §4.2.1; per corner for OBJ `vt` and glTF `TEXCOORD_0`, per vertex for PLY
+    /// `u, v`, carried through welding: `crate::document_uvs`), read once. An object without
+    /// them is an error naming its file and what to give instead.
+    pub fn object_uvs(&self, i: usize) -> Result<Arc<squish::params::Uvs>, IoError> {
+        let (spec, assets) = (&self.description.objects[i], &self.assets[i]);
+        let loaded = assets
+            .uvs
+            .get_or_init(|| source::source_uvs(&assets.source, spec.mesh.file(), &assets.numbering).map(Arc::new));
+        loaded.clone().map_err(|reason| {
+            IoError::format(
+                &self.path,
+                format!(
+                    "[[objects]] \"{}\": the shared-parametrization mapping (pair mapping = \"shared_parametrization\", thesis §4.2.1) matches the meshes in UV space, but {}: {reason}; export the mesh with UVs or use mapping = \"unique_direction\"",
+                    spec.name,
+                    spec.mesh.file().display()
+                ),
+            )
+        })
     }
 
     /// The scene file.

@@ -17,7 +17,12 @@ use squish::TriMesh;
 
 use super::frames::FramePattern;
 use super::types::{GltfSource, MeshSource, Weld};
-use crate::{GltfReadOptions, GltfScene, IoError, MeshFormat, WeldMode, read_gltf, read_mesh, weld_positions};
+use squish::params::Uvs;
+
+use crate::{
+    GltfReadOptions, GltfScene, IoError, MeshDocument, MeshFormat, WeldMode, document_uvs, read_gltf, read_mesh,
+    weld_positions, welded_uvs,
+};
 
 /// How the object's vertices relate to the file's: per-vertex data may be given in either
 /// numbering.
@@ -365,6 +370,29 @@ pub(crate) fn source_mesh(object: &str, source: &SourceAssets, frame: f64) -> Re
         SourceAssets::Static(mesh) => Ok(mesh.clone()),
         SourceAssets::Sequence(seq) => seq.mesh_at_fractional(object, frame),
         SourceAssets::Gltf(g) => g.scene.posed_mesh(g.node, g.animation, g.time(frame)),
+    }
+}
+
+/// The texture coordinates of a loaded source in the object's numbering (`crate::uvs`), or why
+/// it has none: a static file (`file`) or a sequence's reference file read again as a document
+/// (UVs are the same on every frame of a sequence), a glTF node's mesh as loaded.
+pub(crate) fn source_uvs(source: &SourceAssets, file: &Path, numbering: &VertexNumbering) -> Result<Uvs, String> {
+    let path = match source {
+        SourceAssets::Gltf(g) => {
+            let mesh = g.scene.nodes[g.node].mesh.and_then(|m| g.scene.meshes.get(m));
+            return mesh
+                .and_then(|m| m.corner_uvs.clone())
+                .map(Uvs::PerCorner)
+                .ok_or_else(|| "a primitive of its mesh has no TEXCOORD_0".to_string());
+        }
+        SourceAssets::Static(_) => file,
+        SourceAssets::Sequence(seq) => seq.reference_path.as_path(),
+    };
+    let document = MeshDocument::read(path).map_err(|e| e.to_string())?;
+    let uvs = document_uvs(&document)?;
+    match &numbering.file_to_vertex {
+        Some(map) => Ok(welded_uvs(&uvs, &document.mesh().map_err(|e| e.to_string())?.triangles, map)),
+        None => Ok(uvs),
     }
 }
 

@@ -12,13 +12,11 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
 use serde::{Deserialize, Serialize, Serializer};
-use squish::animation::KeyValue;
 use toml::Value;
 
-use super::keys::Keyed;
 use super::tracks::RawParams;
+use super::transform::Transform;
 
 /// A whole scene file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -223,6 +221,11 @@ pub struct ObjectSpec {
     /// Default none.
     #[serde(default, skip_serializing_if = "SelfContactList::is_none")]
     pub self_contact: SelfContactList,
+    /// With `self_contact = "auto"`: the parameters of automatic articulations, by name
+    /// (`[objects.articulations."parent / child"]`, articulation keys, constant or keyframed);
+    /// the others keep the defaults.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub articulations: std::collections::BTreeMap<String, RawParams>,
     /// Every other key: the object's parameters, as written.
     #[serde(flatten)]
     pub params: RawParams,
@@ -230,7 +233,7 @@ pub struct ObjectSpec {
 
 impl ObjectSpec {
     /// The keys of the table that are not parameters.
-    pub const TABLE_KEYS: &[&str] = &["name", "mesh", "transform", "self_contact"];
+    pub const TABLE_KEYS: &[&str] = &["name", "mesh", "transform", "self_contact", "articulations"];
 }
 
 /// An `[[objects.self_contact]]` entry: one articulation of the object (a knee, an elbow, lips)
@@ -625,80 +628,5 @@ impl TryFrom<Value> for VertexData {
     type Error = String;
     fn try_from(v: Value) -> Result<Self, String> {
         Self::from_value(&v)
-    }
-}
-
-/// `transform = { translate, rotate, scale }`, each keyframable; applied as T·R·S.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Transform {
-    pub translate: Keyed<DVec3>,
-    /// Axis and angle in degrees, `[x, y, z, degrees]`.
-    pub rotate: Keyed<AxisAngle>,
-    /// Uniform (`2.0`) or per axis (`[sx, sy, sz]`).
-    pub scale: Keyed<Scale>,
-}
-
-impl Default for Transform {
-    fn default() -> Self {
-        use squish::animation::Keyframed;
-        Self {
-            translate: Keyed(Keyframed::constant(DVec3::ZERO)),
-            rotate: Keyed(Keyframed::constant(AxisAngle::default())),
-            scale: Keyed(Keyframed::constant(Scale::default())),
-        }
-    }
-}
-
-impl Transform {
-    /// True if the transform is the identity at every frame.
-    pub fn is_identity(&self) -> bool {
-        *self == Self::default()
-    }
-}
-
-/// A rotation as `[x, y, z, degrees]`. Keys interpolate axis and angle per component (the axis
-/// is normalized when used), so a key at 0° and one at 720° about the same axis spin twice.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AxisAngle {
-    pub axis: DVec3,
-    pub degrees: f64,
-}
-
-impl Default for AxisAngle {
-    fn default() -> Self {
-        Self { axis: DVec3::Z, degrees: 0.0 }
-    }
-}
-
-impl KeyValue for AxisAngle {
-    const COMPONENTS: usize = 4;
-    const DESCRIPTION: &'static str = "an axis and an angle in degrees [x, y, z, degrees]";
-    fn component(&self, i: usize) -> f64 {
-        if i < 3 { self.axis[i] } else { self.degrees }
-    }
-    fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
-        Self { axis: DVec3::new(f(0), f(1), f(2)), degrees: f(3) }
-    }
-}
-
-/// A scale per axis; reads from a number (uniform) or `[sx, sy, sz]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Scale(pub DVec3);
-
-impl Default for Scale {
-    fn default() -> Self {
-        Self(DVec3::ONE)
-    }
-}
-
-impl KeyValue for Scale {
-    const COMPONENTS: usize = 3;
-    const DESCRIPTION: &'static str = "a scale (a number, or [sx, sy, sz])";
-    fn component(&self, i: usize) -> f64 {
-        self.0[i]
-    }
-    fn from_components(mut f: impl FnMut(usize) -> f64) -> Self {
-        Self(DVec3::new(f(0), f(1), f(2)))
     }
 }

@@ -18,7 +18,8 @@ use toml::Value;
 use super::diagnostics::{Seg, SourceText};
 use super::frames::FramePattern;
 use super::tracks::{ParamTracks, RawParams, TrackError};
-use super::types::{MeshSource, ObjectSpec, Scale, SceneDescription, SelfContactSpec, VertexData};
+use super::transform::Scale;
+use super::types::{MeshSource, ObjectSpec, SceneDescription, SelfContactSpec, VertexData};
 use crate::IoError;
 
 /// Longest accepted shot: beyond this a frame range is surely a typo, and checking every frame
@@ -101,6 +102,21 @@ pub(crate) fn validate(scene: &SceneDescription, src: &SourceText) -> Result<(),
                     object.name
                 ),
             ));
+        }
+        if !object.articulations.is_empty() && !object.self_contact.auto {
+            return Err(err(
+                "articulations",
+                "[objects.articulations] sets the parameters of automatic articulations; it needs self_contact = \"auto\" (explicit [[objects.self_contact]] entries hold their own parameters)".to_string(),
+            ));
+        }
+        for (name, raw) in &object.articulations {
+            let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("articulations"), Seg::Key(name)];
+            let located = |key: &str, m: String| {
+                let mut at = path.to_vec();
+                at.push(Seg::Key(key));
+                src.error_at_key(&at, m)
+            };
+            check_params::<ArticulationParams>(raw, &[], shot(), located)?;
         }
         validate_self_contact(object, params.rigid, shot, |k, key, m| {
             let path = [Seg::Key("objects"), Seg::Index(i), Seg::Key("self_contact"), Seg::Index(k), Seg::Key(key)];

@@ -8,12 +8,16 @@ touch and bulging around it with their volume preserved. Every frame is computed
 >>> (ball_out, ground_out), report = squish.deform(ball, ground, b_params={"rigid": True})
 >>> squish.write_mesh("out/ball.obj", ball.with_vertices(ball_out), like="ball.obj")
 
-- ``Mesh(vertices, faces)``: float64 (n, 3) vertices, integer (m, 3) faces; ``read_mesh`` and
-  ``write_mesh`` for OBJ, PLY and glTF files (``like=`` keeps every attribute of a source file).
+- ``Mesh(vertices, faces, uvs=None)``: float64 (n, 3) vertices, integer (m, 3) faces, UVs per
+  vertex or per face corner; ``read_mesh`` and ``write_mesh`` for OBJ, PLY and glTF files
+  (``like=`` keeps every attribute of a source file). Wherever a mesh goes, a ``(vertices,
+  faces)`` pair of arrays or lists, or an object with ``vertices`` and ``faces``, does too.
 - ``deform`` and ``contact``: two meshes, one frame (``squish deform`` / ``squish contact``).
-- ``Frame``: any number of objects, pairs and self-contact articulations for one frame.
+- ``Frame``: any number of objects, pairs and self-contact articulations for one frame;
+  ``Skin`` gives an object ``self_contact="auto"`` (its skeleton's articulations and parts).
 - ``Scene.load(path)``: a scene file; ``scene.frame(i)``; ``scene.run(output, frames=, threads=)``
-  writes the same files and report as ``squish run``.
+  writes the same files and report as ``squish run``. Frames follow Python: ``range(1, 25)`` is
+  frames 1 to 24, ``[3, 4, 5]`` those frames; the text ``"1:24"`` is ``--frames``' (inclusive).
 - ``params_schema()``: every parameter with its default, range, thesis symbol and meaning.
 - ``squish.usd.write_shot`` (extra ``squish[usd]``) and ``squish.distributed.run_shot`` (extra
   ``squish[ray]``).
@@ -23,11 +27,9 @@ Parameters are dicts or keyword arguments whose keys are the schema's; a bad val
 GIL is released while computing.
 """
 
-from __future__ import annotations
-
 from . import _squish
 from ._errors import InputError, ParameterError, SquishError
-from ._squish import Mesh, Scene, ShotResult, merge_reports, params_schema, read_mesh, write_mesh
+from ._squish import Mesh, Scene, ShotResult, Skin, merge_reports, params_schema, read_mesh, write_mesh
 
 __all__ = [
     "Frame",
@@ -36,6 +38,7 @@ __all__ = [
     "ParameterError",
     "Scene",
     "ShotResult",
+    "Skin",
     "SquishError",
     "contact",
     "deform",
@@ -57,8 +60,13 @@ def contact(a, b, a_params=None, b_params=None, pair=None, **params):
 
 
 class Frame(_squish.Frame):
-    def add_object(self, name, mesh, params=None, **kwargs):
-        return super().add_object(name, mesh, params, **kwargs)
+    def add_object(self, name, mesh, params=None, *, self_contact=None, skin=None, joint_matrices=None, **kwargs):
+        return super().add_object(
+            name, mesh, params, self_contact=self_contact, skin=skin, joint_matrices=joint_matrices, **kwargs
+        )
+
+    def set_articulation(self, object, name, params=None, **kwargs):
+        return super().set_articulation(object, name, params, **kwargs)
 
     def add_pair(self, a, b, params=None, **kwargs):
         return super().add_pair(a, b, params, **kwargs)
@@ -144,10 +152,30 @@ def _set_docs() -> None:
     """
     Frame.add_object.__doc__ = f"""Adds an object; returns its index.
 
-    add_object(name, mesh, params=None, **kwargs) -> int
+    add_object(name, mesh, params=None, *, self_contact=None, skin=None, joint_matrices=None,
+               **kwargs) -> int
+
+    ``mesh``: a ``squish.Mesh``, a ``(vertices, faces)`` pair or an object with ``vertices`` and
+    ``faces``; its UVs, if any, serve the shared-parametrization mapping. A key given both in
+    ``params`` and as a keyword argument is an error.
+
+    ``self_contact="auto"`` (thesis ch. 6, issue 27): the articulations of the mesh's skeleton
+    and the contacts between its parts, as a scene file's ``self_contact = "auto"``. ``skin``:
+    a ``squish.Skin`` of this mesh (bind pose, joints, weights, parents, bind matrices), built
+    once; ``joint_matrices``: the joints' world matrices at this frame, ``(J, 4, 4)``. The
+    object keys apply to the part contacts (``untangle``, ``extent``, ``bulge`` …); one
+    articulation's keys: ``set_articulation(object, name, **keys)`` (names: ``articulations``).
 
     Object parameters (a dict and/or keyword arguments):
 {objects}
+"""
+    Frame.set_articulation.__doc__ = f"""Sets parameters of an object's articulation by name (one given with
+    ``add_articulation`` or found by ``self_contact="auto"``), over its current ones.
+
+    set_articulation(object, name, params=None, **kwargs)
+
+    Articulation parameters (a dict and/or keyword arguments):
+{articulations}
 """
     Frame.add_pair.__doc__ = f"""Adds a pair of objects (indices or names) that may be in contact;
     the mapping direction is oriented along the second object's normals. Returns its index.

@@ -106,9 +106,11 @@ class ArticulationParams(TypedDict, total=False):
     """Mapping direction, from region 1 toward region 2. Default: 'joints'."""
 
 class Mesh:
-    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None: ...
+    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, uvs: npt.ArrayLike | None = None) -> None: ...
     @property
     def vertices(self) -> Vertices: ...
+    @property
+    def uvs(self) -> npt.NDArray[np.float64] | None: ...
     @property
     def faces(self) -> npt.NDArray[np.int64]: ...
     @property
@@ -121,21 +123,41 @@ class Mesh:
     @staticmethod
     def icosphere(radius: float = 1.0, subdivisions: int = 3) -> Mesh: ...
     @staticmethod
-    def cuboid(size: tuple[float, float, float], n: int = 8) -> Mesh: ...
+    def cuboid(size: npt.ArrayLike, n: int = 8) -> Mesh: ...
+
+# Wherever a mesh goes: a Mesh, a (vertices, faces) pair, or an object with vertices and faces.
+MeshLike = Mesh | tuple[npt.ArrayLike, npt.ArrayLike] | Any
+
+class Skin:
+    def __init__(
+        self,
+        mesh: MeshLike,
+        joints: npt.ArrayLike,
+        weights: npt.ArrayLike,
+        parents: Sequence[int | None],
+        bind_matrices: npt.ArrayLike,
+        names: Sequence[str] | None = None,
+    ) -> None: ...
+    @property
+    def articulations(self) -> list[str]: ...
+    @property
+    def parts(self) -> list[str]: ...
+    @property
+    def joint_names(self) -> list[str]: ...
 
 def read_mesh(path: Path) -> Mesh: ...
-def write_mesh(path: Path, mesh: Mesh, like: Path | None = None) -> None: ...
+def write_mesh(path: Path, mesh: MeshLike, like: Path | None = None) -> None: ...
 def deform(
-    a: Mesh,
-    b: Mesh,
+    a: MeshLike,
+    b: MeshLike,
     a_params: ObjectParams | None = None,
     b_params: ObjectParams | None = None,
     pair: PairParams | None = None,
     **params: Any,
 ) -> tuple[tuple[Vertices, Vertices], dict[str, Any]]: ...
 def contact(
-    a: Mesh,
-    b: Mesh,
+    a: MeshLike,
+    b: MeshLike,
     a_params: ObjectParams | None = None,
     b_params: ObjectParams | None = None,
     pair: PairParams | None = None,
@@ -147,8 +169,20 @@ def merge_reports(output: Path, first: int, last: int) -> str: ...
 class Frame:
     def __init__(self) -> None: ...
     def add_object(
-        self, name: str, mesh: Mesh, params: ObjectParams | None = None, **kwargs: Unpack[ObjectParams]
+        self,
+        name: str,
+        mesh: MeshLike,
+        params: ObjectParams | None = None,
+        *,
+        self_contact: Literal["auto"] | None = None,
+        skin: Skin | None = None,
+        joint_matrices: npt.ArrayLike | None = None,
+        **kwargs: Unpack[ObjectParams],
     ) -> int: ...
+    def articulations(self, object: int | str) -> list[str]: ...
+    def set_articulation(
+        self, object: int | str, name: str, params: ArticulationParams | None = None, **kwargs: Unpack[ArticulationParams]
+    ) -> None: ...
     def add_pair(
         self, a: int | str, b: int | str, params: PairParams | None = None, **kwargs: Unpack[PairParams]
     ) -> int: ...
@@ -168,7 +202,8 @@ class Frame:
     def params(self, object: int | str) -> dict[str, Any]: ...
     def deform(self, threads: int | None = None) -> tuple[list[Vertices], dict[str, Any]]: ...
 
-Frames = tuple[int, int] | range | int | str
+# A frame, a range (half-open, as Python's), consecutive frames, or "A:B" (inclusive, as --frames).
+Frames = int | range | Sequence[int] | npt.NDArray[np.integer] | str
 
 class Scene:
     @staticmethod
@@ -177,6 +212,8 @@ class Scene:
     def path(self) -> str: ...
     @property
     def frame_range(self) -> tuple[int, int]: ...
+    @property
+    def frames(self) -> range: ...
     @property
     def fps(self) -> float: ...
     @property
@@ -193,6 +230,7 @@ class Scene:
         keep_points: bool = False,
     ) -> ShotResult: ...
     def completed_frames(self, output: Path | None = None, format: str | None = None) -> list[int]: ...
+    def merge(self, output: Path | None = None, format: str | None = None) -> dict[str, Any]: ...
 
 class ShotResult:
     @property

@@ -21,7 +21,7 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
 use super::intersect::{IntersectionPoint, IntersectionStats, intersect};
@@ -31,6 +31,7 @@ use super::surface::{SideSurface, side_surface};
 use super::zone::{CriterionStats, ZoneSetup, criterion, extract_zone};
 use super::{ContactError, ContactZone, EdgeRegion};
 use crate::mesh::{Topology, TriMesh};
+use crate::params::Uvs;
 use crate::params::{MappingMethod, PairParams, Params};
 use crate::spatial::TriangleBvh;
 use crate::stage::{Stage, StageTimes, StageWork, Work};
@@ -53,8 +54,9 @@ pub struct ContactSide<'a> {
     /// Per vertex: true where the working region was cut out of a bigger mesh. `None`: the
     /// region is the whole object (its boundary, if any, is genuine).
     pub border: Option<&'a [bool]>,
-    /// Per-vertex texture coordinates, needed by [`MappingMethod::SharedParametrization`] only.
-    pub uvs: Option<&'a [DVec2]>,
+    /// Texture coordinates (per vertex or per triangle corner), needed by
+    /// [`MappingMethod::SharedParametrization`] only.
+    pub uvs: Option<&'a Uvs>,
     /// Per vertex: true if it lies inside the other side, decided by the caller. `None`: decided
     /// by the intersection stage (tags and flood fill, §4.1). Self-contact (ch. 6) gives it: its
     /// two sides are parts of one closed mesh whose intersection curves end at the crease cut,
@@ -102,8 +104,9 @@ impl<'a> ContactSide<'a> {
         self
     }
 
-    /// Sets the per-vertex UVs (one per vertex; for the shared-parametrization mapping).
-    pub fn with_uvs(mut self, uvs: Option<&'a [DVec2]>) -> Self {
+    /// Sets the UVs (one per vertex or three per triangle; for the shared-parametrization
+    /// mapping).
+    pub fn with_uvs(mut self, uvs: Option<&'a Uvs>) -> Self {
         self.uvs = uvs;
         self
     }
@@ -140,7 +143,7 @@ impl<'a> ContactSide<'a> {
             ("the normals", nv, self.normals.len()),
             ("the triangle tree", nf, self.bvh.len()),
             ("the border flags", nv, self.border.map_or(nv, <[bool]>::len)),
-            ("the UVs", nv, self.uvs.map_or(nv, <[DVec2]>::len)),
+            ("the UVs", self.uvs.map_or(nv, |u| u.expected(nv, nf)), self.uvs.map_or(nv, |u| u.count().1)),
             ("the interior flags", nv, self.interior.map_or(nv, <[bool]>::len)),
         ];
         for (what, expected, got) in checks {

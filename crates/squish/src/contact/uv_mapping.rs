@@ -2,7 +2,17 @@
 //! §4.5, "Region mapping ▷ §2.1"), selected per pair with
 //! [`MappingMethod::SharedParametrization`](super::MappingMethod::SharedParametrization).
 //!
-//! Both working regions carry per-vertex UVs ([`ContactSide::with_uvs`]). Every intersection point
+//! Both working regions carry UVs ([`ContactSide::with_uvs`]), per vertex or per triangle corner
+//! ([`Uvs`]). **Seams.** Per-corner UVs are first unfolded into one layout per vertex over the
+//! faces the mapping reads (those touching ℐ and its one-ring, and those holding intersection
+//! points): a breadth-first walk over the faces from the lowest face id, where a face reached
+//! across an edge whose two corners carry the same UVs on both faces keeps its neighbour's chart,
+//! and a face reached across a seam is placed by the 2D similarity (rotation, uniform scale,
+//! translation; with a reflection when the two charts are mirrored) that takes the edge's UVs in
+//! its chart onto the edge as its neighbour was placed ([`unfold`]). The charts thus meet as the
+//! surface does, and the steps below run on one continuous parametrization whatever the seams
+//! (docs/decisions.md, "UV seams in the shared parametrization"). UVs without seams are used as
+//! they are, bit for bit. Every intersection point
 //! q_k of §4.1 is known on both meshes (on an edge of one, a face of the other), hence in both
 //! parametrizations: q_{k,own} and q_{k,other}. For each side (own → other):
 //! 1. **Affine fit.** A (2 × 3: a 2 × 2 linear part and a translation; the thesis' "3 × 4" is the
@@ -46,6 +56,9 @@
 //! reproduce method A), and when the relative motion is not a translation along one direction
 //! (sliding contacts where d̂ would be ill-defined).
 
+use std::collections::VecDeque;
+use std::sync::Arc;
+
 use glam::{DMat2, DVec2, DVec3};
 use rayon::prelude::*;
 
@@ -58,7 +71,8 @@ use crate::linalg::{
     ConstrainedSolver, ConstraintParams, EdgeConstraint, Operator, RightHandSide, SparsePattern, SymbolicFactor,
     cut_face_weights,
 };
-use crate::mesh::{Aabb3, SubMesh, Topology, TriMesh};
+use crate::mesh::{Aabb3, NO_FACE, SubMesh, Topology, TriMesh};
+use crate::params::Uvs;
 use crate::spatial::{AabbTree, closest_point_on_triangle};
 use crate::stage::SharedWork;
 
@@ -144,9 +158,11 @@ pub fn fit_affine(pairs: &[(DVec2, DVec2)]) -> (UvAffine, AffineFit) {
     (translation_only(DMat2::from_cols(DVec2::new(re, im), DVec2::new(-im, re))), AffineFit::Similarity)
 }
 
-/// Point location in the UV space of one mesh: a 2D box tree over its UV triangles.
+/// Point location in the UV space of one mesh: a 2D box tree over its UV triangles, in the
+/// unfolded layout (one UV per vertex) it was built on.
 #[derive(Clone, Debug)]
 struct UvLocator {
+    uvs: Arc<[DVec2]>,
     faces: Vec<u32>,
     tree: Option<AabbTree>,
     /// A length scale of the UV space (diagonal of the triangles' box), to start nearest searches.
@@ -169,16 +185,16 @@ fn barycentric_2d(q: DVec2, t: &[DVec2; 3]) -> Option<[f64; 3]> {
 }
 
 impl UvLocator {
-    fn new(mesh: &TriMesh, uvs: &[DVec2], faces: Vec<u32>) -> Result<Self, ContactError> {
+    fn new(mesh: &TriMesh, uvs: Arc<[DVec2]>, faces: Vec<u32>) -> Result<Self, ContactError> {
         let faces: Vec<u32> =
-            faces.into_iter().filter(|&f| barycentric_2d(DVec2::ZERO, &uv_corners(mesh, uvs, f)).is_some()).collect();
+            faces.into_iter().filter(|&f| barycentric_2d(DVec2::ZERO, &uv_corners(mesh, &uvs, f)).is_some()).collect();
         if faces.is_empty() {
-            return Ok(Self { faces, tree: None, scale: 1.0 });
+            return Ok(Self { uvs, faces, tree: None, scale: 1.0 });
         }
         let boxes: Vec<Aabb3> = faces
             .iter()
             .map(|&f| {
-                let c = uv_corners(mesh, uvs, f);
+                let c = uv_corners(mesh, &uvs, f);
                 Aabb3 { min: c[0].min(c[1]).min(c[2]).extend(0.0), max: c[0].max(c[1]).max(c[2]).extend(0.0) }
             })
             .collect();
@@ -188,13 +204,15 @@ impl UvLocator {
             hi = hi.max(b.max);
         }
         let scale = (hi - lo).length().max(f64::MIN_POSITIVE);
-        Ok(Self { faces, tree: Some(AabbTree::new(&boxes)?), scale })
+        let tree = Some(AabbTree::new(&boxes)?);
+        Ok(Self { uvs, faces, tree, scale })
     }
 
     /// The face and barycentric coordinates of `q`: the containing UV triangle (the most interior
     /// one, then the smallest face id), or the nearest one (`true`: a fallback).
-    fn locate(&self, mesh: &TriMesh, uvs: &[DVec2], q: DVec2) -> Option<(u32, [f64; 3], bool)> {
+    fn locate(&self, mesh: &TriMesh, q: DVec2) -> Option<(u32, [f64; 3], bool)> {
         let tree = self.tree.as_ref()?;
+        let uvs = &self.uvs[..];
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         let point = Aabb3 { min: q.extend(0.0), max: q.extend(0.0) };
         tree.for_each_overlapping(&point, |leaf| {
@@ -276,7 +294,7 @@ impl SideParametrization {
 
     /// The match on `other` of a UV location in its space (`true`: nearest-triangle fallback).
     pub fn locate(&self, other: &ContactSide, q: DVec2) -> (Match, bool) {
-        let located = other.uvs.and_then(|uvs| self.locator.locate(other.mesh, uvs, q));
+        let located = self.locator.locate(other.mesh, q);
         match located {
             Some((face, bary, fallback)) => {
                 let tri = other.mesh.triangles[face as usize];
@@ -372,6 +390,102 @@ fn faces_near(side: &ContactSide, region: &EdgeRegion) -> Vec<u32> {
     if faces.is_empty() { (0..side.mesh.num_triangles() as u32).collect() } else { faces }
 }
 
+/// The faces of side `l` the mapping reads UVs on: those touching ℐ_l or its one-ring, and those
+/// holding an intersection point (a point on an edge of the other side lies on a face of this one).
+fn layout_faces(side: &ContactSide, l: usize, region: &EdgeRegion, points: &[IntersectionPoint]) -> Vec<u32> {
+    let mut faces = faces_near(side, region);
+    faces.extend(points.iter().filter(|p| p.edge_side as usize != l).map(|p| p.face));
+    faces.sort_unstable();
+    faces.dedup();
+    faces
+}
+
+/// Twice the signed area of a UV triangle.
+fn uv_area(c: &[DVec2; 3]) -> f64 {
+    (c[1] - c[0]).perp_dot(c[2] - c[0])
+}
+
+/// The 2D similarity taking `from` onto `to` (two points each), with a reflection when `mirror`;
+/// `None` when `from`'s two points coincide.
+fn similarity(from: [DVec2; 2], to: [DVec2; 2], mirror: bool) -> Option<UvAffine> {
+    let (d_from, d_to) = (from[1] - from[0], to[1] - to[0]);
+    let length = d_from.length_squared();
+    if length == 0.0 || !length.is_finite() {
+        return None;
+    }
+    // As complex numbers: to = z·from + t, or z·conj(from) + t with a reflection.
+    let source = if mirror { DVec2::new(d_from.x, -d_from.y) } else { d_from };
+    let z = DVec2::new(d_to.x * source.x + d_to.y * source.y, d_to.y * source.x - d_to.x * source.y) / length;
+    let linear = if mirror {
+        DMat2::from_cols(DVec2::new(z.x, z.y), DVec2::new(z.y, -z.x))
+    } else {
+        DMat2::from_cols(DVec2::new(z.x, z.y), DVec2::new(-z.y, z.x))
+    };
+    Some(UvAffine { linear, translation: to[0] - linear * from[0] })
+}
+
+/// One UV per vertex of `side` over `faces` (module docs, "Seams"): per-vertex UVs as they are;
+/// per-corner UVs unfolded across their seams. Vertices of no face of `faces` get NaN.
+pub(crate) fn unfold(side: &ContactSide, uvs: &Uvs, faces: &[u32]) -> Arc<[DVec2]> {
+    let corners = match uvs {
+        Uvs::PerVertex(values) => return Arc::from(values.as_slice()),
+        Uvs::PerCorner(corners) => corners,
+    };
+    let (mesh, topology) = (side.mesh, side.topology);
+    let mut layout = vec![DVec2::NAN; mesh.num_vertices()];
+    let mut in_domain = vec![false; mesh.num_triangles()];
+    for &f in faces {
+        in_domain[f as usize] = true;
+    }
+    // Per face: not reached yet, or its chart's map into the layout (`None`: as it is).
+    let mut placed: Vec<Option<Option<UvAffine>>> = vec![None; mesh.num_triangles()];
+    let apply = |map: &Option<UvAffine>, q: DVec2| map.as_ref().map_or(q, |m| m.apply(q));
+    let mut queue = VecDeque::new();
+    for &seed in faces {
+        if placed[seed as usize].is_some() {
+            continue;
+        }
+        placed[seed as usize] = Some(None);
+        queue.push_back(seed);
+        while let Some(f) = queue.pop_front() {
+            let map = placed[f as usize].unwrap_or_default();
+            let tri = mesh.triangles[f as usize];
+            let own = corners[f as usize];
+            let here = own.map(|q| apply(&map, q));
+            for k in 0..3 {
+                if layout[tri[k] as usize].is_nan() {
+                    layout[tri[k] as usize] = here[k];
+                }
+            }
+            // Orientation of this face as placed: a neighbour across a seam is placed with the same.
+            let placed_sign = uv_area(&here).signum();
+            for (k, &e) in topology.face_edges(f).iter().enumerate() {
+                for g in topology.edge_faces(e) {
+                    if g == NO_FACE || g == f || !in_domain[g as usize] || placed[g as usize].is_some() {
+                        continue;
+                    }
+                    let (i, j) = (tri[k], tri[(k + 1) % 3]);
+                    let other_tri = mesh.triangles[g as usize];
+                    let corner_of = |v: u32| other_tri.iter().position(|&w| w == v);
+                    let (Some(ki), Some(kj)) = (corner_of(i), corner_of(j)) else { continue };
+                    let theirs = corners[g as usize];
+                    let same = |a: DVec2, b: DVec2| a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits();
+                    let map_g = if same(theirs[ki], own[k]) && same(theirs[kj], own[(k + 1) % 3]) {
+                        map
+                    } else {
+                        let mirror = uv_area(&theirs).signum() * placed_sign < 0.0;
+                        // A degenerate seam edge in UV space keeps the neighbour's map.
+                        similarity([theirs[ki], theirs[kj]], [here[k], here[(k + 1) % 3]], mirror).or(map)
+                    };
+                    placed[g as usize] = Some(map_g);
+                    queue.push_back(g);
+                }
+            }
+        }
+    }
+    Arc::from(layout)
+}
+
 /// The harmonic 2D field g over ℐ and its exterior one-ring with the constraints
 /// `(1 − α)g_i + αg_j = e` (module docs, step 2). Returns g per vertex of the side's mesh (0 away
 /// from ℐ).
@@ -430,11 +544,10 @@ fn map_side_uv(
     sides: [&ContactSide; 2],
     intersections: [&EdgeRegion; 2],
     points: &[IntersectionPoint],
+    layouts: [&Arc<[DVec2]>; 2],
 ) -> Result<(SideMapping, MappingStats, SideParametrization), ContactError> {
     let (side, other) = (sides[l], sides[1 - l]);
-    let missing = |s: &ContactSide| ContactError::MissingUvs { object: s.display_name() };
-    let uvs = side.uvs.ok_or_else(|| missing(side))?;
-    let other_uvs = other.uvs.ok_or_else(|| missing(other))?;
+    let (uvs, other_uvs) = (&layouts[l][..], &layouts[1 - l][..]);
     let region = intersections[l];
 
     // 1. Affine fit over all intersection points.
@@ -472,7 +585,7 @@ fn map_side_uv(
             }
         })
         .collect();
-    let locator = UvLocator::new(other.mesh, other_uvs, faces_near(other, intersections[1 - l]))?;
+    let locator = UvLocator::new(other.mesh, layouts[1 - l].clone(), faces_near(other, intersections[1 - l]))?;
     let mut param = SideParametrization {
         affine,
         fit,
@@ -539,9 +652,16 @@ pub fn map_regions_uv(
 ) -> Result<([SideMapping; 2], MappingStats, SharedParametrization), ContactError> {
     check_uvs(sides)?;
     let work = SharedWork::default();
+    let layout = |l: usize| {
+        let side = sides[l];
+        let uvs = side.uvs.ok_or_else(|| ContactError::MissingUvs { object: side.display_name() })?;
+        Ok::<_, ContactError>(unfold(side, uvs, &layout_faces(side, l, intersections[l], points)))
+    };
+    let (layout_a, layout_b) = rayon::join(|| work.measure(|| layout(0)), || work.measure(|| layout(1)));
+    let layouts = [&layout_a?, &layout_b?];
     let (a, b) = rayon::join(
-        || work.measure(|| map_side_uv(0, sides, intersections, points)),
-        || work.measure(|| map_side_uv(1, sides, intersections, points)),
+        || work.measure(|| map_side_uv(0, sides, intersections, points, layouts)),
+        || work.measure(|| map_side_uv(1, sides, intersections, points, layouts)),
     );
     work.record();
     let ((ma, sa, pa), (mb, sb, pb)) = (a?, b?);
@@ -609,15 +729,38 @@ mod tests {
     use crate::mesh::shapes;
     use crate::params::{MappingMethod, PairParams};
 
-    /// A working region with per-vertex UVs.
+    /// A working region with UVs: `uvs` per vertex, `map` as given to the contact (per vertex, or
+    /// per corner with seams).
     struct WithUvs {
         owned: Owned,
         uvs: Vec<DVec2>,
+        map: Uvs,
     }
 
     impl WithUvs {
+        fn new(owned: Owned, uvs: Vec<DVec2>) -> Self {
+            Self { owned, map: Uvs::PerVertex(uvs.clone()), uvs }
+        }
+
         fn side(&self) -> ContactSide<'_> {
-            self.owned.side().with_uvs(Some(&self.uvs))
+            self.owned.side().with_uvs(Some(&self.map))
+        }
+
+        /// The same UVs cut along the line x = `x0`: the faces right of it get theirs through
+        /// `chart` (another chart of the texture), so every vertex on the line has two UVs.
+        fn with_seam(mut self, x0: f64, chart: impl Fn(DVec2) -> DVec2) -> Self {
+            let mesh = &self.owned.mesh;
+            let corners = mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let right = t.iter().map(|&v| mesh.positions[v as usize].x).sum::<f64>() / 3.0 > x0;
+                    t.map(|v| if right { chart(self.uvs[v as usize]) } else { self.uvs[v as usize] })
+                })
+                .collect();
+            self.map = Uvs::PerCorner(corners);
+            assert!(self.map.has_seams(&mesh.triangles, mesh.num_vertices()));
+            self
         }
     }
 
@@ -638,14 +781,14 @@ mod tests {
             t.swap(1, 2);
         }
         let uvs = mesh.positions.iter().map(|p| uv(p.truncate())).collect();
-        WithUvs { owned: Owned::new(mesh, DVec3::ZERO).with_stiffness(Stiffness::Rigid), uvs }
+        WithUvs::new(Owned::new(mesh, DVec3::ZERO).with_stiffness(Stiffness::Rigid), uvs)
     }
 
     /// The elastic plane z = 0 with uv = (x, y).
     fn plane() -> WithUvs {
         let mesh = shapes::grid(2.4, 2.4, 60, 60);
         let uvs = mesh.positions.iter().map(|p| p.truncate()).collect();
-        WithUvs { owned: Owned::new(mesh, DVec3::ZERO), uvs }
+        WithUvs::new(Owned::new(mesh, DVec3::ZERO), uvs)
     }
 
     fn shared(a: &WithUvs, b: &WithUvs) -> ([SideMapping; 2], MappingStats, SharedParametrization) {
@@ -720,6 +863,106 @@ mod tests {
                 assert!(distance_to(&other.owned, m.point) < 1e-12);
             }
         }
+    }
+
+    /// Another chart of a texture: rotated, scaled and moved, and mirrored when `mirror`.
+    fn chart(mirror: bool) -> impl Fn(DVec2) -> DVec2 {
+        move |q: DVec2| {
+            let q = if mirror { DVec2::new(-q.x, q.y) } else { q };
+            DMat2::from_angle(0.7) * q * 1.7 + DVec2::new(3.0, -1.0)
+        }
+    }
+
+    /// Per-corner UVs cut along a line (a seam, the two halves in different charts, mirrored or
+    /// not) unfold into one layout that is a similarity image of the uncut one: the charts meet
+    /// as the surface does.
+    #[test]
+    fn unfolding_joins_the_charts_of_a_seam() {
+        for mirror in [false, true] {
+            let plane = plane().with_seam(0.0, chart(mirror));
+            let side = plane.side();
+            let faces: Vec<u32> = (0..plane.owned.mesh.num_triangles() as u32).collect();
+            let layout = unfold(&side, &plane.map, &faces);
+            let pairs: Vec<(DVec2, DVec2)> = plane.uvs.iter().copied().zip(layout.iter().copied()).collect();
+            let (map, fit) = fit_affine(&pairs);
+            let residual = pairs.iter().map(|&(a, b)| (b - map.apply(a)).length()).fold(0.0, f64::max);
+            let m = map.linear;
+            println!("seam (mirrored: {mirror}): unfolded layout = similarity of the uncut UVs to {residual:.1e}");
+            assert_eq!(fit, AffineFit::Affine);
+            assert!(residual < 1e-12, "the charts do not meet: {residual}");
+            // A similarity: equal columns' lengths, orthogonal columns.
+            assert!((m.x_axis.length() - m.y_axis.length()).abs() < 1e-12 && m.x_axis.dot(m.y_axis).abs() < 1e-12);
+        }
+        // Without seams the layout is the UVs, bit for bit.
+        let plane = plane();
+        let corners =
+            Uvs::PerCorner(plane.owned.mesh.triangles.iter().map(|t| t.map(|v| plane.uvs[v as usize])).collect());
+        let faces: Vec<u32> = (0..plane.owned.mesh.num_triangles() as u32).collect();
+        let layout = unfold(&plane.side(), &corners, &faces);
+        assert!(
+            layout
+                .iter()
+                .zip(&plane.uvs)
+                .all(|(a, b)| a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits())
+        );
+    }
+
+    /// A seam through the contact (on either mesh, its charts mirrored or not) gives the mapping
+    /// of the same UVs without the seam; picking one of a seam vertex's UVs instead (no unfolding)
+    /// does not.
+    #[test]
+    fn a_seam_through_the_contact_maps_as_without_it() {
+        let linear = DMat2::from_cols(DVec2::new(1.3, -0.1), DVec2::new(0.2, 0.9));
+        let translation = DVec2::new(0.5, -0.2);
+        let relation = move |q: DVec2| linear * q + translation;
+        let (tip_plain, plane_plain) = (tip(relation), plane());
+        let (reference, ..) = shared(&tip_plain, &plane_plain);
+        for mirror in [false, true] {
+            for (tip_seam, plane_seam) in [(false, true), (true, false), (true, true)] {
+                let t = if tip_seam { tip(relation).with_seam(0.02, chart(mirror)) } else { tip(relation) };
+                let p = if plane_seam { plane().with_seam(0.0, chart(!mirror)) } else { plane() };
+                let (mappings, stats, _) = shared(&t, &p);
+                assert_eq!(stats.closest_point_matches, 0, "every target lies in a UV triangle");
+                let mut worst = 0.0f64;
+                for (m, r) in mappings.iter().zip(&reference) {
+                    assert_eq!(m.vertices, r.vertices);
+                    for (a, b) in m
+                        .vertex_matches
+                        .iter()
+                        .zip(&r.vertex_matches)
+                        .chain(m.point_matches.iter().zip(&r.point_matches))
+                    {
+                        worst = worst.max((a.point - b.point).length());
+                    }
+                }
+                println!(
+                    "seam on the tip {tip_seam}, on the plane {plane_seam}, mirrored {mirror}: largest difference of a match {worst:.1e}"
+                );
+                assert!(worst < 1e-9, "{worst}");
+            }
+        }
+        // One UV per vertex taken from its first corner: the faces across the seam span both
+        // charts, and the matches land far from the vertical projection.
+        let seam = plane().with_seam(0.0, chart(false));
+        let Uvs::PerCorner(corners) = &seam.map else { unreachable!() };
+        let mut first = vec![DVec2::NAN; seam.uvs.len()];
+        for (t, c) in seam.owned.mesh.triangles.iter().zip(corners) {
+            for k in 0..3 {
+                if first[t[k] as usize].is_nan() {
+                    first[t[k] as usize] = c[k];
+                }
+            }
+        }
+        let naive = WithUvs::new(Owned::new(seam.owned.mesh.clone(), DVec3::ZERO), first);
+        let (mappings, ..) = shared(&tip_plain, &naive);
+        let worst = mappings[1]
+            .vertices
+            .iter()
+            .zip(&mappings[1].vertex_matches)
+            .map(|(&v, m)| (m.point.truncate() - naive.owned.mesh.positions[v as usize].truncate()).length())
+            .fold(0.0, f64::max);
+        println!("one UV per seam vertex instead: a match {worst:.3} away from the vertical projection");
+        assert!(worst > 0.05, "{worst}");
     }
 
     /// A tilted plane (uv = its own in-plane coordinates) against the tip (uv = world xy): the uv
@@ -844,7 +1087,7 @@ mod tests {
         assert!(matches!(&err, ContactError::MissingUvs { object } if object == "ground"), "{err}");
         assert!(err.to_string().contains("UVs"), "{err}");
         // UVs of the wrong length are an input mismatch.
-        let short = plane.uvs[..10].to_vec();
+        let short = Uvs::PerVertex(plane.uvs[..10].to_vec());
         let err = contact_pair(&tip.side(), &plane.owned.side().with_uvs(Some(&short)), &params).unwrap_err();
         assert!(matches!(err, ContactError::InputMismatch { what: "the UVs", .. }), "{err}");
     }

@@ -30,6 +30,7 @@ mod articulation;
 mod object;
 mod pair;
 mod suggest;
+mod uvs;
 mod value;
 
 pub use articulation::Articulation;
@@ -39,6 +40,7 @@ pub use object::{MIN_PROFILE_ABSCISSA, ObjectParams, RegionChoice};
 pub use pair::{ContactMethod, MappingMethod, PairParams};
 pub use squish_derive::Params;
 pub use suggest::did_you_mean;
+pub use uvs::Uvs;
 pub use value::{DirectionFieldMethod, ParamType, ParamValue};
 
 use std::fmt;

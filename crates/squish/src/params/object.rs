@@ -1,10 +1,10 @@
 //! Per-object parameters: the thesis' glossary (ARCHITECTURE.md) with its defaults.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::ParamError;
 use super::value::DirectionFieldMethod;
-use super::{Articulation, SkinParts};
+use super::{Articulation, SkinParts, Uvs};
 
 crate::choice! {
     /// How an object is divided into working regions 𝒲 (§4, §4.5, §7.5).
@@ -185,10 +185,11 @@ pub struct ObjectParams {
     /// its fingers) but no face may be in two.
     #[param(section = "§4.5", range = "[0, inf)", word = "none")]
     pub region_mask: Option<Vec<f64>>,
-    /// Per-vertex texture coordinates, needed on both objects of a pair by method A's shared
-    /// parametrization mapping (`mapping = "shared_parametrization"`); the mesh's own UVs.
+    /// Texture coordinates, per vertex or per triangle corner (seams), needed on both objects
+    /// of a pair by method A's shared parametrization mapping (`mapping =
+    /// "shared_parametrization"`); the mesh's own UVs.
     #[param(skip)]
-    pub uvs: Option<Vec<DVec2>>,
+    pub uvs: Option<Uvs>,
     /// Articulations whose two sides may fold onto each other (skinned joints, lips; thesis
     /// ch. 6), resolved before the contacts with other objects.
     #[param(skip)]

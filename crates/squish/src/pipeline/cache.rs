@@ -9,7 +9,7 @@
 //! except the component figures reused for an object that did not move, bit for bit, which are
 //! the same bits.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::{FrameObject, PipelineError};
 use crate::contact::ContactSide;
@@ -82,7 +82,7 @@ impl ObjectCache {
         object: &'a FrameObject,
         normals: Option<&'a [DVec3]>,
         name: &'a str,
-        uvs: Option<&'a [DVec2]>,
+        uvs: Option<&'a crate::params::Uvs>,
     ) -> Option<ContactSide<'a>> {
         let region = self.regions.get(r)?;
         let side = match region.sub.as_deref() {

@@ -71,8 +71,8 @@ pub(super) fn contact_region_pairs(
                 let pair = &frame.pairs[rp.pair];
                 let [ia, ib] = pair.objects;
                 let (oa, ob) = (&frame.objects[ia], &frame.objects[ib]);
-                let side_a = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra], uvs[ia][ra].as_deref());
-                let side_b = caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb], uvs[ib][rb].as_deref());
+                let side_a = caches[ia].side(ra, oa, normals[ia].as_deref(), &names[ia][ra], uvs[ia][ra].as_ref());
+                let side_b = caches[ib].side(rb, ob, normals[ib].as_deref(), &names[ib][rb], uvs[ib][rb].as_ref());
                 let sides = side_a.zip(side_b);
                 let Some((side_a, side_b)) = sides else { return Ok(None) };
                 let contact = contact_pair(&side_a, &side_b, &pair.params).map_err(|source| {

@@ -27,7 +27,7 @@
 //! Kept only when asked ([`super::Deformer::keep_for_edits`]): the copies cost memory and a
 //! little time on every full frame, which a shot computed frame by frame does not need.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::FrameObject;
 use super::contacts::RegionPair;
@@ -103,7 +103,7 @@ struct ObjectKey {
     positions: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
     upstream: Vec<(&'static str, ParamValue)>,
-    uvs: Option<Vec<DVec2>>,
+    uvs: Option<crate::params::Uvs>,
 }
 
 /// The values of every object parameter but the downstream ones.
@@ -159,7 +159,7 @@ impl FrameKey {
                     && same_values(&k.upstream, &upstream_values(o.params))
                     && match (&k.uvs, &o.params.uvs) {
                         (None, None) => true,
-                        (Some(a), Some(b)) => same_points::<2, DVec2>(a, b),
+                        (Some(a), Some(b)) => a.same_bits(b),
                         _ => false,
                     }
             });

@@ -405,7 +405,19 @@ fn finish_object(
     let (positions, part_pairs, self_intersecting_faces, untangled) = match &params.self_contact_parts {
         Some(parts) => {
             let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &prepared.rest, params, parts)?;
-            trace.time(Stage::PartContacts, r.pairs.iter().map(|p| p.time).sum());
+            // Each touching part pair is a job of the plan's first level (its figures in
+            // `part_pairs`; its stages run inside its own nested frame until the self-contact
+            // rework, issue 36).
+            for pair in &r.pairs {
+                let job_name = format!("{name}: parts \"{}\" – \"{}\" ({})", pair.parts[0], pair.parts[1], pair.kind);
+                let mut record = JobRecord::new(JobLevel::SelfContact, JobKind::Parts, job_name, [index, index]);
+                record.in_contact = pair.in_contact;
+                record.error.clone_from(&pair.error);
+                let job = trace.push_job(record);
+                let mut times = StageTimes::default();
+                times[Stage::PartContacts] = pair.time;
+                trace.add_to_job(job, &times, &Default::default());
+            }
             trace.time(Stage::Untangle, r.untangled.time);
             for (m, p) in moved.iter_mut().zip(r.moved) {
                 *m |= p;

@@ -48,15 +48,25 @@ pub(super) fn check_frame(frame: &Frame) -> Result<Pairing, PipelineError> {
         params.validate().map_err(|source| PipelineError::Parameter { object: object.name.to_string(), source })?;
         super::regions::validate_region(params, object.mesh.num_vertices())
             .map_err(|reason| PipelineError::invalid_region(object.name, reason))?;
-        if let Some(uvs) = &params.uvs
-            && uvs.len() != object.mesh.num_vertices()
-        {
-            return Err(PipelineError::PerVertexLength {
-                object: object.name.to_string(),
-                what: "the UVs",
-                expected: object.mesh.num_vertices(),
-                actual: uvs.len(),
-            });
+        if let Some(uvs) = &params.uvs {
+            let (counted, actual) = uvs.count();
+            let expected = uvs.expected(object.mesh.num_vertices(), object.mesh.num_triangles());
+            if actual != expected && counted == "vertices" {
+                return Err(PipelineError::PerVertexLength {
+                    object: object.name.to_string(),
+                    what: "the UVs",
+                    expected,
+                    actual,
+                });
+            }
+            if actual != expected {
+                let message =
+                    format!("{actual} corner triples for the mesh's {expected} triangles; give three per triangle");
+                return Err(PipelineError::Parameter {
+                    object: object.name.to_string(),
+                    source: crate::params::ParamError::new("uvs", None, message),
+                });
+            }
         }
     }
     let needs_tree = (0..count)

@@ -1,21 +1,23 @@
 //! What the jobs of the contacts between objects share at one frame, computed once: per object its
 //! vertex normals (when one of its regions is the whole object; cut regions have their own), its
 //! component figures and whether it is closed; per working region its name for messages, its size
-//! (of the components it touches) and its UVs (gathered for cut regions).
+//! (of the components it touches) and its UVs (gathered for cut regions, per vertex or per face
+//! corner as the object gives them).
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Frame;
 use super::cache::{ComponentFigures, ObjectCache, RegionCache};
 use crate::mesh::vertex_normals;
+use crate::params::Uvs;
 
 /// The per-frame store of the contacts between objects (see the module doc), indexed by object,
 /// then by working region.
 pub(super) struct FrameStore {
     pub normals: Vec<Option<Vec<DVec3>>>,
     pub names: Vec<Vec<String>>,
-    pub uvs: Vec<Vec<Option<Vec<DVec2>>>>,
+    pub uvs: Vec<Vec<Option<Uvs>>>,
     pub figures: Vec<ComponentFigures>,
     pub sizes: Vec<Vec<f64>>,
     pub closed: Vec<bool>,
@@ -47,7 +49,13 @@ impl FrameStore {
                     .iter()
                     .map(|region| {
                         let uvs = o.params.uvs.as_ref()?;
-                        Some(region.sub.as_deref().map_or_else(|| uvs.clone(), |sub| sub.sub.gather(uvs)))
+                        Some(match (region.sub.as_deref(), uvs) {
+                            (None, _) => uvs.clone(),
+                            (Some(sub), Uvs::PerVertex(values)) => Uvs::PerVertex(sub.sub.gather(values)),
+                            (Some(sub), Uvs::PerCorner(corners)) => {
+                                Uvs::PerCorner(sub.sub.parent_face.iter().map(|&f| corners[f as usize]).collect())
+                            }
+                        })
                     })
                     .collect()
             })

@@ -373,7 +373,8 @@ fn method_a_runs_through_the_deformer() {
     };
     let mut method_a = method_b.clone();
     for object in &mut method_a.objects {
-        object.params.uvs = Some(object.mesh.positions.iter().map(|p| p.truncate()).collect());
+        object.params.uvs =
+            Some(squish::params::Uvs::PerVertex(object.mesh.positions.iter().map(|p| p.truncate()).collect()));
     }
     method_a.objects[1].params.direction_field = DirectionFieldMethod::ParallelTransport;
     method_a.pairs[0].params =
@@ -389,7 +390,9 @@ fn method_a_runs_through_the_deformer() {
     assert!(a.deformations[1].as_ref().is_some_and(|d| d.contact.iter().any(|&c| c)));
 
     let mut bad = method_a.clone();
-    bad.objects[1].params.uvs.as_mut().unwrap().pop();
+    if let Some(squish::params::Uvs::PerVertex(uvs)) = bad.objects[1].params.uvs.as_mut() {
+        uvs.pop();
+    }
     let err = Deformer::new().deform(&bad.frame()).unwrap_err().to_string();
     assert!(err.contains("\"ground\"") && err.contains("UVs"), "{err}");
 }

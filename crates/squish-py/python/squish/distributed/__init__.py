@@ -2,18 +2,19 @@
 
 ``run_shot(scene_path, output)`` cuts the scene's frames into chunks of ``chunk`` consecutive
 frames and runs each chunk as a Ray task. A task is ``Scene.load(scene_path).run(output,
-frames=(first, last))``: the code of ``squish run --frames first:last``, so it writes each frame's
-files atomically and its report part ``report.first-last.json``. The driver then merges the parts
-into ``report.json`` exactly as ``squish run`` does (``squish.merge_reports``). The frames are the
-same files, byte for byte, as ``squish run`` of the same scene: every frame is computed from
-scratch, whatever the machine, the chunk or the thread count.
+frames=range(first, last + 1))``: the code of ``squish run --frames first:last``, so it writes each
+frame's files atomically (for glb, gltf and pc2, its part ``<object>.first-last.<ext>`` holding its
+frames) and its report part ``report.first-last.json``. The driver then merges the parts exactly as
+``squish run`` does (``Scene.merge``): the reports into ``report.json``, and the parts of the files
+holding every frame into ``<object>.<ext>`` — morph targets for every frame and one animation, or
+one point cache. The files are the same, byte for byte, as ``squish run`` of the same scene:
+every frame is computed from scratch, whatever the machine, the chunk or the thread count.
 
 - A chunk whose task fails (an exception, or its worker dying) is run once more; chunks that fail
   again are listed with their error, and their frames appear in ``missing_frames``.
 - A re-run skips the frames already complete in ``output``: listed by a report part there, with
   every object's file of the frame present (files are written atomically, so a file present is
   whole).
-- Only per-frame formats (obj, ply) can be split this way: glb, gltf and pc2 files hold every frame.
 
 Every node must see the scene file, its meshes and ``output`` at the same paths (a shared file
 system). To use an existing cluster, start it with ``ray start --head`` on one machine and
@@ -51,10 +52,14 @@ class ShotRun:
     """Chunks that failed twice: ``{"frames": "A:B", "failed_frame": F or None, "error": text}``."""
     retried: list[str]
     """Chunks (``"A:B"``) run a second time."""
+    files: list[Path] = dataclasses.field(default_factory=list)
+    """For glb, gltf and pc2: the files holding every frame, merged from the chunks' parts."""
+    incomplete: dict[str, list[str]] = dataclasses.field(default_factory=dict)
+    """For glb, gltf and pc2: per object whose parts miss frames, the frames missing (``"A:B"``)."""
 
     @property
     def complete(self) -> bool:
-        return not self.failed and not self.report.get("missing_frames")
+        return not self.failed and not self.report.get("missing_frames") and not self.incomplete
 
 
 def chunks_of(frames: list[int], chunk: int) -> list[tuple[int, int]]:
@@ -73,7 +78,7 @@ def chunks_of(frames: list[int], chunk: int) -> list[tuple[int, int]]:
 def _run_chunk(scene_path: str, output: str, first: int, last: int, threads: int) -> dict:
     """One task: frames ``first..last`` written into ``output``; never raises (its error is data)."""
     try:
-        result = squish.Scene.load(scene_path).run(output, frames=(first, last), threads=threads)
+        result = squish.Scene.load(scene_path).run(output, frames=range(first, last + 1), threads=threads)
         return {"frames": (first, last), "ok": True, "computed": result.frames, "error": None}
     except Exception as error:  # the driver retries and reports; the part says which frame failed
         return {"frames": (first, last), "ok": False, "computed": [], "error": f"{type(error).__name__}: {error}"}
@@ -105,21 +110,15 @@ def run_shot(
     of each task, and the CPUs it asks Ray for. ``progress``: a progress bar on stderr (tqdm), or a
     function called with the number of frames each finished chunk computed.
 
-    Returns a ``ShotRun``; raises ``squish.InputError`` for a scene that cannot be loaded or an
-    output format that holds every frame in one file. Ctrl-C cancels the tasks not started, merges
-    the reports of what was done, and raises ``KeyboardInterrupt``.
+    Returns a ``ShotRun``; raises ``squish.InputError`` for a scene that cannot be loaded. Ctrl-C
+    cancels the tasks not started, merges the parts of what was done, and raises
+    ``KeyboardInterrupt``.
     """
     import ray
 
     scene_path = Path(scene_path).resolve()
     output = Path(output).resolve()
     scene = squish.Scene.load(scene_path)
-    _, format = scene.output
-    if format not in ("obj", "ply"):
-        raise squish.InputError(
-            f"{scene_path}: output format {format!r} holds every frame in one file, which one task cannot "
-            "write alone; use format = \"obj\" or \"ply\" for a distributed shot, or run it with `squish run`"
-        )
     if threads_per_task < 1:
         raise squish.InputError(f"threads_per_task = {threads_per_task}: give at least 1")
     first, last = scene.frame_range
@@ -168,16 +167,18 @@ def run_shot(
     except KeyboardInterrupt:
         for ref in pending:
             ray.cancel(ref)
-        squish.merge_reports(output, first, last)
+        scene.merge(output)
         raise
     finally:
         if bar is not None:
             bar.close()
-    report_path = Path(squish.merge_reports(output, first, last))
+    merged = scene.merge(output)
+    report_path = Path(merged["report"])
     import json
 
     report = json.loads(report_path.read_text())
-    return ShotRun(report_path, report, sorted(computed), skipped, failed, retried)
+    files = [Path(f) for f in merged["files"]]
+    return ShotRun(report_path, report, sorted(computed), skipped, failed, retried, files, merged["incomplete"])
 
 
 def _progress(progress, total: int, skipped: int):

@@ -49,6 +49,10 @@ def main(argv: list[str] | None = None) -> int:
     for failure in run.failed:
         frame = f" (frame {failure['failed_frame']})" if failure["failed_frame"] is not None else ""
         print(f"error: frames {failure['frames']}{frame} failed twice: {failure['error']}", file=sys.stderr)
+    for object, missing in run.incomplete.items():
+        print(f"error: the parts of {object} miss frames {', '.join(missing)}", file=sys.stderr)
+    for file in run.files:
+        print(f"merged the parts of the shot into {file}")
     summary = run.report.get("summary", {})
     print(
         f"{len(run.computed)} frames computed, {len(run.skipped)} already done; "

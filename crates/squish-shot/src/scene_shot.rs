@@ -11,7 +11,7 @@ use squish::TriMesh;
 use squish_io::scene::{FramePattern, MeshSource, Weld};
 use squish_io::{GltfReadOptions, Scene, WeldMode, read_gltf, read_mesh, weld_positions};
 
-use crate::error::CliError;
+use crate::error::ShotError;
 use crate::shot::ShotSource;
 use squish::pipeline::OwnedFrame;
 
@@ -21,7 +21,7 @@ pub struct SceneShot<'a> {
 }
 
 impl ShotSource for SceneShot<'_> {
-    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError> {
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, ShotError> {
         Ok(self.scene.evaluate(frame as f64)?)
     }
 }

@@ -14,17 +14,18 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
 
-use crate::error::CliError;
-use crate::input::write_text;
+use crate::error::ShotError;
+use crate::files::write_text;
 
 /// The file name of the report of frames `start..=end`.
 pub fn part_file_name(start: i64, end: i64) -> String {
     format!("report.{start}-{end}.json")
 }
 
-/// The frame range of a part's file name, if it is one.
-fn part_range(name: &str) -> Option<(i64, i64)> {
-    let middle = name.strip_prefix("report.")?.strip_suffix(".json")?;
+/// The frame range of a part's file name `<stem>.A-B.<extension>` (`report.1-24.json`), if it is
+/// one.
+pub fn part_range(name: &str, stem: &str, extension: &str) -> Option<(i64, i64)> {
+    let middle = name.strip_prefix(stem)?.strip_prefix('.')?.strip_suffix(extension)?.strip_suffix('.')?;
     // The separator is the first '-' after the start's first character (which may be a sign).
     let split = middle.char_indices().skip(1).find(|&(_, c)| c == '-').map(|(i, _)| i)?;
     let (start, end) = (&middle[..split], &middle[split + 1..]);
@@ -33,20 +34,22 @@ fn part_range(name: &str) -> Option<(i64, i64)> {
 
 /// Merges every part in `dir` into `dir/report.json` (see the module documentation); the
 /// scene's frames are `scene_start..=scene_end`. Returns the merged report's path.
-pub fn merge_reports(dir: &Path, scene_start: i64, scene_end: i64) -> Result<PathBuf, CliError> {
-    let entries = std::fs::read_dir(dir)
-        .map_err(|e| CliError::failure(format!("cannot list {} to merge the reports: {e}", dir.display())))?;
+pub fn merge_reports(dir: &Path, scene_start: i64, scene_end: i64) -> Result<PathBuf, ShotError> {
+    let entries = std::fs::read_dir(dir).map_err(|e| ShotError::Report {
+        path: dir.to_path_buf(),
+        message: format!("cannot list the folder to merge the reports: {e}"),
+    })?;
     let mut parts: Vec<((i64, i64), String, Value)> = Vec::new();
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        let Some(range) = part_range(&name) else { continue };
-        let text = std::fs::read_to_string(entry.path())
-            .map_err(|e| CliError::failure(format!("cannot read the report part {}: {e}", entry.path().display())))?;
-        let value: Value = serde_json::from_str(&text).map_err(|e| {
-            CliError::failure(format!(
-                "{}: not a report ({e}); delete it or run its frames again",
-                entry.path().display()
-            ))
+        let Some(range) = part_range(&name, "report", "json") else { continue };
+        let text = std::fs::read_to_string(entry.path()).map_err(|e| ShotError::Report {
+            path: entry.path(),
+            message: format!("cannot read the report part: {e}"),
+        })?;
+        let value: Value = serde_json::from_str(&text).map_err(|e| ShotError::Report {
+            path: entry.path(),
+            message: format!("not a report ({e}); delete it or run its frames again"),
         })?;
         parts.push((range, name, value));
     }
@@ -82,9 +85,16 @@ fn merge(parts: &[((i64, i64), String, Value)], scene_start: i64, scene_end: i64
             "failed_frames": statuses.iter().flat_map(|s| s["failed_frames"].as_array().cloned().unwrap_or_default()).collect::<Vec<_>>(),
         });
         merged["summary"] = merge_summaries(parts.iter().map(|p| &p.2["summary"]).collect());
-        for key in ["animated_files", "previews"] {
-            let all: Vec<Value> =
-                parts.iter().flat_map(|p| p.2["outputs"][key].as_array().cloned().unwrap_or_default()).collect();
+        for key in ["animated_files", "merged_files", "previews"] {
+            if parts.iter().all(|p| p.2["outputs"].get(key).is_none()) {
+                continue;
+            }
+            let mut all: Vec<Value> = Vec::new();
+            for file in parts.iter().flat_map(|p| p.2["outputs"][key].as_array().cloned().unwrap_or_default()) {
+                if !all.contains(&file) {
+                    all.push(file);
+                }
+            }
             if merged["outputs"].is_object() {
                 merged["outputs"][key] = json!(all);
             }
@@ -96,12 +106,12 @@ fn merge(parts: &[((i64, i64), String, Value)], scene_start: i64, scene_end: i64
         .map(|((a, b), name, part)| json!({ "file": name, "frames": format!("{a}:{b}"), "status": part["run"]["status"] }))
         .collect::<Vec<_>>());
     merged["scene_frames"] = json!({ "start": scene_start, "end": scene_end });
-    merged["missing_frames"] = json!(missing_runs(&done, scene_start, scene_end));
+    merged["missing_frames"] = json!(runs(&done, scene_start, scene_end));
     merged
 }
 
 /// The frames of `start..=end` not in `done` (sorted), as "A:B" runs.
-fn missing_runs(done: &[i64], start: i64, end: i64) -> Vec<String> {
+pub fn runs(done: &[i64], start: i64, end: i64) -> Vec<String> {
     let mut runs: Vec<(i64, i64)> = Vec::new();
     let mut next = done.iter().peekable();
     for f in start..=end {
@@ -184,10 +194,14 @@ mod tests {
 
     #[test]
     fn part_names_read_back() {
-        assert_eq!(part_range(&part_file_name(1, 48)), Some((1, 48)));
-        assert_eq!(part_range(&part_file_name(-5, -2)), Some((-5, -2)));
-        assert_eq!(part_range("report.json"), None);
-        assert_eq!(part_range("report.a-b.json"), None);
+        let range = |name: &str| part_range(name, "report", "json");
+        assert_eq!(range(&part_file_name(1, 48)), Some((1, 48)));
+        assert_eq!(range(&part_file_name(-5, -2)), Some((-5, -2)));
+        assert_eq!(range("report.json"), None);
+        assert_eq!(range("report.a-b.json"), None);
+        assert_eq!(part_range("ball.v2.-3-7.glb", "ball.v2", "glb"), Some((-3, 7)));
+        assert_eq!(part_range("ball.v2.glb", "ball.v2", "glb"), None);
+        assert_eq!(part_range("ball.1-3.glb", "ball", "pc2"), None);
     }
 
     #[test]

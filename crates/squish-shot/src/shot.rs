@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use squish::pipeline::{Deformer, Frame, FrameResult, FrameStats, OwnedFrame};
 use squish::{ObjectParams, TriMesh};
 
-use crate::error::CliError;
+use crate::error::ShotError;
 use crate::frame_quality::{self, ObjectQuality, PairQuality};
 use crate::interrupt::Interrupt;
 
@@ -35,11 +35,11 @@ use crate::interrupt::Interrupt;
 /// (names, order, vertex counts, triangles) at every frame.
 pub trait ShotSource: Sync {
     /// The frame `frame`. Errors name the frame and what is wrong with it.
-    fn frame(&self, frame: i64) -> Result<OwnedFrame, CliError>;
+    fn frame(&self, frame: i64) -> Result<OwnedFrame, ShotError>;
 }
 
 /// Writes one frame's results (called on worker threads, once per frame).
-pub type FrameWriter<'a> = dyn Fn(i64, &OwnedFrame, &[Vec<DVec3>]) -> Result<(), CliError> + Sync + 'a;
+pub type FrameWriter<'a> = dyn Fn(i64, &OwnedFrame, &[Vec<DVec3>]) -> Result<(), ShotError> + Sync + 'a;
 
 /// How to run a shot.
 #[derive(Clone, Debug)]
@@ -198,7 +198,7 @@ pub struct FrameRecord {
 #[derive(Debug)]
 pub struct FrameFailure {
     pub frame: i64,
-    pub error: CliError,
+    pub error: ShotError,
     /// True when writing its files failed (the frame was computed): the shot stopped scheduling
     /// frames then, since the next frames would most likely fail to write too (a full disk, a
     /// folder that cannot be written). A frame that cannot be read or deformed does not stop the
@@ -254,23 +254,23 @@ impl ShotOutcome {
 /// The worker pool of a job, `threads` wide (`None`: every core). Everything the job computes
 /// runs on it — frames, the library's loops inside a frame, pictures — so `--threads` bounds
 /// the whole job.
-pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, CliError> {
+pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, ShotError> {
     let threads = match threads {
-        Some(0) => return Err(CliError::input("--threads 0: give at least 1 (or leave it out to use every core)")),
+        Some(0) => return Err(ShotError::NoThreads),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, usize::from),
     };
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| CliError::failure(format!("cannot start {threads} worker threads: {e}")))
+        .map_err(|e| ShotError::ThreadPool { threads, message: e.to_string() })
 }
 
 /// One frame's end.
 enum FrameOutcome {
     Done(Box<FrameDone>),
     Skipped,
-    Failed(CliError, Phase),
+    Failed(ShotError, Phase),
 }
 
 /// Where a frame failed: before its files were written (reading or deforming its meshes), or
@@ -297,7 +297,7 @@ pub fn run_shot(
     pool: &rayon::ThreadPool,
     interrupt: &Interrupt,
     write: &FrameWriter,
-) -> Result<ShotOutcome, CliError> {
+) -> Result<ShotOutcome, ShotError> {
     let threads = pool.current_num_threads();
     let frames: Vec<i64> = settings.frames.clone().collect();
     let progress = progress_bar(frames.len() as u64, &settings.label);
@@ -383,11 +383,13 @@ fn compute_frame(
     settings: &ShotSettings,
     continuity: &Continuity,
     write: &FrameWriter,
-) -> Result<FrameDone, (CliError, Phase)> {
+) -> Result<FrameDone, (ShotError, Phase)> {
     let shot = source.frame(f).map_err(|e| (e, Phase::Compute))?;
     let frame = shot.frame();
-    let result =
-        worker.deformer.deform(&frame).map_err(|e| (CliError::input(format!("frame {f}: {e}")), Phase::Compute))?;
+    let result = worker
+        .deformer
+        .deform(&frame)
+        .map_err(|error| (ShotError::Frame { frame: f, error: Box::new(error) }, Phase::Compute))?;
     write(f, &shot, &result.positions).map_err(|e| (e, Phase::Write))?;
     let record = frame_record(f, &frame, &result);
     let preview = settings.preview_frames.contains(&f).then(|| PreviewFrame::new(&shot, &result));

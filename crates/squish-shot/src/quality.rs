@@ -19,9 +19,9 @@ use serde::Serialize;
 use squish::stage::Stage;
 use squish_render::{Plot, Series, encode_png, grid, plot_image, svg_line_plot};
 
-use crate::error::CliError;
+use crate::error::ShotError;
+use crate::files::{write_bytes, write_text};
 use crate::frame_quality::{ObjectQuality, PairQuality};
-use crate::input::{write_bytes, write_text};
 use crate::report::FrameReport;
 use crate::shot::{FrameRecord, ShotOutcome};
 
@@ -200,20 +200,24 @@ impl SelfContactSummary {
     pub fn line(&self) -> String {
         let reduction =
             if self.faces_input > 0 { 100.0 * (1.0 - self.faces_output as f64 / self.faces_input as f64) } else { 0.0 };
+        let worse = match self.frames_worse {
+            0 => "no frame worse than its input".to_string(),
+            1 => "1 frame worse than its input".to_string(),
+            n => format!("{n} frames worse than their input"),
+        };
         let mut line = format!(
-            "{}: self-intersecting faces beyond the rest pose's {} → {} over {} frames ({reduction:.1}% fewer, {} frame{} worse than the input); {} touching part pairs (at most {} in a frame, {} unresolved)",
-            self.object,
-            self.faces_input,
-            self.faces_output,
-            self.frames,
-            self.frames_worse,
-            if self.frames_worse == 1 { "" } else { "s" },
-            self.part_pairs,
-            self.max_part_pairs,
-            self.part_pairs_failed
+            "{}: self-contact removed {reduction:.1}% of the faces crossing beyond the rest pose ({} → {} over {} frames; {worse}), from {} contacts between parts (at most {} in a frame)",
+            self.object, self.faces_input, self.faces_output, self.frames, self.part_pairs, self.max_part_pairs,
         );
-        if let Some(w) = &self.worst_output {
-            let _ = write!(line, "; most left: {} at frame {}", w.value, w.frame);
+        if self.part_pairs_failed > 0 {
+            let _ =
+                write!(line, ", {} of them without effect (report.json: part_pairs[].error)", self.part_pairs_failed);
+        }
+        match &self.worst_output {
+            Some(w) => {
+                let _ = write!(line, "; left: at most {} faces, at frame {}", w.value, w.frame);
+            }
+            None => line.push_str("; none left"),
         }
         line
     }
@@ -449,6 +453,13 @@ pub fn frame_steps(record: &FrameRecord) -> (Option<f64>, Option<f64>, Option<f6
 }
 
 impl ShotSummary {
+    /// The articulations the console lists, one line each: those of objects with explicit
+    /// articulations. An object with `self_contact = "auto"` has one line for all its
+    /// self-contacts ([`SelfContactSummary::line`]); its joints' figures stay in report.json.
+    pub fn articulations_to_show(&self) -> impl Iterator<Item = &ArticulationSummary> {
+        self.articulations.iter().filter(|a| !self.self_contact.iter().any(|s| s.object == a.object))
+    }
+
     /// The summary of an outcome.
     pub fn of(outcome: &ShotOutcome) -> Self {
         let mut s = Self {
@@ -681,7 +692,7 @@ pub fn write_report<S: Serialize>(
     scene: &S,
     outputs: &serde_json::Value,
     outcome: &ShotOutcome,
-) -> Result<ShotSummary, CliError> {
+) -> Result<ShotSummary, ShotError> {
     let summary = ShotSummary::of(outcome);
     let per_frame = outcome.records.iter().map(FrameEntry::of).collect();
     let report = Report {
@@ -704,7 +715,7 @@ pub fn write_report<S: Serialize>(
         let images: Vec<_> = plots.iter().map(plot_image).collect();
         let refs: Vec<_> = images.iter().collect();
         let png = encode_png(&grid(&refs, 2, 0, [255, 255, 255, 255]))
-            .map_err(|e| CliError::failure(format!("quality plot: {e}")))?;
+            .map_err(|e| ShotError::Internal(format!("quality plot: {e}")))?;
         write_bytes(&dir.join("quality.png"), &png)?;
     }
     Ok(summary)
