@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use serde::Serialize;
 use squish::pipeline::FrameStats;
-use squish::stage::{PerStage, Stage, StageTimes};
+use squish::stage::{PerStage, Stage, StageTimes, StageWork, Work};
 use squish_scenes::bench::{BenchSize, ThesisRow};
 use squish_scenes::timing::FactorizationTiming;
 
@@ -167,6 +167,14 @@ pub struct RunReport {
     /// Symbolic analyses in the warm-up frame and in all timed frames (0: reused).
     pub symbolic_analyses_first_frame: usize,
     pub symbolic_analyses_timed_frames: usize,
+    /// The work of each stage in the median frame ([`squish::stage::Work`]: the same on every
+    /// machine and thread count).
+    pub work: StageWork,
+    /// Each timed frame's work, summed over the stages, in animation order.
+    pub work_per_frame: Vec<Work>,
+    /// The work of each stage summed over the timed frames: with `--quick`, the figures the work
+    /// guard (`crates/squish-scenes/tests/bench_work.rs`) holds the scenes to.
+    pub work_timed_frames: StageWork,
 }
 
 /// What a run measured, for [`RunReport::new`].
@@ -205,8 +213,23 @@ impl RunReport {
             reduced_analyses_timed_frames: figures.reduced_analyses_timed_frames,
             symbolic_analyses_first_frame: figures.symbolic_analyses_first_frame,
             symbolic_analyses_timed_frames: figures.symbolic_analyses_timed_frames,
+            work: median_stats.work,
+            work_per_frame: figures.stats.iter().map(|s| total_work(&s.work)).collect(),
+            work_timed_frames: figures.stats.iter().fold(StageWork::default(), |mut sum, s| {
+                sum += &s.work;
+                sum
+            }),
         }
     }
+}
+
+/// The work of every stage, summed.
+pub fn total_work(work: &StageWork) -> Work {
+    let mut total = Work::ZERO;
+    for (_, w) in work.iter() {
+        total += *w;
+    }
+    total
 }
 
 /// One numeric factorization of the largest deformable object's heat operator `M + tK`.
@@ -278,6 +301,11 @@ pub struct SceneReport {
     /// A skinned character with self-contact parts: every frame of its animation, and the
     /// frame time by number of touching part pairs (single thread).
     pub self_contact: Option<SelfContactReport>,
+    /// True when the multi-threaded run's outputs are the single-thread run's, bit for bit,
+    /// frame by frame.
+    pub same_output_across_threads: Option<bool>,
+    /// True when its work counts are the same too, frame by frame and stage by stage.
+    pub same_work_across_threads: Option<bool>,
 }
 
 /// Every frame of a skinned character's animation on one deformer (after a warm-up frame),
@@ -433,6 +461,8 @@ impl SceneReport {
             rounds: None,
             edit: None,
             self_contact: None,
+            same_output_across_threads: None,
+            same_work_across_threads: None,
         }
     }
 
@@ -487,6 +517,10 @@ impl SceneReport {
         // The first round's: in later rounds the process also holds what the allocator kept
         // from every scene of the round before.
         let peak_memory_mb = runs.first().and_then(|r| r.peak_memory_mb);
+        let every =
+            |flag: fn(&SceneReport) -> Option<bool>| runs.iter().map(flag).try_fold(true, |all, f| f.map(|f| all && f));
+        let same_output = every(|r| r.same_output_across_threads);
+        let same_work = every(|r| r.same_work_across_threads);
         let multi = median_position(&multi_ms).and_then(|i| runs[i].multi.take());
         let factorization = if factorization_ms.len() == runs.len() {
             median_position(&factorization_ms).and_then(|i| runs[i].factorization.take())
@@ -497,6 +531,8 @@ impl SceneReport {
         report.multi = multi;
         report.factorization = factorization;
         report.peak_memory_mb = peak_memory_mb;
+        report.same_output_across_threads = same_output;
+        report.same_work_across_threads = same_work;
         let single_fastest_ms = single_ms.iter().copied().fold(f64::INFINITY, f64::min);
         report.rounds = Some(RoundsReport {
             fastest_thesis_ratio: report.thesis.as_ref().map(|t| single_fastest_ms / t.ms),
@@ -690,6 +726,41 @@ pub fn print_table(report: &BenchReport) {
         };
         let columns: String = thesis_columns().map(|s| format!(" {:>6}", opt(ratios[s], 2))).collect();
         println!("{:<18}{columns} {outside:>8.2}", scene.name);
+    }
+    println!();
+    println!(
+        "work of the single-thread median frame (the same on any machine and thread count): spatial queries, \
+         triangle tests, rounds, rows solved and factorization Mflops (multiply-adds) over every stage; the \
+         separation pass's share; same = the {}-thread run gave the same outputs and work, bit for bit",
+        report.machine_before.threads
+    );
+    println!(
+        "{:<18} {:>10} {:>10} {:>6} {:>9} {:>8} {:>10} {:>10} {:>6} {:>6}",
+        "scene", "queries", "tri tests", "rounds", "rows", "Mflops", "sep. qu.", "sep. tests", "sep. r", "same"
+    );
+    for scene in &report.scenes {
+        let Some(single) = &scene.single else { continue };
+        let total = total_work(&single.work);
+        let separation = single.work[Stage::Separation];
+        let same = match (scene.same_output_across_threads, scene.same_work_across_threads) {
+            (Some(true), Some(true)) => "yes",
+            (Some(false), _) => "OUTPUT",
+            (_, Some(false)) => "WORK",
+            _ => "–",
+        };
+        println!(
+            "{:<18} {:>10} {:>10} {:>6} {:>9} {:>8.1} {:>10} {:>10} {:>6} {:>6}",
+            scene.name,
+            total.queries,
+            total.triangle_tests,
+            total.rounds,
+            total.rows,
+            total.flops as f64 * 1e-6,
+            separation.queries,
+            separation.triangle_tests,
+            separation.rounds,
+            same,
+        );
     }
     println!();
     println!(

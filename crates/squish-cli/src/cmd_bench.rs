@@ -43,6 +43,7 @@ use clap::Args;
 use rayon::prelude::*;
 use squish::Topology;
 use squish::pipeline::{Deformer, FrameStats};
+use squish::stage::StageWork;
 use squish_scenes::bench::{self as bench_scenes, BenchScene, BenchSize};
 use squish_scenes::timing::time_laplacian_factorization;
 
@@ -310,38 +311,53 @@ struct Run {
     /// Symbolic analyses over the timed frames (0 when the caches are reused).
     symbolic_analyses_timed: usize,
     symbolic_analyses_warm_up: usize,
+    /// A digest of each timed frame's output positions (to compare runs bit for bit).
+    digests: Vec<u64>,
 }
 
 fn run_animation(scene: &BenchScene, frames: usize) -> Result<Run, String> {
-    let mut deformer = Deformer::new().without_quality();
-    let warm_up = scene.pose(0.0);
-    let start = Instant::now();
-    deformer.deform(&warm_up.frame()).map_err(|e| format!("warm-up frame: {e}"))?;
-    let first_frame = start.elapsed();
-    drop(warm_up);
-    let symbolic_analyses_warm_up = deformer.symbolic_analyses();
     let mut run = Run {
-        first_frame,
+        first_frame: Duration::ZERO,
         stats: Vec::with_capacity(frames),
         numeric_factorizations: Vec::with_capacity(frames),
         factorized_rows: Vec::with_capacity(frames),
         recomputed_rows: Vec::with_capacity(frames),
         reduced_analyses_timed: 0,
         symbolic_analyses_timed: 0,
-        symbolic_analyses_warm_up,
+        symbolic_analyses_warm_up: 0,
+        digests: Vec::with_capacity(frames),
     };
-    for k in 0..frames {
-        let pose = scene.pose(BenchScene::frame_time(k, frames));
-        let result = deformer.deform(&pose.frame()).map_err(|e| format!("frame {k}: {e}"))?;
-        let deformations = || result.deformations.iter().flatten();
-        run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
-        run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
-        run.recomputed_rows.push(deformations().map(|d| d.stats.recomputed_rows).sum());
-        run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
-        run.stats.push(result.stats);
-    }
-    run.symbolic_analyses_timed = deformer.symbolic_analyses() - symbolic_analyses_warm_up;
+    let mut symbolic_analyses = 0;
+    scene.animate(
+        frames,
+        |deformer, time| {
+            run.first_frame = time;
+            run.symbolic_analyses_warm_up = deformer.symbolic_analyses();
+        },
+        |_, result, deformer| {
+            let deformations = || result.deformations.iter().flatten();
+            run.numeric_factorizations.push(deformations().map(|d| d.stats.numeric_factorizations).sum());
+            run.factorized_rows.push(deformations().map(|d| d.stats.factorized_rows).sum());
+            run.recomputed_rows.push(deformations().map(|d| d.stats.recomputed_rows).sum());
+            run.reduced_analyses_timed += deformations().map(|d| d.stats.reduced_analyses).sum::<usize>();
+            run.digests.push(positions_digest(&result.positions));
+            run.stats.push(result.stats);
+            symbolic_analyses = deformer.symbolic_analyses();
+        },
+    )?;
+    run.symbolic_analyses_timed = symbolic_analyses.saturating_sub(run.symbolic_analyses_warm_up);
     Ok(run)
+}
+
+/// FNV-1a over the bits of every output position: equal for outputs equal bit for bit.
+fn positions_digest(positions: &[Vec<glam::DVec3>]) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    for bits in positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)) {
+        for byte in bits.to_le_bytes() {
+            hash = (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    hash
 }
 
 impl Run {
@@ -395,6 +411,8 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
             object.contact_vertices = stats.contact_vertices;
         }
         report.single = Some(RunReport::new(&single.figures(1), median));
+        let (single_digests, single_work): (Vec<u64>, Vec<StageWork>) =
+            (single.digests.clone(), single.stats.iter().map(|s| s.work).collect());
         drop(single);
         if scene.rest.objects.iter().any(|o| squish_shot::shot::has_self_contact(&o.params)) {
             if !scene.poses.is_empty() {
@@ -405,6 +423,8 @@ fn measure_scene(scene: &BenchScene, settings: &Settings) -> SceneReport {
         }
         let multi = pool(settings.threads)?.install(|| run_animation(scene, settings.frames))?;
         report.multi = Some(RunReport::new(&multi.figures(settings.threads), median_index(&multi.stats)));
+        report.same_output_across_threads = Some(multi.digests == single_digests);
+        report.same_work_across_threads = Some(multi.stats.iter().map(|s| s.work).eq(single_work));
         drop(multi);
         if let Some(largest) = scene.largest_deformable() {
             let topology = Topology::new(&largest.mesh);

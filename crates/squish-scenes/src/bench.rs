@@ -23,7 +23,9 @@ use glam::{DQuat, DVec3};
 
 use squish::mesh::{SubMesh, TriMesh, shapes};
 use squish::params::{ObjectParams, PairParams, RegionChoice};
-use squish::pipeline::FramePair;
+use std::time::{Duration, Instant};
+
+use squish::pipeline::{Deformer, FramePair, FrameResult};
 use squish::stage::{PerStage, Stage};
 
 use crate::procedural::ProceduralScene;
@@ -212,6 +214,28 @@ impl BenchScene {
     /// The time of frame `frame` of an animation of `frames` frames (0 to 1 inclusive).
     pub fn frame_time(frame: usize, frames: usize) -> f64 {
         if frames <= 1 { 1.0 } else { frame as f64 / (frames - 1) as f64 }
+    }
+
+    /// The run of the scene's animation that `squish bench` times (and the work guard counts): a
+    /// fresh deformer without the quality pass, a warm-up frame at t = 0 (`warmed` sees the
+    /// deformer after it, and its time), then `frames` frames at [`Self::frame_time`], each result
+    /// handed to `each` with its index and the deformer. The first error stops the run.
+    pub fn animate(
+        &self,
+        frames: usize,
+        warmed: impl FnOnce(&Deformer, Duration),
+        mut each: impl FnMut(usize, FrameResult, &Deformer),
+    ) -> Result<(), String> {
+        let mut deformer = Deformer::new().without_quality();
+        let start = Instant::now();
+        deformer.deform(&self.pose(0.0).frame()).map_err(|e| format!("warm-up frame: {e}"))?;
+        warmed(&deformer, start.elapsed());
+        for k in 0..frames {
+            let pose = self.pose(Self::frame_time(k, frames));
+            let result = deformer.deform(&pose.frame()).map_err(|e| format!("frame {k}: {e}"))?;
+            each(k, result, &deformer);
+        }
+        Ok(())
     }
 
     /// Vertices of every object (the working regions 𝒲, which are whole objects).

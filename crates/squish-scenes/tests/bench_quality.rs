@@ -6,11 +6,12 @@
 //! table with `cargo test -p squish-scenes --test bench_quality -- --ignored --nocapture`.
 #![allow(clippy::unwrap_used)]
 
-use std::path::PathBuf;
+mod common;
 
+use common::scenes;
 use squish::pipeline::Deformer;
 use squish::spatial::mesh_intersections;
-use squish_scenes::bench::{self, BenchScene, BenchSize};
+use squish_scenes::bench::{BenchScene, BenchSize};
 
 /// Distinct faces of `a` and of `b` that intersect the other mesh.
 fn intersecting_faces(a: &squish::TriMesh, b: &squish::TriMesh) -> [usize; 2] {
@@ -95,25 +96,6 @@ fn check(scenes: &[BenchScene]) {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("; "));
-}
-
-fn scenes(size: BenchSize) -> Vec<BenchScene> {
-    let mut scenes = bench::procedural_scenes(size);
-    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/meshes");
-    let read = |file: &str| squish_io::read_mesh(&data.join(file)).ok();
-    let bunny = read(if size == BenchSize::Full { "bunny_29834.obj" } else { "bunny_3301.obj" });
-    match bunny {
-        Some(bunny) => {
-            scenes.push(bench::bunny_jelly(bunny.clone(), size));
-            scenes.push(bench::bunny_whole_jelly(bunny, size));
-        }
-        None => eprintln!("skipped bunny-jelly: ../shared/data/meshes has no bunny"),
-    }
-    match read("hand_7993.obj") {
-        Some(hand) => scenes.push(bench::hand_pillow(hand, size)),
-        None => eprintln!("skipped hand-pillow: ../shared/data/meshes/hand_7993.obj is absent"),
-    }
-    scenes
 }
 
 #[test]

@@ -14,9 +14,11 @@
 //! Serde writes it as a map from [`Stage::name`] to the value, in the order of [`Stage::ALL`]
 //! (missing names read as the default value, unknown ones are an error).
 
+use std::cell::Cell;
 use std::fmt;
 use std::marker::PhantomData;
 use std::ops::{AddAssign, Index, IndexMut};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use serde::de::{MapAccess, Visitor};
@@ -231,22 +233,36 @@ impl<T> PerStage<T> {
 /// A deterministic count of one stage's work in a frame: what a change that makes a stage do
 /// more multiplies, whatever the machine, the load or the thread count. Each field counts one
 /// kind of work where it is done; a stage leaves the kinds it does not do at zero.
+///
+/// **Counting.** The code that does the work records it ([`Work::record`], or the `count_*`
+/// shorthands) into the *span* running on its thread; [`Work::measure`] runs a closure in a span of
+/// its own and returns what was recorded in it, leaving the enclosing span as it was, so spans
+/// nest and every unit is counted once, in the innermost span (a stage nested in another, the
+/// factorizations in the parametrization, is counted apart from it). Work done by parallel
+/// tasks reaches the span that started them through [`SharedWork`]: each task is measured, the
+/// totals are summed and recorded once the tasks are done. Integer sums do not depend on the
+/// order, so the counts are the same on any number of threads (tested); a task that is not
+/// measured would leave its work in whichever span its thread is running.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Work {
-    /// Traversals of a spatial tree (ray casts, closest points, winding numbers, box queries).
+    /// Traversals of a spatial tree (ray and segment casts, closest points, winding numbers, box
+    /// and distance queries; one per query point).
     #[serde(default)]
     pub queries: u64,
-    /// Exact primitive tests: triangle–triangle, segment–triangle.
+    /// Primitive tests of a query point or segment against one triangle: exact segment–triangle
+    /// crossings, triangle–triangle tests, closest points on a triangle, solid angles.
     #[serde(default)]
     pub triangle_tests: u64,
-    /// Rounds of an iteration that runs until it converges (separation, untangling, volume
-    /// Gauss–Seidel).
+    /// Rounds of an iteration that runs until it converges (the separation pass, the extent's
+    /// clamped re-solve).
     #[serde(default)]
     pub rounds: u64,
-    /// Rows of the linear systems solved (one per unknown per solve).
+    /// Rows of the linear systems solved (one per unknown per right-hand side), or analyzed (the
+    /// [`Stage::Analysis`] of coupled-row submatrices).
     #[serde(default)]
     pub rows: u64,
-    /// Floating-point operations of the numeric factorizations (from their symbolic analyses).
+    /// Multiply-adds of the numeric factorizations (from their symbolic analyses, the columns
+    /// recomputed: `Σ c_j²` over them, `c_j` the column counts).
     #[serde(default)]
     pub flops: u64,
 }
@@ -261,7 +277,51 @@ impl AddAssign for Work {
     }
 }
 
+/// The span of work recorded on each thread (see [`Work`]).
+struct Tally {
+    queries: Cell<u64>,
+    triangle_tests: Cell<u64>,
+    rounds: Cell<u64>,
+    rows: Cell<u64>,
+    flops: Cell<u64>,
+}
+
+thread_local! {
+    static TALLY: Tally = const {
+        Tally {
+            queries: Cell::new(0),
+            triangle_tests: Cell::new(0),
+            rounds: Cell::new(0),
+            rows: Cell::new(0),
+            flops: Cell::new(0),
+        }
+    };
+}
+
+impl Tally {
+    fn take(&self) -> Work {
+        Work {
+            queries: self.queries.take(),
+            triangle_tests: self.triangle_tests.take(),
+            rounds: self.rounds.take(),
+            rows: self.rows.take(),
+            flops: self.flops.take(),
+        }
+    }
+
+    fn add(&self, w: Work) {
+        self.queries.set(self.queries.get() + w.queries);
+        self.triangle_tests.set(self.triangle_tests.get() + w.triangle_tests);
+        self.rounds.set(self.rounds.get() + w.rounds);
+        self.rows.set(self.rows.get() + w.rows);
+        self.flops.set(self.flops.get() + w.flops);
+    }
+}
+
 impl Work {
+    /// No work.
+    pub const ZERO: Work = Work { queries: 0, triangle_tests: 0, rounds: 0, rows: 0, flops: 0 };
+
     /// The kinds of work with their report names, in a fixed order.
     pub fn fields(&self) -> [(&'static str, u64); 5] {
         [
@@ -271,6 +331,107 @@ impl Work {
             ("rows", self.rows),
             ("flops", self.flops),
         ]
+    }
+
+    /// True if every count is zero.
+    pub fn is_zero(&self) -> bool {
+        *self == Self::ZERO
+    }
+
+    /// Adds this work to the span running on this thread.
+    pub fn record(self) {
+        TALLY.with(|t| t.add(self));
+    }
+
+    /// Records `n` spatial queries.
+    #[inline]
+    pub fn count_queries(n: u64) {
+        TALLY.with(|t| t.queries.set(t.queries.get() + n));
+    }
+
+    /// Records `n` primitive tests against a triangle.
+    #[inline]
+    pub fn count_triangle_tests(n: u64) {
+        TALLY.with(|t| t.triangle_tests.set(t.triangle_tests.get() + n));
+    }
+
+    /// Records `n` rounds of an iteration.
+    pub fn count_rounds(n: u64) {
+        TALLY.with(|t| t.rounds.set(t.rounds.get() + n));
+    }
+
+    /// Records `n` rows solved.
+    #[inline]
+    pub fn count_rows(n: u64) {
+        TALLY.with(|t| t.rows.set(t.rows.get() + n));
+    }
+
+    /// Records `n` factorization multiply-adds.
+    pub fn count_flops(n: u64) {
+        TALLY.with(|t| t.flops.set(t.flops.get() + n));
+    }
+
+    /// The work recorded in the current span since it began or since the last lap, which starts
+    /// again from zero: the stages of a computation measured one after the other inside one
+    /// [`Work::measure`].
+    pub fn lap() -> Work {
+        TALLY.with(Tally::take)
+    }
+
+    /// Runs `f` in a span of its own: its result and the work recorded in the span (see the
+    /// type's doc). The enclosing span is left as it was.
+    pub fn measure<R>(f: impl FnOnce() -> R) -> (R, Work) {
+        let outer = TALLY.with(Tally::take);
+        let result = f();
+        let inner = TALLY.with(|t| {
+            let inner = t.take();
+            t.add(outer);
+            inner
+        });
+        (result, inner)
+    }
+}
+
+/// The work of parallel tasks, gathered for the span that started them (see [`Work`]): each task
+/// runs in [`SharedWork::measure`], and [`SharedWork::record`] adds the total to the current
+/// span once they are done.
+#[derive(Debug, Default)]
+pub struct SharedWork {
+    queries: AtomicU64,
+    triangle_tests: AtomicU64,
+    rounds: AtomicU64,
+    rows: AtomicU64,
+    flops: AtomicU64,
+}
+
+impl SharedWork {
+    /// Runs `f` in a span of its own and adds what it recorded to the shared total.
+    pub fn measure<R>(&self, f: impl FnOnce() -> R) -> R {
+        let (result, w) = Work::measure(f);
+        if !w.is_zero() {
+            self.queries.fetch_add(w.queries, Ordering::Relaxed);
+            self.triangle_tests.fetch_add(w.triangle_tests, Ordering::Relaxed);
+            self.rounds.fetch_add(w.rounds, Ordering::Relaxed);
+            self.rows.fetch_add(w.rows, Ordering::Relaxed);
+            self.flops.fetch_add(w.flops, Ordering::Relaxed);
+        }
+        result
+    }
+
+    /// The total so far.
+    pub fn total(&self) -> Work {
+        Work {
+            queries: self.queries.load(Ordering::Relaxed),
+            triangle_tests: self.triangle_tests.load(Ordering::Relaxed),
+            rounds: self.rounds.load(Ordering::Relaxed),
+            rows: self.rows.load(Ordering::Relaxed),
+            flops: self.flops.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Adds the total to the span running on this thread.
+    pub fn record(self) {
+        self.total().record();
     }
 }
 

@@ -84,6 +84,7 @@ use super::zone::ZoneResult;
 use super::{ContactError, ContactSide, ContactZone, EdgeRegion, Sample};
 use crate::mesh::Aabb3;
 use crate::spatial::{AabbTree, Visit};
+use crate::stage::{SharedWork, Work};
 
 /// A box tree over points with an early-exit ball query (a [`crate::spatial::PointTree`] cannot
 /// stop its traversal, and a blocked ball can stop at its first blocker).
@@ -100,6 +101,7 @@ impl<'a> Points<'a> {
 
     /// Calls `f(index, point)` for every point with `|p − centre| ≤ radius` until `f` returns true.
     fn visit(&self, centre: DVec3, radius: f64, mut f: impl FnMut(u32, DVec3) -> bool) {
+        Work::count_queries(1);
         let r2 = radius * radius;
         self.tree.traverse(|node| {
             let gap = (node.min - centre).max(centre - node.max).max(DVec3::ZERO);
@@ -357,18 +359,22 @@ pub fn ball_zone(
 
     // Ball testing.
     let tested: Vec<u32> = mapping.vertices.iter().copied().filter(|&v| candidates.contains(v)).collect();
+    let work = SharedWork::default();
     let free: Vec<bool> = tested
         .par_iter()
         .map(|&i| {
-            let Some(k) = slot_of(i) else { return false };
-            let ball = ball_of(samples[k].target, inward[k], lambdas[k]);
-            let mut blocked = false;
-            tree.visit(ball.centre, r, |w, p| {
-                blocked =
-                    w != i && (p - ball.centre).length_squared() < r2 && (p - ball.reference).dot(ball.normal) > 0.0;
-                blocked
-            });
-            !blocked
+            work.measure(|| {
+                let Some(k) = slot_of(i) else { return false };
+                let ball = ball_of(samples[k].target, inward[k], lambdas[k]);
+                let mut blocked = false;
+                tree.visit(ball.centre, r, |w, p| {
+                    blocked = w != i
+                        && (p - ball.centre).length_squared() < r2
+                        && (p - ball.reference).dot(ball.normal) > 0.0;
+                    blocked
+                });
+                !blocked
+            })
         })
         .collect();
     let mut inside = vec![false; nv];
@@ -387,53 +393,56 @@ pub fn ball_zone(
     let slides: Vec<Slide> = leaving
         .par_iter()
         .map(|&(e, i, j)| {
-            let unreachable = Slide { edge: e, inside: i, end: None, alpha: 0.0, clamped: false };
-            let Some(ki) = slot_of(i) else { return unreachable };
-            // Limit of ℳ ∩ ℐ on the edge, from i.
-            let limit = if candidates.contains(j) {
-                1.0
-            } else {
-                candidates.point_on_edge(e).map_or(0.0, |p| candidates.points()[p as usize].alpha)
-            };
-            let end = match slot_of(j) {
-                Some(kj) => Some(End::Vertex { slot: kj }),
-                None => mapping.region.point_on_edge(e).and_then(|p| {
-                    let point = mapping.region.points()[p as usize];
-                    (point.inside == i).then_some(End::Point { index: p, alpha: point.alpha })
-                }),
-            };
-            let Some(end) = end else { return unreachable };
-            let (end_sample, end_normal, end_lambda, span) = match end {
-                End::Vertex { slot } => (&samples[slot], inward[slot], lambdas[slot], 1.0),
-                End::Point { index, alpha } => {
-                    let Some(s) = surface.point_samples.get(index as usize) else { return unreachable };
-                    (s, -s.surface_normal, lambdas[ki], alpha)
+            work.measure(|| {
+                let unreachable = Slide { edge: e, inside: i, end: None, alpha: 0.0, clamped: false };
+                let Some(ki) = slot_of(i) else { return unreachable };
+                // Limit of ℳ ∩ ℐ on the edge, from i.
+                let limit = if candidates.contains(j) {
+                    1.0
+                } else {
+                    candidates.point_on_edge(e).map_or(0.0, |p| candidates.points()[p as usize].alpha)
+                };
+                let end = match slot_of(j) {
+                    Some(kj) => Some(End::Vertex { slot: kj }),
+                    None => mapping.region.point_on_edge(e).and_then(|p| {
+                        let point = mapping.region.points()[p as usize];
+                        (point.inside == i).then_some(End::Point { index: p, alpha: point.alpha })
+                    }),
+                };
+                let Some(end) = end else { return unreachable };
+                let (end_sample, end_normal, end_lambda, span) = match end {
+                    End::Vertex { slot } => (&samples[slot], inward[slot], lambdas[slot], 1.0),
+                    End::Point { index, alpha } => {
+                        let Some(s) = surface.point_samples.get(index as usize) else { return unreachable };
+                        (s, -s.surface_normal, lambdas[ki], alpha)
+                    }
+                };
+                if span <= 0.0 {
+                    return Slide { end: Some(end), ..unreachable };
                 }
-            };
-            if span <= 0.0 {
-                return Slide { end: Some(end), ..unreachable };
-            }
-            let tau_max = (limit / span).clamp(0.0, 1.0);
-            let start = ball_of(samples[ki].target, inward[ki], lambdas[ki]);
-            let finish = ball_of(end_sample.target, end_normal, end_lambda);
-            let sliding = Sliding::new(start, finish, r, setup.compensate_sag);
-            let half = 0.5 * tau_max * sliding.delta.centre.length();
-            let mut first: Option<f64> = None;
-            let centre = start.centre + 0.5 * tau_max * sliding.delta.centre;
-            tree.visit(centre, sliding.max_radius() + half, |w, p| {
-                if w != i
-                    && w != j
-                    && let Some(t) = first_block(p, &sliding, first.unwrap_or(tau_max))
-                    && first.is_none_or(|f| t < f)
-                {
-                    first = Some(t);
-                }
-                first == Some(0.0)
-            });
-            let tau = first.unwrap_or(tau_max).min(tau_max);
-            Slide { edge: e, inside: i, end: Some(end), alpha: tau * span, clamped: first.is_none() }
+                let tau_max = (limit / span).clamp(0.0, 1.0);
+                let start = ball_of(samples[ki].target, inward[ki], lambdas[ki]);
+                let finish = ball_of(end_sample.target, end_normal, end_lambda);
+                let sliding = Sliding::new(start, finish, r, setup.compensate_sag);
+                let half = 0.5 * tau_max * sliding.delta.centre.length();
+                let mut first: Option<f64> = None;
+                let centre = start.centre + 0.5 * tau_max * sliding.delta.centre;
+                tree.visit(centre, sliding.max_radius() + half, |w, p| {
+                    if w != i
+                        && w != j
+                        && let Some(t) = first_block(p, &sliding, first.unwrap_or(tau_max))
+                        && first.is_none_or(|f| t < f)
+                    {
+                        first = Some(t);
+                    }
+                    first == Some(0.0)
+                });
+                let tau = first.unwrap_or(tau_max).min(tau_max);
+                Slide { edge: e, inside: i, end: Some(end), alpha: tau * span, clamped: first.is_none() }
+            })
         })
         .collect();
+    work.record();
     let stats = BallStats {
         candidates: tested.len(),
         in_zone: free.iter().filter(|&&f| f).count(),

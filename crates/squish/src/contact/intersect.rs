@@ -51,6 +51,7 @@ use rayon::prelude::*;
 
 use super::{ContactError, ContactSide, EdgeRegion};
 use crate::spatial::{BatchHits, EdgeCrossings, EdgeSource, Hit, mutual_edge_crossings};
+use crate::stage::SharedWork;
 
 /// One crossing of an edge of one working region with a face of the other.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -296,8 +297,12 @@ fn flood_interior(
     let conflicts: Vec<u32> = (0..nv as u32).filter(|&v| votes[v as usize].iter().all(|&n| n > 0)).collect();
     if !conflicts.is_empty() {
         if other.topology.is_closed() {
-            let inside: Vec<bool> =
-                conflicts.par_iter().map(|&v| other.bvh.contains(side.mesh.positions[v as usize])).collect();
+            let work = SharedWork::default();
+            let inside: Vec<bool> = conflicts
+                .par_iter()
+                .map(|&v| work.measure(|| other.bvh.contains(side.mesh.positions[v as usize])))
+                .collect();
+            work.record();
             for (&v, inside) in conflicts.iter().zip(inside) {
                 tags[v as usize] = if inside { Tag::Interior } else { Tag::Exterior };
             }

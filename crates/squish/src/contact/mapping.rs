@@ -38,6 +38,10 @@ use super::{ContactError, ContactSide, EdgeRegion, Sample};
 use crate::linalg::EdgePoint;
 use crate::mesh::{Topology, TriMesh};
 use crate::spatial::{CrossingHint, ProjectionPlane, Ray, SegmentSlabs};
+use crate::stage::SharedWork;
+
+/// Vertices per run of the visibility test: each run starts from no hint (see [`visible_part`]).
+const VISIBILITY_RUN: usize = 256;
 
 /// Marks a vertex outside a mapping region in [`SideMapping::vertex_slot`].
 pub const NO_SLOT: u32 = u32::MAX;
@@ -173,18 +177,26 @@ pub fn visible_part(region: &EdgeRegion, side: &ContactSide, toward: DVec3) -> (
     let length = |x: DVec3| (x - bounds.center()).length() + scale;
     let positions = &side.mesh.positions;
     let candidates: Vec<u32> = (0..positions.len() as u32).filter(|&v| region.contains(v)).collect();
+    // Runs of VISIBILITY_RUN vertices, each from no hint: the hints, which change the work but not
+    // the answers, are then the same whatever the threads (so is the work counted, `Work`).
+    let work = SharedWork::default();
     let hidden: Vec<bool> = candidates
-        .par_iter()
-        .map_init(
-            || None,
-            |hint, &v| {
-                let x = positions[v as usize];
-                // A visible point drops the hint: the next ones are likely visible too.
-                *hint = occluder(side, x, away, offset, length(x), *hint);
-                hint.is_some()
-            },
-        )
+        .par_chunks(VISIBILITY_RUN)
+        .flat_map_iter(|run| {
+            work.measure(|| {
+                let mut hint = None;
+                run.iter()
+                    .map(|&v| {
+                        let x = positions[v as usize];
+                        // A visible point drops the hint: the next ones are likely visible too.
+                        hint = occluder(side, x, away, offset, length(x), hint);
+                        hint.is_some()
+                    })
+                    .collect::<Vec<bool>>()
+            })
+        })
         .collect();
+    work.record();
     let occluded = hidden.iter().filter(|&&h| h).count();
     if occluded == 0 {
         return (region.clone(), 0);
@@ -507,12 +519,14 @@ pub fn map_regions(
         let outline = region_outline(&front, sides[l].mesh, sides[l].topology, &plane, l == 0);
         (front, g, outline)
     };
+    let work = SharedWork::default();
     let ((front_a, g_a, outline_a), (front_b, g_b, outline_b)) =
-        rayon::join(|| front_and_outline(0), || front_and_outline(1));
+        rayon::join(|| work.measure(|| front_and_outline(0)), || work.measure(|| front_and_outline(1)));
     let (a, b) = rayon::join(
-        || map_side(sides[0], sides[1], front_a, &g_a, &outline_b, &plane, toward[0]),
-        || map_side(sides[1], sides[0], front_b, &g_b, &outline_a, &plane, toward[1]),
+        || work.measure(|| map_side(sides[0], sides[1], front_a, &g_a, &outline_b, &plane, toward[0])),
+        || work.measure(|| map_side(sides[1], sides[0], front_b, &g_b, &outline_a, &plane, toward[1])),
     );
+    work.record();
     let ((a, stats_a), (b, stats_b)) = (a?, b?);
     let stats = MappingStats {
         midpoint_alphas: stats_a.midpoint_alphas + stats_b.midpoint_alphas,

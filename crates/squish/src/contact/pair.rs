@@ -34,7 +34,7 @@ use crate::mesh::{Topology, TriMesh};
 use crate::params::Uvs;
 use crate::params::{MappingMethod, PairParams, Params};
 use crate::spatial::TriangleBvh;
-use crate::stage::{Stage, StageTimes};
+use crate::stage::{Stage, StageTimes, StageWork, Work};
 
 /// One side of a pair: a working region and what the contact definition needs about it.
 #[derive(Clone, Copy, Debug)]
@@ -244,6 +244,9 @@ pub struct ContactStats {
     /// Wall-clock time of each stage: [`Stage::Intersection`], [`Stage::Mapping`] (direction and
     /// mapping regions) and [`Stage::ContactZone`] (potential contact surface and zones).
     pub timings: StageTimes,
+    /// The work of the same stages ([`crate::stage::Work`]).
+    #[serde(default)]
+    pub work: StageWork,
     /// Wall-clock time of the whole call.
     pub time: Duration,
     pub counts: ContactCounts,
@@ -300,6 +303,11 @@ impl PairContact {
 /// both objects rigid, an intersection reaching a cut working-region border, or an undefined
 /// automatic direction.
 pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Result<PairContact, ContactError> {
+    // One span for the call, lapped at each stage (see `Work`).
+    Work::measure(|| contact_pair_measured(a, b, params)).0
+}
+
+fn contact_pair_measured(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Result<PairContact, ContactError> {
     let start = Instant::now();
     let a = if a.name.is_empty() { a.with_name("a") } else { *a };
     let b = if b.name.is_empty() { b.with_name("b") } else { *b };
@@ -320,8 +328,10 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
     let mut stats = ContactStats::default();
 
     let t = Instant::now();
+    Work::lap();
     let inter = intersect(&a, &b)?;
     stats.timings[Stage::Intersection] = t.elapsed();
+    stats.work[Stage::Intersection] = Work::lap();
     stats.fallbacks.intersection = inter.stats;
     stats.counts.intersection_points = inter.points.len();
     if inter.points.is_empty() {
@@ -361,6 +371,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         },
     };
     stats.timings[Stage::Mapping] = t.elapsed();
+    stats.work[Stage::Mapping] = Work::lap();
 
     let t = Instant::now();
     let (mappings, mapping_stats, shared) = match params.mapping {
@@ -374,6 +385,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         }
     };
     stats.timings[Stage::Mapping] += t.elapsed();
+    stats.work[Stage::Mapping] += Work::lap();
     stats.fallbacks.mapping = mapping_stats;
 
     let t = Instant::now();
@@ -399,6 +411,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         crit.threshold = crit.threshold.min(max);
     }
     stats.timings[Stage::ContactZone] = t.elapsed();
+    stats.work[Stage::ContactZone] = Work::lap();
 
     let t = Instant::now();
     let cos_guard = params.safeguard_cosine();
@@ -470,6 +483,7 @@ pub fn contact_pair(a: &ContactSide, b: &ContactSide, params: &PairParams) -> Re
         super::gap::apply_gap(&mut z.zone, k[1 - l] * gap);
     }
     stats.timings[Stage::ContactZone] += t.elapsed();
+    stats.work[Stage::ContactZone] += Work::lap();
 
     let [ma, mb] = mappings;
     let [sa, sb] = surfaces;

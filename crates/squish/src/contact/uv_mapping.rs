@@ -74,6 +74,7 @@ use crate::linalg::{
 use crate::mesh::{Aabb3, NO_FACE, SubMesh, Topology, TriMesh};
 use crate::params::Uvs;
 use crate::spatial::{AabbTree, closest_point_on_triangle};
+use crate::stage::SharedWork;
 
 /// Checks that both sides have UVs (their lengths are checked by [`ContactSide::validate`]).
 pub(crate) fn check_uvs(sides: [&ContactSide; 2]) -> Result<(), ContactError> {
@@ -596,7 +597,10 @@ fn map_side_uv(
         correction: g,
         locator,
     };
-    let located: Vec<(Match, bool)> = param.vertex_targets.par_iter().map(|&q| param.locate(other, q)).collect();
+    let work = SharedWork::default();
+    let located: Vec<(Match, bool)> =
+        param.vertex_targets.par_iter().map(|&q| work.measure(|| param.locate(other, q))).collect();
+    work.record();
     let mut fallbacks = located.iter().filter(|(_, f)| *f).count();
     let vertex_matches: Vec<Match> = located.into_iter().map(|(m, _)| m).collect();
     let point_matches: Vec<Match> = sources
@@ -647,17 +651,19 @@ pub fn map_regions_uv(
     points: &[IntersectionPoint],
 ) -> Result<([SideMapping; 2], MappingStats, SharedParametrization), ContactError> {
     check_uvs(sides)?;
+    let work = SharedWork::default();
     let layout = |l: usize| {
         let side = sides[l];
         let uvs = side.uvs.ok_or_else(|| ContactError::MissingUvs { object: side.display_name() })?;
         Ok::<_, ContactError>(unfold(side, uvs, &layout_faces(side, l, intersections[l], points)))
     };
-    let (layout_a, layout_b) = rayon::join(|| layout(0), || layout(1));
+    let (layout_a, layout_b) = rayon::join(|| work.measure(|| layout(0)), || work.measure(|| layout(1)));
     let layouts = [&layout_a?, &layout_b?];
     let (a, b) = rayon::join(
-        || map_side_uv(0, sides, intersections, points, layouts),
-        || map_side_uv(1, sides, intersections, points, layouts),
+        || work.measure(|| map_side_uv(0, sides, intersections, points, layouts)),
+        || work.measure(|| map_side_uv(1, sides, intersections, points, layouts)),
     );
+    work.record();
     let ((ma, sa, pa), (mb, sb, pb)) = (a?, b?);
     let stats = MappingStats {
         closest_point_matches: sa.closest_point_matches + sb.closest_point_matches,

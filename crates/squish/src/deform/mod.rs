@@ -71,12 +71,14 @@ pub use profile::{Profile, ProfileSample, ProfileSampler, ProfileShape, Wrinkles
 pub use radial_brush::{BrushFields, LateralPoint, RadialBrushError, RadialSelection, radial_brush, radial_falloff};
 pub use solver::RegionSolver;
 pub use transport::{MAX_CORRECTION, TransportField, transport_field};
-pub use volume::{AffineDisplacement, HeightSolution, VolumeCubic, solve_bulge_height, swept_volume_change};
+pub use volume::{
+    AffineDisplacement, HeightSolution, SweptTerms, VolumeCubic, solve_bulge_height, swept_volume_change,
+};
 
 use crate::contact::ContactZone;
 use crate::mesh::{Topology, TriMesh, vertex_centroid, vertex_normals};
 use crate::params::DirectionFieldMethod;
-use crate::stage::{Stage, StageTimes};
+use crate::stage::{Stage, StageTimes, StageWork, Work};
 use parametrize::parametrize_and_diffuse;
 
 /// How often a documented fallback was taken.
@@ -138,6 +140,11 @@ pub struct DeformStats {
     /// [`Stage::Guide`], [`Stage::Deformation`] and, within them, [`Stage::Factorization`] and
     /// [`Stage::Analysis`] (the other stages are zero).
     pub timings: StageTimes,
+    /// The work of the same stages ([`crate::stage::Work`]; each unit in the innermost stage:
+    /// the factorizations' multiply-adds in [`Stage::Factorization`], not in the stage that
+    /// asked for them).
+    #[serde(default)]
+    pub work: StageWork,
     /// Wall-clock time of the whole call.
     pub time: Duration,
     /// Fallback counters.
@@ -195,12 +202,15 @@ impl RegionDeformation {
     /// Vertices without a correction keep the bits they would have for the same height.
     /// `self.displacement` is left as it was (the correction is not accumulated into it), so a
     /// caller correcting again passes the whole correction.
+    /// `terms`: the volume terms of the last correction of this region (empty at the first),
+    /// reused where the displacement did not change ([`SweptTerms`]: the same bits).
     pub fn correct(
         &mut self,
         mesh: &TriMesh,
         topology: &Topology,
         correction: &[DVec3],
         choice: HeightChoice,
+        terms: &mut SweptTerms,
     ) -> Result<(), DeformError> {
         let n = mesh.num_vertices();
         DeformError::check_len("correction", n, correction.len())?;
@@ -212,7 +222,7 @@ impl RegionDeformation {
             }
         }
         let reference = vertex_centroid(&mesh.positions);
-        let cubic = VolumeCubic::swept(mesh, topology, &displacement, reference)?;
+        let cubic = VolumeCubic::swept_with(mesh, topology, &displacement, reference, terms)?;
         let old_applied = self.stats.applied_bulge_height;
         let (bulge_height, applied) = if choice.preserve_volume {
             let solution = solve_bulge_height(&cubic, choice.extent);
@@ -491,6 +501,18 @@ pub fn region_fields(
     params: &DeformParams,
     overrides: &RegionOverrides,
 ) -> Result<RegionFields, DeformError> {
+    // One span for the call, lapped at each stage (see `Work`).
+    Work::measure(|| region_fields_measured(mesh, topology, solver, zones, params, overrides)).0
+}
+
+fn region_fields_measured(
+    mesh: &TriMesh,
+    topology: &Topology,
+    solver: &mut RegionSolver,
+    zones: &[&ContactZone],
+    params: &DeformParams,
+    overrides: &RegionOverrides,
+) -> Result<RegionFields, DeformError> {
     let start = Instant::now();
     params.validate()?;
     solver.check_region(mesh, topology)?;
@@ -507,8 +529,12 @@ pub fn region_fields(
     let reduced_analyses_before = solver.reduced_analyses();
     let factorization_time_before = solver.factorization_time();
     let analysis_time_before = solver.analysis_time();
+    let flops_before = solver.factorization_flops();
+    let analyzed_rows_before = solver.analyzed_rows();
     let mut timings = StageTimes::default();
+    let mut work = StageWork::default();
     let mut fallbacks = FallbackCounters::default();
+    Work::lap();
 
     // §5.1: parametrization.
     let stage = Instant::now();
@@ -526,6 +552,7 @@ pub fn region_fields(
     let parametrization =
         parametrize_and_diffuse(mesh, topology, solver, &contact, &parametrize_params, diffuse_directions)?;
     timings[Stage::Parametrization] = stage.elapsed();
+    work[Stage::Parametrization] = Work::lap();
 
     // §5.2: directions.
     let stage = Instant::now();
@@ -545,6 +572,7 @@ pub fn region_fields(
     let field = direction_field(mesh, solver, &contact, &parametrization, normals, &direction_params)?;
     fallbacks.direction_blend = field.fallbacks;
     timings[Stage::Directions] = stage.elapsed();
+    work[Stage::Directions] = Work::lap();
 
     // §5.3: amplitude and slope.
     let stage = Instant::now();
@@ -559,6 +587,9 @@ pub fn region_fields(
     )?;
     fallbacks.clamped_slopes = guide.clamped_slopes;
     timings[Stage::Guide] = stage.elapsed();
+    work[Stage::Guide] = Work::lap();
+    work[Stage::Factorization].flops = solver.factorization_flops() - flops_before;
+    work[Stage::Analysis].rows = solver.analyzed_rows() - analyzed_rows_before;
 
     timings[Stage::Factorization] = solver.factorization_time().saturating_sub(factorization_time_before);
     timings[Stage::Analysis] = solver.analysis_time().saturating_sub(analysis_time_before);
@@ -580,6 +611,7 @@ pub fn region_fields(
         recomputed_rows: solver.recomputed_rows() - recomputed_rows_before,
         reduced_analyses: solver.reduced_analyses() - reduced_analyses_before,
         timings,
+        work,
         time: start.elapsed(),
         fallbacks,
         ..DeformStats::default()

@@ -31,6 +31,7 @@ use crate::linalg::{
     Operator, SolveError, SparsePattern, SymbolicFactor, SymmetricMatrix,
 };
 use crate::mesh::{Topology, TriMesh};
+use crate::stage::SharedWork;
 
 /// The cached linear systems of one working region; see the module doc.
 #[derive(Debug)]
@@ -50,6 +51,8 @@ pub struct RegionSolver {
     numeric_factorizations: usize,
     factorized_rows: usize,
     recomputed_rows: usize,
+    /// Multiply-adds of the factorizations so far (their [`crate::stage::Work`]).
+    factorization_flops: u64,
     factorization_time: Duration,
     /// Frames to go before the parametrization tries the breadth-first bound of its domain again
     /// (see `parametrize::restrict_to_domain`): set after it failed. Only the time depends on
@@ -90,6 +93,7 @@ impl RegionSolver {
             numeric_factorizations: 0,
             factorized_rows: 0,
             recomputed_rows: 0,
+            factorization_flops: 0,
             factorization_time: Duration::ZERO,
             transport: None,
         })
@@ -135,6 +139,17 @@ impl RegionSolver {
     /// see [`crate::linalg::NumericFactor::recomputed_columns`]).
     pub fn recomputed_rows(&self) -> usize {
         self.recomputed_rows
+    }
+
+    /// Multiply-adds of the heat, Poisson and guide factorizations so far (`Σ c_j²` over the
+    /// columns each recomputed, [`NumericFactor::recomputed_flops`]).
+    pub fn factorization_flops(&self) -> u64 {
+        self.factorization_flops
+    }
+
+    /// Rows of the coupled-row submatrices analyzed so far (see [`Self::reduced_analyses`]).
+    pub fn analyzed_rows(&self) -> u64 {
+        self.factors().map(NumericFactor::analyzed_rows).sum()
     }
 
     /// Symbolic analyses of coupled-row submatrices run so far by the heat, Poisson and guide
@@ -225,15 +240,18 @@ impl RegionSolver {
             let result = refactorize(slot, symbolic, operator, constraints, params);
             (result, start.elapsed())
         };
+        let work = SharedWork::default();
         let ((heat_result, heat_time), (poisson_result, poisson_time)) = rayon::join(
-            || timed(heat, heat_operator, heat_constraints),
-            || timed(poisson, poisson_operator, poisson_constraints),
+            || work.measure(|| timed(heat, heat_operator, heat_constraints)),
+            || work.measure(|| timed(poisson, poisson_operator, poisson_constraints)),
         );
+        work.record();
         self.factorization_time += heat_time + poisson_time;
         self.numeric_factorizations += 2;
         for solver in [&self.heat, &self.poisson].into_iter().flatten() {
             self.factorized_rows += solver.factor().factorized_rows();
             self.recomputed_rows += solver.factor().recomputed_columns();
+            self.factorization_flops += solver.factor().recomputed_flops();
         }
         heat_result.map_err(DeformError::solve("heat"))?;
         poisson_result.map_err(DeformError::solve("Poisson"))?;
@@ -291,6 +309,7 @@ impl RegionSolver {
         self.numeric_factorizations += 1;
         self.factorized_rows += system.factor.factorized_rows();
         self.recomputed_rows += system.factor.recomputed_columns();
+        self.factorization_flops += system.factor.recomputed_flops();
         result.map_err(DeformError::solve("guide"))?;
         self.guide.as_mut().ok_or(DeformError::Solve { stage: "guide", source: SolveError::NotFactorized })
     }

@@ -80,32 +80,95 @@ pub struct VolumeCubic {
     pub coefficients: [f64; 4],
 }
 
+/// The terms of one face in [`VolumeCubic::new`]: `det(q + c) − det(q)` and the coefficients of
+/// h, h², h³ of `det(q + c + h·l)`, or `None` when none of its vertices moves.
+fn face_terms(mesh: &TriMesh, tri: &[u32; 3], displacement: &AffineDisplacement, reference: DVec3) -> Option<[f64; 4]> {
+    let [i, j, k] = tri.map(|v| v as usize);
+    if !(displacement.moved[i] || displacement.moved[j] || displacement.moved[k]) {
+        return None;
+    }
+    let q = [mesh.positions[i] - reference, mesh.positions[j] - reference, mesh.positions[k] - reference];
+    let constant = [displacement.constant[i], displacement.constant[j], displacement.constant[k]];
+    let linear = [displacement.linear[i], displacement.linear[j], displacement.linear[k]];
+    // det(q + c) − det(q), without the cancellation of two large cones.
+    let fixed = det_expansion(q, constant);
+    let moved = [q[0] + constant[0], q[1] + constant[1], q[2] + constant[2]];
+    let in_h = det_expansion(moved, linear);
+    Some([fixed[1] + fixed[2] + fixed[3], in_h[1], in_h[2], in_h[3]])
+}
+
+/// The terms of the strip swept by boundary edge `e` in [`VolumeCubic::swept`], or `None` when
+/// neither end moves.
+fn strip_terms(
+    mesh: &TriMesh,
+    topology: &Topology,
+    e: u32,
+    displacement: &AffineDisplacement,
+    reference: DVec3,
+) -> Option<[f64; 4]> {
+    let [a, b] = topology.edge(e);
+    if !(displacement.moved[a as usize] || displacement.moved[b as usize]) {
+        return None;
+    }
+    // The edge in the order of its one face, so that the strip closes the swept volume with
+    // outward orientation.
+    let face = mesh.triangles[topology.edge_faces(e)[0] as usize];
+    let k = face.iter().position(|&v| v == a).unwrap_or(0);
+    let [i, j] = if face[(k + 1) % 3] == b { [a, b] } else { [b, a] }.map(|v| v as usize);
+    let q = |v: usize| mesh.positions[v] - reference;
+    let moved = |v: usize| q(v) + displacement.constant[v];
+    let (li, lj) = (displacement.linear[i], displacement.linear[j]);
+    let first = det_expansion([q(i), q(j), moved(j)], [DVec3::ZERO, DVec3::ZERO, lj]);
+    let second = det_expansion([q(i), moved(j), moved(i)], [DVec3::ZERO, lj, li]);
+    Some([0, 1, 2, 3].map(|n| first[n] + second[n]))
+}
+
+/// The cubic from its faces' and strips' terms, summed in their order.
+fn sum_terms<'t>(
+    faces: impl Iterator<Item = &'t Option<[f64; 4]>>,
+    strips: impl Iterator<Item = &'t Option<[f64; 4]>>,
+) -> VolumeCubic {
+    let mut c = [0.0; 4];
+    for t in faces.flatten() {
+        for (c, t) in c.iter_mut().zip(t) {
+            *c += t;
+        }
+    }
+    let mut cubic = VolumeCubic { coefficients: c.map(|x| x / 6.0) };
+    let mut swept = [0.0; 4];
+    for t in strips.flatten() {
+        for (s, t) in swept.iter_mut().zip(t) {
+            *s += t;
+        }
+    }
+    for (c, s) in cubic.coefficients.iter_mut().zip(swept) {
+        *c += s / 6.0;
+    }
+    cubic
+}
+
+/// The terms of [`VolumeCubic::swept`] per face and per boundary strip, kept between calls on one
+/// region whose displacement changes at a few vertices (the rounds of the separation pass): only
+/// the faces and strips around the vertices whose displacement changed (bit for bit) are
+/// expanded again, and the terms are summed in the same order, so the cubic is
+/// [`VolumeCubic::swept`]'s, bit for bit (tested).
+#[derive(Clone, Debug, Default)]
+pub struct SweptTerms {
+    /// The displacement and reference point the terms are of.
+    displacement: AffineDisplacement,
+    reference: Option<DVec3>,
+    faces: Vec<Option<[f64; 4]>>,
+    /// Per boundary edge of the topology, in its order.
+    strips: Vec<Option<[f64; 4]>>,
+}
+
 impl VolumeCubic {
     /// Expands ΔV(h) over the faces of `mesh` that have a moved vertex, relative to `reference`.
     pub fn new(mesh: &TriMesh, displacement: &AffineDisplacement, reference: DVec3) -> Result<Self, DeformError> {
-        let n = mesh.num_vertices();
-        DeformError::check_len("displacement (linear)", n, displacement.linear.len())?;
-        DeformError::check_len("displacement (constant)", n, displacement.constant.len())?;
-        DeformError::check_len("displacement (moved)", n, displacement.moved.len())?;
-        let mut c = [0.0; 4];
-        for tri in &mesh.triangles {
-            let [i, j, k] = tri.map(|v| v as usize);
-            if !(displacement.moved[i] || displacement.moved[j] || displacement.moved[k]) {
-                continue;
-            }
-            let q = [mesh.positions[i] - reference, mesh.positions[j] - reference, mesh.positions[k] - reference];
-            let constant = [displacement.constant[i], displacement.constant[j], displacement.constant[k]];
-            let linear = [displacement.linear[i], displacement.linear[j], displacement.linear[k]];
-            // det(q + c) − det(q), without the cancellation of two large cones.
-            let fixed = det_expansion(q, constant);
-            c[0] += fixed[1] + fixed[2] + fixed[3];
-            let moved = [q[0] + constant[0], q[1] + constant[1], q[2] + constant[2]];
-            let in_h = det_expansion(moved, linear);
-            c[1] += in_h[1];
-            c[2] += in_h[2];
-            c[3] += in_h[3];
-        }
-        Ok(Self { coefficients: c.map(|x| x / 6.0) })
+        check_displacement(mesh, displacement)?;
+        let faces: Vec<Option<[f64; 4]>> =
+            mesh.triangles.iter().map(|tri| face_terms(mesh, tri, displacement, reference)).collect();
+        Ok(sum_terms(faces.iter(), std::iter::empty()))
     }
 
     /// ΔV(h) of the volume swept by the region's displacement (see the module doc): [`Self::new`]
@@ -117,31 +180,57 @@ impl VolumeCubic {
         displacement: &AffineDisplacement,
         reference: DVec3,
     ) -> Result<Self, DeformError> {
-        let mut cubic = Self::new(mesh, displacement, reference)?;
-        let mut strips = [0.0; 4];
-        for e in topology.boundary_edges() {
+        Self::swept_with(mesh, topology, displacement, reference, &mut SweptTerms::default())
+    }
+
+    /// [`Self::swept`], reusing the terms of the last call with `terms` (same mesh and topology)
+    /// where the displacement did not change.
+    pub fn swept_with(
+        mesh: &TriMesh,
+        topology: &Topology,
+        displacement: &AffineDisplacement,
+        reference: DVec3,
+        terms: &mut SweptTerms,
+    ) -> Result<Self, DeformError> {
+        check_displacement(mesh, displacement)?;
+        let bits = |p: DVec3| p.to_array().map(f64::to_bits);
+        let n = mesh.num_vertices();
+        let boundary = topology.boundary_edges();
+        let reusable = terms.reference.map(bits) == Some(bits(reference))
+            && terms.faces.len() == mesh.num_triangles()
+            && terms.strips.len() == boundary.len()
+            && terms.displacement.moved.len() == n;
+        // The vertices whose displacement differs from the one the terms are of.
+        let changed: Vec<bool> = if reusable {
+            let old = &terms.displacement;
+            (0..n)
+                .map(|v| {
+                    old.moved[v] != displacement.moved[v]
+                        || bits(old.constant[v]) != bits(displacement.constant[v])
+                        || bits(old.linear[v]) != bits(displacement.linear[v])
+                })
+                .collect()
+        } else {
+            vec![true; n]
+        };
+        if !reusable {
+            terms.faces = vec![None; mesh.num_triangles()];
+            terms.strips = vec![None; boundary.len()];
+        }
+        for (tri, slot) in mesh.triangles.iter().zip(terms.faces.iter_mut()) {
+            if tri.iter().any(|&v| changed[v as usize]) {
+                *slot = face_terms(mesh, tri, displacement, reference);
+            }
+        }
+        for (&e, slot) in boundary.iter().zip(terms.strips.iter_mut()) {
             let [a, b] = topology.edge(e);
-            if !(displacement.moved[a as usize] || displacement.moved[b as usize]) {
-                continue;
-            }
-            // The edge in the order of its one face, so that the strip closes the swept volume
-            // with outward orientation.
-            let face = mesh.triangles[topology.edge_faces(e)[0] as usize];
-            let k = face.iter().position(|&v| v == a).unwrap_or(0);
-            let [i, j] = if face[(k + 1) % 3] == b { [a, b] } else { [b, a] }.map(|v| v as usize);
-            let q = |v: usize| mesh.positions[v] - reference;
-            let moved = |v: usize| q(v) + displacement.constant[v];
-            let (li, lj) = (displacement.linear[i], displacement.linear[j]);
-            let first = det_expansion([q(i), q(j), moved(j)], [DVec3::ZERO, DVec3::ZERO, lj]);
-            let second = det_expansion([q(i), moved(j), moved(i)], [DVec3::ZERO, lj, li]);
-            for (s, (x, y)) in strips.iter_mut().zip(first.iter().zip(&second)) {
-                *s += x + y;
+            if changed[a as usize] || changed[b as usize] {
+                *slot = strip_terms(mesh, topology, e, displacement, reference);
             }
         }
-        for (c, s) in cubic.coefficients.iter_mut().zip(strips) {
-            *c += s / 6.0;
-        }
-        Ok(cubic)
+        terms.displacement.clone_from(displacement);
+        terms.reference = Some(reference);
+        Ok(sum_terms(terms.faces.iter(), terms.strips.iter()))
     }
 
     /// ΔV(h).
@@ -150,6 +239,13 @@ impl VolumeCubic {
         let [c0, c1, c2, c3] = self.coefficients;
         ((c3 * h + c2) * h + c1) * h + c0
     }
+}
+
+fn check_displacement(mesh: &TriMesh, displacement: &AffineDisplacement) -> Result<(), DeformError> {
+    let n = mesh.num_vertices();
+    DeformError::check_len("displacement (linear)", n, displacement.linear.len())?;
+    DeformError::check_len("displacement (constant)", n, displacement.constant.len())?;
+    DeformError::check_len("displacement (moved)", n, displacement.moved.len())
 }
 
 /// The signed volume swept by moving `mesh`'s vertices to `after` (see the module doc: the

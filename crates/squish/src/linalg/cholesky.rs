@@ -51,6 +51,7 @@ use super::dissection;
 use super::supernodal::{SOLVE_BLOCK, SupernodalPlan, Workspace};
 use super::symbolic;
 use super::{SolveError, SparsePattern, SymmetricMatrix};
+use crate::stage::Work;
 
 /// The coupled rows are factorized alone when they are at most this fraction of the rows (see the
 /// module doc). Above it the saved flops no longer pay for the submatrix's symbolic analysis when
@@ -285,6 +286,8 @@ struct Numeric {
     changed: Vec<bool>,
     /// Columns the last factorization recomputed.
     recomputed_columns: usize,
+    /// Their multiply-adds (`Σ c_j²`).
+    recomputed_flops: u64,
     work: Workspace,
     /// One permuted right-hand side.
     permuted_rhs: Vec<f64>,
@@ -298,6 +301,7 @@ impl Numeric {
             valid: false,
             changed: Vec::new(),
             recomputed_columns: 0,
+            recomputed_flops: 0,
             work: Workspace::default(),
             permuted_rhs: Vec::new(),
         })
@@ -342,7 +346,8 @@ impl Numeric {
         }
         let a = SparseColMatRef::new(analysis.permuted.as_ref(), &self.permuted_values);
         let changed = partial.then_some(self.changed.as_slice());
-        self.recomputed_columns = plan.factorize(a, &mut self.l_values, changed, &mut self.work)?;
+        (self.recomputed_columns, self.recomputed_flops) =
+            plan.factorize(a, &mut self.l_values, changed, &mut self.work)?;
         self.valid = true;
         Ok(())
     }
@@ -406,6 +411,8 @@ pub struct NumericFactor {
     /// The diagonal of the decoupled rows (their 1 × 1 blocks) in the reduced layout.
     diagonal: Vec<f64>,
     reduced_analyses: usize,
+    /// Rows of the analyses this factor needed (its own or shared), summed.
+    analyzed_rows: u64,
     /// Time those analyses took.
     analysis_time: Duration,
     /// False: always factorize the whole pattern (tests compare the two layouts).
@@ -434,6 +441,7 @@ impl NumericFactor {
             coupled: Vec::new(),
             diagonal: Vec::new(),
             reduced_analyses: 0,
+            analyzed_rows: 0,
             analysis_time: Duration::ZERO,
             reduce: true,
         })
@@ -472,6 +480,13 @@ impl NumericFactor {
         self.reduced_analyses
     }
 
+    /// Rows of the analyses of coupled-row submatrices this factor needed, whether it ran them or
+    /// took them from another factor of the same pattern (their [`crate::stage::Work`]: the same
+    /// whatever the threads).
+    pub fn analyzed_rows(&self) -> u64 {
+        self.analyzed_rows
+    }
+
     /// Total time of those analyses (part of the factorizations' time).
     pub fn analysis_time(&self) -> Duration {
         self.analysis_time
@@ -496,6 +511,16 @@ impl NumericFactor {
             Layout::None => 0,
             Layout::Whole => self.whole.as_ref().map_or(0, |w| w.recomputed_columns),
             Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.numeric.recomputed_columns),
+        }
+    }
+
+    /// Multiply-adds of the last factorization (`Σ c_j²` over the columns it recomputed, see
+    /// [`Self::recomputed_columns`]; 0 when not factorized): its [`crate::stage::Work`].
+    pub fn recomputed_flops(&self) -> u64 {
+        match self.layout {
+            Layout::None => 0,
+            Layout::Whole => self.whole.as_ref().map_or(0, |w| w.recomputed_flops),
+            Layout::Reduced => self.reduced.as_ref().map_or(0, |r| r.numeric.recomputed_flops),
         }
     }
 
@@ -630,6 +655,9 @@ impl NumericFactor {
         if !reusable {
             let start = Instant::now();
             let (shared, new) = self.symbolic.rows_analysis(&self.coupled)?;
+            // Counted whether analyzed here or taken from another factor's: which of two
+            // factors in parallel analyzes first depends on the threads, the rows needed do not.
+            self.analyzed_rows += coupled_rows as u64;
             if new {
                 self.reduced_analyses += 1;
                 self.analysis_time += start.elapsed();
@@ -682,6 +710,7 @@ impl NumericFactor {
                 let Some(reduced) = self.reduced.as_mut() else { return Ok(()) };
                 let rows = &reduced.shared.rows;
                 let m = rows.len();
+                Work::count_rows((m * columns) as u64);
                 reduced.rhs.clear();
                 for column in rhs.chunks_exact(n) {
                     reduced.rhs.extend(rows.iter().map(|&v| column[v]));
@@ -696,6 +725,7 @@ impl NumericFactor {
             }
             _ => {
                 let whole = self.whole.as_mut().ok_or(SolveError::NotFactorized)?;
+                Work::count_rows((n * columns) as u64);
                 whole.solve(&self.symbolic.analysis, rhs, columns)
             }
         }

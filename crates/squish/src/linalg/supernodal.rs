@@ -192,14 +192,15 @@ impl SupernodalPlan {
     /// into `l` (faer's supernodal storage). With `changed: Some(flags)` (one per supernode: its
     /// columns of `a` differ from the matrix `l` was computed from), only the changed supernodes
     /// and those they update, transitively, are recomputed; `None` recomputes everything.
-    /// Returns the number of columns recomputed.
+    /// Returns the columns recomputed and their multiply-adds (`Σ c_j²` over them, `c_j` the
+    /// column's count of rows from the diagonal down).
     pub(super) fn factorize(
         &self,
         a: SparseColMatRef<'_, usize, f64>,
         l: &mut [f64],
         changed: Option<&[bool]>,
         work: &mut Workspace,
-    ) -> Result<usize, LltError> {
+    ) -> Result<(usize, u64), LltError> {
         let n_super = self.len();
         work.global_to_local.clear();
         work.global_to_local.resize(self.n, usize::MAX);
@@ -211,7 +212,7 @@ impl SupernodalPlan {
         if work.dense.as_ref().is_none_or(|(_, bytes)| *bytes < self.dense_scratch.size_bytes()) {
             work.dense = Some((MemBuffer::new(self.dense_scratch), self.dense_scratch.size_bytes()));
         }
-        let mut count = 0;
+        let (mut count, mut flops) = (0, 0u64);
         for s in 0..n_super {
             let descendants = &self.descendants[self.descendant_ptr[s]..self.descendant_ptr[s + 1]];
             let needed = changed.is_none_or(|c| c[s]) || descendants.iter().any(|&d| work.recomputed[d as usize]);
@@ -219,10 +220,13 @@ impl SupernodalPlan {
                 continue;
             }
             work.recomputed[s] = true;
-            count += self.end[s] - self.begin[s];
+            let width = self.end[s] - self.begin[s];
+            count += width;
+            let rows = (width + self.pattern_len[s]) as u64;
+            flops += (0..width as u64).map(|k| (rows - k) * (rows - k)).sum::<u64>();
             self.factorize_supernode(s, descendants, a, l, work)?;
         }
-        Ok(count)
+        Ok((count, flops))
     }
 
     fn factorize_supernode(

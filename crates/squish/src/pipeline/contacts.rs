@@ -98,7 +98,7 @@ pub(super) fn contact_region_pairs(
             .collect::<Result<_, _>>()?;
     for ((contact, &job), rp) in contacts.iter().zip(jobs).zip(region_pairs) {
         let Some(contact) = contact else { continue };
-        trace.add_to_job(job, &contact.stats.timings, &Default::default());
+        trace.add_to_job(job, &contact.stats.timings, &contact.stats.work);
         let record = &mut trace.jobs[job];
         record.in_contact = !contact.is_empty();
         record.objects = frame.pairs[rp.pair].objects;

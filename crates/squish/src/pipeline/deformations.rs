@@ -34,7 +34,7 @@ use crate::deform::{
 };
 use crate::linalg::FillOrder;
 use crate::mesh::Topology;
-use crate::stage::Stage;
+use crate::stage::{Stage, Work};
 
 /// The deformation of one region.
 pub(super) struct RegionOutcome {
@@ -115,10 +115,10 @@ pub(super) fn deform_regions(
         .collect()
 }
 
-/// Adds every region's stage times of chapter 5 to the frame's.
+/// Adds every region's stage times and work of chapter 5 to the frame's.
 pub(super) fn record(outcomes: &[Vec<Option<RegionOutcome>>], trace: &mut Trace) {
     for outcome in outcomes.iter().flatten().flatten() {
-        trace.add(&outcome.deformation.stats.timings, &Default::default());
+        trace.add(&outcome.deformation.stats.timings, &outcome.deformation.stats.work);
     }
 }
 
@@ -299,6 +299,7 @@ pub(super) fn finish_kept_regions(
                         [Stage::Parametrization, Stage::Directions, Stage::Guide, Stage::Factorization, Stage::Analysis]
                     {
                         stats.timings[stage] = Duration::ZERO;
+                        stats.work[stage] = Work::ZERO;
                     }
                     stats.time = start.elapsed();
                     Ok(Some(RegionOutcome {
@@ -382,6 +383,7 @@ pub(super) fn combine(
         t.recomputed_rows += s.recomputed_rows;
         t.reduced_analyses += s.reduced_analyses;
         t.timings += &s.timings;
+        t.work += &s.work;
         t.time += s.time;
         t.fallbacks.direction_blend += s.fallbacks.direction_blend;
         t.fallbacks.bulge_map += s.fallbacks.bulge_map;

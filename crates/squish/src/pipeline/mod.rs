@@ -77,7 +77,7 @@ use crate::mesh::TriMesh;
 #[cfg(doc)]
 use crate::params::RegionChoice;
 use crate::params::{ObjectParams, PairParams};
-use crate::stage::Stage;
+use crate::stage::{Stage, Work};
 use cache::ObjectCache;
 use contacts::{RegionPair, RegionZones};
 use edits::EditState;
@@ -261,6 +261,12 @@ impl Deformer {
     /// Deforms one frame: the frame plan (`plan`) level by level, then the results. See the
     /// module doc.
     pub fn deform(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
+        // The frame's own span of work: what its stages do not measure stays out of the spans of
+        // another frame this thread may be computing (`Work`).
+        Work::measure(|| self.deform_frame(frame)).0
+    }
+
+    fn deform_frame(&mut self, frame: &Frame) -> Result<FrameResult, PipelineError> {
         let start = Instant::now();
         let frame = frame.without_disabled_pairs();
         let mut trace = Trace::default();
@@ -308,17 +314,19 @@ impl Deformer {
     fn contact_objects(&mut self, frame: &Frame, keep: bool, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
         // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
-        let timer = Instant::now();
-        let figures = setup::update_objects(&mut self.caches, frame, &pairing.needs_tree)?;
-        trace.time(Stage::Setup, timer.elapsed());
+        let figures =
+            trace.run(Stage::Setup, || setup::update_objects(&mut self.caches, frame, &pairing.needs_tree))?;
 
         // Working regions (§4.5), then the jobs: every pair of their regions whose boxes overlap.
-        let timer = Instant::now();
-        regions::update_working_regions(&mut self.caches, frame, &pairing.partners, &pairing.needs_tree, &figures)?;
+        let caches = &mut self.caches;
+        let (store, region_pairs) = trace.run(Stage::Regions, || {
+            regions::update_working_regions(caches, frame, &pairing.partners, &pairing.needs_tree, &figures)?;
+            let caches: Vec<&ObjectCache> = caches.iter().flatten().collect();
+            let store = FrameStore::new(&caches, frame, figures);
+            let region_pairs = contacts::region_pairs(frame, &caches);
+            Ok::<_, PipelineError>((store, region_pairs))
+        })?;
         let caches: Vec<&ObjectCache> = self.caches.iter().flatten().collect();
-        let store = FrameStore::new(&caches, frame, figures);
-        let region_pairs = contacts::region_pairs(frame, &caches);
-        trace.time(Stage::Regions, timer.elapsed());
         let jobs = contacts::job_records(frame, &store, &region_pairs, trace);
 
         // Chapter 4 on every job, in parallel.
@@ -396,9 +404,8 @@ impl Deformer {
         if self.skip_separation {
             return Ok(Vec::new());
         }
-        let timer = Instant::now();
-        let warnings = separation::separate(frame, &self.caches, region_pairs, contacts, outcomes)?.1;
-        trace.time(Stage::Separation, timer.elapsed());
+        let (_, warnings) = trace
+            .run(Stage::Separation, || separation::separate(frame, &self.caches, region_pairs, contacts, outcomes))?;
         Ok(warnings)
     }
 }

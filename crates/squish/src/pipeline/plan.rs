@@ -20,7 +20,7 @@
 //! Deterministic: jobs are listed in a fixed order (objects, then their articulations or region
 //! pairs in order), parallel maps collect in that order, and every sum runs in it.
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize, Serializer};
 
@@ -113,6 +113,15 @@ impl Trace {
     /// Adds `time` to `stage`.
     pub fn time(&mut self, stage: Stage, time: Duration) {
         self.stages[stage] += time;
+    }
+
+    /// Runs `f` as stage `stage`: adds its time and the work it recorded ([`Work::measure`]).
+    pub fn run<R>(&mut self, stage: Stage, f: impl FnOnce() -> R) -> R {
+        let timer = Instant::now();
+        let (result, work) = Work::measure(f);
+        self.stages[stage] += timer.elapsed();
+        self.work[stage] += work;
+        result
     }
 
     /// Adds a job's stage times (and work) to job `job`'s record and to the frame's.

@@ -94,6 +94,7 @@ use crate::deform::automatic_extent;
 use crate::mesh::{Aabb3, Topology, TriMesh, close_pinches, edge_path_distances, face_set_pieces};
 use crate::params::{ObjectParams, RegionChoice};
 use crate::spatial::{FastWinding, TriangleBvh, triangles_intersect};
+use crate::stage::SharedWork;
 
 /// Checks an object's region parameters against its vertex count: a mask needs one value per
 /// vertex.
@@ -208,23 +209,26 @@ fn distance_pieces(
         if !bounds.intersects(&crate::mesh::bounding_box(mesh)) {
             continue;
         }
-        // Faces crossing the partner's surface.
+        // Faces crossing the partner's surface (each task's work measured, see `Work`).
+        let work = SharedWork::default();
         let crossing: Vec<bool> = (0..mesh.num_triangles())
             .into_par_iter()
             .with_min_len(256)
             .map(|f| {
-                let corners = mesh.corners(f);
-                let query = Aabb3::from_points(corners);
-                if !query.intersects(&bounds) {
-                    return false;
-                }
-                let mut hit = false;
-                partner.bvh.for_each_face_in_box(&query, |g| {
-                    if !hit {
-                        hit = triangles_intersect(&corners, &partner.mesh.corners(g as usize));
+                work.measure(|| {
+                    let corners = mesh.corners(f);
+                    let query = Aabb3::from_points(corners);
+                    if !query.intersects(&bounds) {
+                        return false;
                     }
-                });
-                hit
+                    let mut hit = false;
+                    partner.bvh.for_each_face_in_box(&query, |g| {
+                        if !hit {
+                            hit = triangles_intersect(&corners, &partner.mesh.corners(g as usize));
+                        }
+                    });
+                    hit
+                })
             })
             .collect();
         for (t, _) in mesh.triangles.iter().zip(&crossing).filter(|(_, c)| **c) {
@@ -239,15 +243,18 @@ fn distance_pieces(
             .par_iter()
             .with_min_len(256)
             .map(|&p| {
-                if !(bounds.min.cmple(p).all() && p.cmple(bounds.max).all()) {
-                    return false;
-                }
-                match &winding {
-                    None => partner.bvh.contains(p),
-                    Some(w) => w.winding_number(p) >= 0.5,
-                }
+                work.measure(|| {
+                    if !(bounds.min.cmple(p).all() && p.cmple(bounds.max).all()) {
+                        return false;
+                    }
+                    match &winding {
+                        None => partner.bvh.contains(p),
+                        Some(w) => w.winding_number(p) >= 0.5,
+                    }
+                })
             })
             .collect();
+        work.record();
         for (c, i) in core.iter_mut().zip(inside) {
             *c |= i;
         }
@@ -343,22 +350,30 @@ pub(super) fn update_working_regions(
     refitted: &[bool],
     figures: &[ComponentFigures],
 ) -> Result<(), PipelineError> {
+    let work = SharedWork::default();
     let selections: Vec<Selection> = {
         let caches: Vec<&ObjectCache> = caches.iter().flatten().collect();
         (0..frame.objects.len())
             .into_par_iter()
             .map(|i| {
-                let object = &frame.objects[i];
-                let others: Vec<Partner> = partners[i]
-                    .iter()
-                    .map(|&j| Partner { mesh: frame.objects[j].mesh, bvh: &caches[j].bvh, closed: caches[j].closed })
-                    .collect();
-                let cache = caches[i];
-                select(object.mesh, &cache.topology, &cache.components, &figures[i], object.params, &others)
-                    .map_err(|reason| PipelineError::invalid_region(object.name, reason))
+                work.measure(|| {
+                    let object = &frame.objects[i];
+                    let others: Vec<Partner> = partners[i]
+                        .iter()
+                        .map(|&j| Partner {
+                            mesh: frame.objects[j].mesh,
+                            bvh: &caches[j].bvh,
+                            closed: caches[j].closed,
+                        })
+                        .collect();
+                    let cache = caches[i];
+                    select(object.mesh, &cache.topology, &cache.components, &figures[i], object.params, &others)
+                        .map_err(|reason| PipelineError::invalid_region(object.name, reason))
+                })
             })
             .collect::<Result<_, _>>()?
     };
+    work.record();
     caches.par_iter_mut().zip(selections).zip(&frame.objects).zip(refitted).try_for_each(
         |(((cache, selection), object), &refitted)| -> Result<(), PipelineError> {
             let Some(cache) = cache.as_mut() else { return Ok(()) };

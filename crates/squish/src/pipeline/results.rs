@@ -47,20 +47,21 @@ pub(super) fn assemble(
     let mut objects = object_results(between, caches, &zones, outcomes);
 
     // The quality and warnings pass.
-    let timer = Instant::now();
-    let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &between.pairs[rp.pair].params).collect();
-    let mut warnings = frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
-    warnings.extend(unseparated);
-    relative_to_input(&mut objects.stats, frame, &objects.positions, &resolved);
-    let quality = match quality {
-        Some(cache) => {
-            let (figures, residual) = measure(frame, &objects.positions, &pairs, cache);
-            warnings.extend(residual);
-            figures
-        }
-        None => Vec::new(),
-    };
-    trace.time(Stage::Quality, timer.elapsed());
+    let (warnings, quality) = trace.run(Stage::Quality, || {
+        let params: Vec<&PairParams> = region_pairs.iter().map(|rp| &between.pairs[rp.pair].params).collect();
+        let mut warnings = frame_warnings(&pairs, &contacts, &params, &contained, &objects.stats, &closed);
+        warnings.extend(unseparated);
+        relative_to_input(&mut objects.stats, frame, &objects.positions, &resolved);
+        let quality = match quality {
+            Some(cache) => {
+                let (figures, residual) = measure(frame, &objects.positions, &pairs, cache);
+                warnings.extend(residual);
+                figures
+            }
+            None => Vec::new(),
+        };
+        (warnings, quality)
+    });
 
     let Trace { stages, work, jobs, articulations, part_pairs } = trace;
     Ok(FrameResult {

@@ -56,9 +56,10 @@ use super::deformations::RegionOutcome;
 use super::warnings::{FrameWarning, WarningKind};
 use super::{Frame, PipelineError};
 use crate::contact::PairContact;
-use crate::deform::HeightChoice;
-use crate::mesh::{Aabb3, TriMesh, face_normal_unnormalized};
-use crate::spatial::{FastWinding, TriangleBvh, closest_point_on_triangle};
+use crate::deform::{HeightChoice, SweptTerms};
+use crate::mesh::{Aabb3, Topology, TriMesh, face_normal_unnormalized};
+use crate::spatial::{FastWinding, SpatialError, TriangleBvh, closest_point_on_triangle};
+use crate::stage::{SharedWork, Work};
 
 /// Most rounds of moves and height solves per frame.
 pub const MAX_ROUNDS: usize = 8;
@@ -133,17 +134,68 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
     if edges.is_empty() { 0.0 } else { total / edges.len() as f64 }
 }
 
-/// One side's surface for distance queries: its faces' tree at the current positions.
-struct Surface<'a> {
+/// The trees of one side (a region of an object) for the whole pass: taken from the object's
+/// cached trees (no new build; a cut region's tree renumbered into the object's ids) and
+/// refitted to the outputs at each round. Every query the pass makes of them answers the same
+/// whatever the tree's shape (closest points and faces within a distance by (distance, face id),
+/// crossings and winding numbers exactly, the inside of an open surface exactly near its
+/// threshold), so a tree built at an earlier frame gives the bits of a fresh one.
+struct SideTrees {
+    /// The region's faces (object face ids) at the current positions.
     bvh: TriangleBvh,
-    mesh: &'a TriMesh,
+    /// The whole object's tree when the region is cut out of a closed object (its inside).
+    whole: Option<TriangleBvh>,
+    /// Vertices of the side (sorted, object ids).
+    vertices: Vec<u32>,
+}
+
+impl SideTrees {
+    /// The trees of region `region` of an object at `positions`; `whole`: also the whole
+    /// object's tree, for a cut region of a closed object.
+    fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh) -> Option<Self> {
+        let region_cache = cache.regions.get(region)?;
+        let (mut bvh, vertices, mut whole) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
+            (None, _) => (cache.bvh.clone(), (0..positions.len() as u32).collect(), None),
+            (Some(_), Some(sub)) => {
+                let bvh = sub.bvh.relabeled(&sub.sub.parent_face, &sub.sub.parent_vertex, positions.len())?;
+                (bvh, sub.sub.parent_vertex.clone(), cache.closed.then(|| cache.bvh.clone()))
+            }
+            (Some(faces), None) => {
+                let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
+                vertices.sort_unstable();
+                vertices.dedup();
+                let bvh = TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?;
+                (bvh, vertices, cache.closed.then(|| cache.bvh.clone()))
+            }
+        };
+        bvh.refit(positions).ok()?;
+        if let Some(whole) = whole.as_mut() {
+            whole.refit(positions).ok()?;
+        }
+        Some(Self { bvh, whole, vertices })
+    }
+
+    /// Moves the trees to new positions of the object.
+    fn refit(&mut self, positions: &[DVec3]) -> Result<(), SpatialError> {
+        self.bvh.refit(positions)?;
+        if let Some(whole) = self.whole.as_mut() {
+            whole.refit(positions)?;
+        }
+        Ok(())
+    }
+}
+
+/// One side's surface for distance queries, in one region pair: its trees at the current
+/// positions and how its inside is decided.
+struct Surface<'a> {
+    trees: &'a SideTrees,
+    positions: &'a [DVec3],
+    triangles: &'a [[u32; 3]],
+    /// The object's connectivity.
+    topology: &'a Topology,
     /// Inside/outside by the object's winding number (a closed object) rather than by the
     /// generalized one of the surface.
     closed: bool,
-    /// The whole closed object's tree when the surface is a cut region of it (its inside).
-    whole: Option<TriangleBvh>,
-    /// Vertices of the side (sorted).
-    vertices: Vec<u32>,
 }
 
 /// Generalized winding number above which a point is inside an open surface: behind a flat
@@ -151,8 +203,14 @@ struct Surface<'a> {
 const OPEN_INSIDE_WINDING: f64 = 0.25;
 /// Length, in gaps, below which the direction out of a surface leans to its face's normal.
 const NORMAL_BLEND: f64 = 0.25;
+/// Vertices per run of the inside walk ([`Surface::inside_flags`]).
+const INSIDE_RUN: usize = 256;
 /// Accuracy (β) of the far-field winding numbers of open surfaces.
 const WINDING_ACCURACY: f64 = 4.0;
+/// Within this of [`OPEN_INSIDE_WINDING`], the exact generalized winding number decides: far
+/// above the far field's error at [`WINDING_ACCURACY`] (8·10⁻³ at worst on a sphere, see
+/// [`FastWinding`]).
+const WINDING_MARGIN: f64 = 0.05;
 
 /// A point of a surface near a query: its face, its barycentric coordinates there, the query's
 /// signed distance to it (negative inside) and the unit direction out of the surface there.
@@ -165,31 +223,132 @@ struct Near {
 }
 
 impl Surface<'_> {
+    /// True if `q` is behind the open surface: its generalized winding number above
+    /// [`OPEN_INSIDE_WINDING`], the fast approximation's unless it is within
+    /// [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the answer
+    /// does not depend on the tree's clusters).
+    fn behind_open(&self, winding: &FastWinding, q: DVec3) -> bool {
+        let w = winding.winding_number(q);
+        if (w - OPEN_INSIDE_WINDING).abs() > WINDING_MARGIN {
+            return w > OPEN_INSIDE_WINDING;
+        }
+        self.trees.bvh.generalized_winding_number(q) > OPEN_INSIDE_WINDING
+    }
+
+    /// Per vertex of `candidates` (sorted object vertex ids of a mesh with `topology`, at
+    /// `positions`): inside this surface, when it is closed (all false otherwise). Each run of
+    /// [`INSIDE_RUN`] candidates walks the edges between its vertices, adding the winding number's
+    /// change along each edge ([`TriangleBvh::winding_change`]), from the vertices known to be
+    /// outside (`outside`, per candidate: winding number 0) and from one ray cast per piece that
+    /// none reaches: the same answers as a ray cast per vertex, exactly, for a short segment each.
+    /// Runs in parallel.
+    fn inside_flags(
+        &self,
+        positions: &[DVec3],
+        topology: &Topology,
+        candidates: &[u32],
+        outside: &[bool],
+    ) -> Vec<bool> {
+        if !self.closed {
+            return vec![false; candidates.len()];
+        }
+        let tree = self.trees.whole.as_ref().unwrap_or(&self.trees.bvh);
+        // Candidate index of each vertex (u32::MAX: not a candidate).
+        let mut index = vec![u32::MAX; positions.len()];
+        for (k, &v) in candidates.iter().enumerate() {
+            index[v as usize] = k as u32;
+        }
+        let work = SharedWork::default();
+        let flags = candidates
+            .par_chunks(INSIDE_RUN)
+            .enumerate()
+            .flat_map_iter(|(r, run)| {
+                let first = r * INSIDE_RUN;
+                work.measure(|| {
+                    // Winding number per vertex of the run (None: not reached yet).
+                    let mut winding: Vec<Option<i32>> =
+                        outside[first..first + run.len()].iter().map(|&o| o.then_some(0)).collect();
+                    let slot = |v: u32| {
+                        let k = index[v as usize] as usize;
+                        (k >= first && k < first + run.len()).then(|| k - first)
+                    };
+                    let mut queue: Vec<usize> = (0..run.len()).filter(|&k| winding[k].is_some()).collect();
+                    // From the known vertices first, then from a ray cast at the first vertex
+                    // none reached, until every one is reached.
+                    let mut root = 0;
+                    loop {
+                        while let Some(k) = queue.pop() {
+                            let (v, w) = (run[k], winding[k].unwrap_or(0));
+                            for u in topology.vertex_neighbors(v) {
+                                if let Some(j) = slot(u)
+                                    && winding[j].is_none()
+                                {
+                                    let change = tree.winding_change(positions[v as usize], positions[u as usize]);
+                                    winding[j] = Some(w + change);
+                                    queue.push(j);
+                                }
+                            }
+                        }
+                        while root < run.len() && winding[root].is_some() {
+                            root += 1;
+                        }
+                        let Some(&v) = run.get(root) else { break };
+                        winding[root] = Some(tree.winding_number(positions[v as usize]));
+                        queue.push(root);
+                    }
+                    winding.into_iter().map(|w| w.is_some_and(|w| w != 0)).collect::<Vec<bool>>()
+                })
+            })
+            .collect();
+        work.record();
+        flags
+    }
+
     /// The points of the surface that `q` should clear: the closest point of every face within
     /// `d₀ + reach − s₀` of `q` (d₀ its distance to the surface, s₀ = ±d₀ its signed distance,
     /// negative inside), each at the signed distance `s₀ + (d_f − d₀)`. The closest face is at
     /// s₀; a face at d_f enters with a zero move (`reach − s_f = 0`), so the moves are continuous
     /// in `q`, across faces and through the surface; a point on the bisector of a fold weighs on
     /// both faces. Empty when `q` is farther than `reach` outside or (open surfaces, whose inside
-    /// is `winding`'s) deeper than `depth` inside.
-    fn near(&self, winding: Option<&FastWinding>, q: DVec3, reach: f64, depth: f64, faces: &mut Vec<u32>) -> Vec<Near> {
-        let inside_closed = self.closed && self.whole.as_ref().unwrap_or(&self.bvh).contains(q);
-        let limit = if inside_closed { f64::INFINITY } else { reach.max(depth) };
-        let Some(cp) = self.bvh.closest_point_within(q, limit) else { return Vec::new() };
+    /// is `winding`'s) deeper than `depth` inside. `leaves`: scratch space.
+    fn near(
+        &self,
+        winding: Option<&FastWinding>,
+        q: DVec3,
+        inside_closed: bool,
+        reach: f64,
+        depth: f64,
+        leaves: &mut Vec<u32>,
+    ) -> (Vec<Near>, f64) {
+        let bvh = &self.trees.bvh;
+        // A closed surface's inside is known: outside, only faces within `reach` matter.
+        let limit = match (self.closed, inside_closed) {
+            (true, true) => f64::INFINITY,
+            (true, false) => reach,
+            (false, _) => reach.max(depth),
+        };
+        // Searched a little farther than needed: the distance found bounds the next rounds'.
+        let search = limit + reach;
+        let Some(cp) = bvh.closest_point_within(q, search) else { return (Vec::new(), search) };
+        let bound = if self.closed && inside_closed { 0.0 } else { cp.distance };
+        if cp.distance > limit {
+            return (Vec::new(), bound);
+        }
         let inside = match winding {
-            Some(winding) if !self.closed => winding.winding_number(q) > OPEN_INSIDE_WINDING,
+            Some(winding) if !self.closed => self.behind_open(winding, q),
             _ => inside_closed,
         };
         let d0 = cp.distance;
         if (inside && !self.closed && d0 > depth) || (!inside && d0 > reach) {
-            return Vec::new();
+            return (Vec::new(), bound);
         }
         let s0 = if inside { -d0 } else { d0 };
-        self.bvh.faces_within(q, d0 + reach - s0, faces);
-        faces
+        bvh.leaves_within(q, d0 + reach - s0, leaves);
+        let near = leaves
             .iter()
-            .filter_map(|&face| {
-                let corners = self.bvh.face_corners(face)?;
+            .filter_map(|&leaf| {
+                let corners = bvh.leaf_corners(leaf as usize)?;
+                let face = bvh.faces()[leaf as usize];
                 let bary = closest_point_on_triangle(q, &corners);
                 let point = bary[0] * corners[0] + bary[1] * corners[1] + bary[2] * corners[2];
                 // Out of the surface: along the offset from the point (continuous across faces),
@@ -201,13 +360,10 @@ impl Surface<'_> {
                 let distance = s0 + ((q - point).length() - d0).max(0.0);
                 Some(Near { face, bary, distance, out })
             })
-            .collect()
+            .collect();
+        (near, bound)
     }
 }
-
-/// A move asked of a face: its corners, the barycentric coordinates of the point that must move,
-/// and the move.
-type FaceMove = ([u32; 3], [f64; 3], DVec3);
 
 /// The moves asked of one vertex, blended by [`Blend::result`].
 #[derive(Clone, Copy, Debug, Default)]
@@ -238,7 +394,8 @@ impl Blend {
 const BLEND_POWER: i32 = 4;
 
 /// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
-/// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting.
+/// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting. Its
+/// work ([`Work`]: its rounds, distance queries and exact tests) is recorded in the caller's span.
 pub(super) fn separate(
     frame: &Frame,
     caches: &[Option<ObjectCache>],
@@ -274,37 +431,65 @@ pub(super) fn separate(
     // The whole correction so far, per object vertex.
     let mut corrections: Vec<Vec<DVec3>> =
         (0..count).map(|i| vec![DVec3::ZERO; frame.objects[i].mesh.num_vertices()]).collect();
-    let meshes_at = |outcomes: &[Vec<Option<RegionOutcome>>]| -> Vec<TriMesh> {
-        (0..count)
-            .map(|i| {
-                let object = frame.objects[i].mesh;
-                let positions = match caches[i].as_ref() {
-                    Some(cache) => object_positions(&object.positions, cache, &outcomes[i]),
-                    None => object.positions.clone(),
-                };
-                TriMesh { positions, triangles: object.triangles.clone() }
-            })
-            .collect()
+    let positions_at = |i: usize, outcomes: &[Vec<Option<RegionOutcome>>]| -> Vec<DVec3> {
+        let object = frame.objects[i].mesh;
+        match caches[i].as_ref() {
+            Some(cache) => object_positions(&object.positions, cache, &outcomes[i]),
+            None => object.positions.clone(),
+        }
     };
+    let mut positions: Vec<Vec<DVec3>> = (0..count).map(|i| positions_at(i, outcomes)).collect();
+    // The trees of every side of an active pair, once per frame, refitted after each round.
+    let mut trees: Vec<Vec<Option<SideTrees>>> = caches
+        .iter()
+        .map(|c| c.as_ref().map_or(Vec::new(), |c| (0..c.regions.len()).map(|_| None).collect()))
+        .collect();
+    for &k in &active {
+        let Some(regions) = region_pairs[k].regions else { continue };
+        let objects = frame.pairs[region_pairs[k].pair].objects;
+        for l in 0..2 {
+            let (i, r) = (objects[l], regions[l]);
+            if trees[i].get(r).is_some_and(Option::is_none)
+                && let Some(cache) = caches[i].as_ref()
+            {
+                trees[i][r] = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
+            }
+        }
+    }
+    // Per active region pair, side and half (its own vertices against the other side, the other
+    // side's vertices against it): a lower bound of each querying vertex's distance to the
+    // surface it queries (see `query_direction`).
+    let mut bounds: Vec<[[Vec<f64>; 2]; 2]> = active
+        .iter()
+        .map(|&k| {
+            let objects = frame.pairs[region_pairs[k].pair].objects;
+            let sized = |i: usize| vec![0.0; frame.objects[i].mesh.num_vertices()];
+            [[sized(objects[0]), sized(objects[1])], [sized(objects[1]), sized(objects[0])]]
+        })
+        .collect();
+    // Per object and region: the volume terms of its last correction.
+    let mut volume_terms: Vec<Vec<SweptTerms>> = caches
+        .iter()
+        .map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()]))
+        .collect();
     let mut rounds = 0;
-    let mut meshes = meshes_at(outcomes);
     while rounds < MAX_ROUNDS {
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
         let mut largest = 0.0f64;
         let mut stop_below = f64::INFINITY;
-        for &k in &active {
+        for (a, &k) in active.iter().enumerate() {
             let rp = &region_pairs[k];
             let Some(contact) = contacts[k].as_ref() else { continue };
             let Some(regions) = rp.regions else { continue };
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces =
-                [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
+            let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
-            let windings =
-                [0, 1].map(|l| (!surfaces[l].closed).then(|| FastWinding::new(&surfaces[l].bvh, WINDING_ACCURACY)));
+            let windings = [0, 1].map(|l| {
+                (!surfaces[l].closed).then(|| FastWinding::from_children(&surfaces[l].trees.bvh, WINDING_ACCURACY))
+            });
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
             let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
@@ -315,8 +500,8 @@ pub(super) fn separate(
             }
             let shares = weights.map(|w| w / total);
             let depth = DEPTH_EDGES * edge_lengths[objects[0]].max(edge_lengths[objects[1]]);
-            let overlap = overlap_box(&surfaces[0].bvh.bounds(), &surfaces[1].bvh.bounds(), gap.max(depth));
-            let Some(overlap) = overlap else { continue };
+            let reach = Reach { gap, depth };
+            let pair_bounds = &mut bounds[a];
             for l in 0..2 {
                 if shares[l] == 0.0 {
                     continue;
@@ -325,50 +510,29 @@ pub(super) fn separate(
                 let (own_winding, other_winding) = (windings[l].as_ref(), windings[1 - l].as_ref());
                 let object = objects[l];
                 let share = shares[l];
+                let [own_bounds, poking_bounds] = &mut pair_bounds[l];
                 // Own vertices near or inside the other side.
-                let near: Vec<Vec<DVec3>> = own
-                    .vertices
-                    .par_iter()
-                    .with_min_len(256)
-                    .map_init(Vec::new, |faces, &v| {
-                        let p = own.mesh.positions[v as usize];
-                        if slots[object][v as usize].is_none() || !inside_box(&overlap, p) {
-                            return Vec::new();
-                        }
-                        let near = other.near(other_winding, p, gap, depth, faces);
-                        near.iter().filter(|n| n.distance < gap).map(|n| share * (gap - n.distance) * n.out).collect()
-                    })
-                    .collect();
-                for (&v, moves) in own.vertices.iter().zip(near) {
-                    for m in moves {
-                        blends[object][v as usize].add(m);
+                let movable = |v: u32| slots[object][v as usize].is_some();
+                let near = query_direction(own, movable, other, other_winding, reach, own_bounds);
+                for (v, near) in near {
+                    for n in near.iter().filter(|n| n.distance < gap) {
+                        blends[object][v as usize].add(share * (gap - n.distance) * n.out);
                     }
                 }
                 // The other side's vertices near or inside this side move this side's faces.
-                let poking: Vec<Vec<FaceMove>> = other
-                    .vertices
-                    .par_iter()
-                    .with_min_len(256)
-                    .map_init(Vec::new, |faces, &w| {
-                        let p = other.mesh.positions[w as usize];
-                        if !inside_box(&overlap, p) {
-                            return Vec::new();
+                let poking = query_direction(other, |_| true, own, own_winding, reach, poking_bounds);
+                for (_, near) in poking {
+                    for n in near.iter().filter(|n| n.distance < gap) {
+                        let (corners, bary) = (own.triangles[n.face as usize], n.bary);
+                        let m = -share * (gap - n.distance) * n.out;
+                        let norm: f64 = bary.iter().map(|b| b * b).sum();
+                        if norm <= 0.0 {
+                            continue;
                         }
-                        let near = own.near(own_winding, p, gap, depth, faces);
-                        near.iter()
-                            .filter(|n| n.distance < gap)
-                            .map(|n| (own.mesh.triangles[n.face as usize], n.bary, -share * (gap - n.distance) * n.out))
-                            .collect()
-                    })
-                    .collect();
-                for (corners, bary, m) in poking.iter().flatten().copied() {
-                    let norm: f64 = bary.iter().map(|b| b * b).sum();
-                    if norm <= 0.0 {
-                        continue;
-                    }
-                    for (&c, &b) in corners.iter().zip(&bary) {
-                        if b > 0.0 && slots[object][c as usize].is_some() {
-                            blends[object][c as usize].add((b / norm) * m);
+                        for (&c, &b) in corners.iter().zip(&bary) {
+                            if b > 0.0 && slots[object][c as usize].is_some() {
+                                blends[object][c as usize].add((b / norm) * m);
+                            }
                         }
                     }
                 }
@@ -382,28 +546,69 @@ pub(super) fn separate(
             break;
         }
         rounds += 1;
-        for i in 0..count {
-            if moves[i].iter().all(|m| *m == DVec3::ZERO) {
-                continue;
+        Work::count_rounds(1);
+        // Each object's correction and height solves, and how far its vertices moved this round
+        // (for the distance bounds): objects are independent, so in parallel.
+        let work = SharedWork::default();
+        let moved: Vec<Option<(Vec<f64>, f64)>> = (0..count)
+            .into_par_iter()
+            .zip(outcomes.par_iter_mut())
+            .zip(corrections.par_iter_mut())
+            .zip(volume_terms.par_iter_mut())
+            .zip(positions.par_iter_mut())
+            .zip(trees.par_iter_mut())
+            .map(|(((((i, outcomes), correction), terms), positions), trees)| {
+                work.measure(|| {
+                    if moves[i].iter().all(|m| *m == DVec3::ZERO) {
+                        return Ok(None);
+                    }
+                    let Some(cache) = caches[i].as_ref() else { return Ok(None) };
+                    let spread = spread_moves(cache, positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
+                    for (c, s) in correction.iter_mut().zip(&spread) {
+                        *c += *s;
+                    }
+                    correct_regions(frame, i, cache, correction, outcomes, terms)?;
+                    let new_positions = object_positions(&frame.objects[i].mesh.positions, cache, outcomes);
+                    let by_vertex: Vec<f64> =
+                        new_positions.iter().zip(positions.iter()).map(|(a, b)| (*a - *b).length()).collect();
+                    let most = by_vertex.iter().copied().fold(0.0, f64::max);
+                    *positions = new_positions;
+                    for side in trees.iter_mut().flatten() {
+                        side.refit(positions).map_err(|source| PipelineError::Spatial {
+                            object: frame.objects[i].name.to_string(),
+                            source,
+                        })?;
+                    }
+                    Ok(Some((by_vertex, most)))
+                })
+            })
+            .collect::<Result<_, PipelineError>>()?;
+        work.record();
+        // A vertex's distance to a surface shrinks at most by how far both moved.
+        for (&k, pair_bounds) in active.iter().zip(&mut bounds) {
+            let objects = frame.pairs[region_pairs[k].pair].objects;
+            for l in 0..2 {
+                for (half, querying, target) in [(0, objects[l], objects[1 - l]), (1, objects[1 - l], objects[l])] {
+                    let surface_moved = moved[target].as_ref().map_or(0.0, |m| m.1);
+                    let vertex_moved = moved[querying].as_ref().map(|m| &m.0);
+                    for (v, bound) in pair_bounds[l][half].iter_mut().enumerate() {
+                        if *bound > 0.0 {
+                            let shift = surface_moved + vertex_moved.map_or(0.0, |m| m[v]);
+                            *bound -= shift * (1.0 + BOUND_SLACK);
+                        }
+                    }
+                }
             }
-            let Some(cache) = caches[i].as_ref() else { continue };
-            let spread =
-                spread_moves(cache, &meshes[i].positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
-            for (c, s) in corrections[i].iter_mut().zip(&spread) {
-                *c += *s;
-            }
-            correct_regions(frame, i, cache, &corrections[i], &mut outcomes[i])?;
         }
-        meshes = meshes_at(outcomes);
     }
     let mut warnings = Vec::new();
     for &k in &active {
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces = [0, 1].map(|l| surface(&meshes[objects[l]], caches[objects[l]].as_ref(), regions[l], objects));
+        let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
         let [Some(sa), Some(sb)] = surfaces else { continue };
-        let pairs = sa.bvh.intersections_with(&sb.bvh);
+        let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
         let distinct = |side: usize| {
             let mut faces: Vec<u32> = pairs.iter().map(|p| p[side]).collect();
             faces.sort_unstable();
@@ -430,40 +635,95 @@ pub(super) fn separate(
     Ok((report, warnings))
 }
 
-/// The surface of region `region` of an object at `mesh`'s positions, in the pair of `objects`.
-/// Its inside is its closed object's unless the pair is of one object's regions (every point of
-/// one region is on or in the object: its inside is then the region's own).
+/// The surface of region `region` of `object` in the pair of `objects`, at `positions`. Its inside
+/// is its closed object's unless the pair is of one object's regions (every point of one region
+/// is on or in the object: its inside is then the region's own).
 fn surface<'a>(
-    mesh: &'a TriMesh,
-    cache: Option<&ObjectCache>,
+    frame: &'a Frame,
+    caches: &'a [Option<ObjectCache>],
+    trees: &'a [Vec<Option<SideTrees>>],
+    positions: &'a [Vec<DVec3>],
+    object: usize,
     region: usize,
     objects: [usize; 2],
 ) -> Option<Surface<'a>> {
-    let cache = cache?;
-    let closed = cache.closed && objects[0] != objects[1];
-    let region_cache = cache.regions.get(region)?;
-    let (bvh, vertices, whole) = match region_cache.faces.as_ref() {
-        None => (TriangleBvh::new(mesh).ok()?, (0..mesh.num_vertices() as u32).collect(), None),
-        Some(faces) => {
-            let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
-            vertices.sort_unstable();
-            vertices.dedup();
-            let whole = if closed { Some(TriangleBvh::new(mesh).ok()?) } else { None };
-            (TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?, vertices, whole)
-        }
-    };
-    Some(Surface { bvh, mesh, closed, whole, vertices })
+    let cache = caches[object].as_ref()?;
+    Some(Surface {
+        trees: trees.get(object)?.get(region)?.as_ref()?,
+        positions: &positions[object],
+        triangles: &frame.objects[object].mesh.triangles,
+        topology: &cache.topology,
+        closed: cache.closed && objects[0] != objects[1],
+    })
+}
+
+/// The distances of one region pair: its gap (the reach of the moves outside a surface) and the
+/// depth beyond which a point behind an open surface is left alone.
+#[derive(Clone, Copy, Debug)]
+struct Reach {
+    gap: f64,
+    depth: f64,
+}
+
+/// Relative slack of the distance bounds (far above the round-off of a distance).
+const BOUND_SLACK: f64 = 1e-9;
+
+/// The queries of one direction: every vertex of `querying` that `filter` accepts and that may be
+/// within reach of `target` (sorted), with its points of `target` to clear ([`Surface::near`]).
+///
+/// A vertex farther than the reach of every move from `target` asks nothing, and stays so while
+/// it and the surface move less than the margin: `bounds` (per vertex of the querying object)
+/// keeps a lower bound of each vertex's distance to `target` while outside it (0 when unknown or
+/// inside), lowered by the caller after each round by how far the vertex and the surface moved,
+/// so the later rounds query only the vertices it no longer keeps out of reach. Skipped vertices
+/// are exactly those whose answer is empty (a bound above the reach, a surface that did not pass
+/// through them), so the result is the one of querying all of them.
+fn query_direction(
+    querying: &Surface,
+    filter: impl Fn(u32) -> bool,
+    target: &Surface,
+    winding: Option<&FastWinding>,
+    reach: Reach,
+    bounds: &mut [f64],
+) -> Vec<(u32, Vec<Near>)> {
+    // Outside a closed surface only its faces within the gap matter; an open one's inside is
+    // decided by the winding number up to `depth` behind it.
+    let margin = if target.closed { reach.gap } else { reach.gap.max(reach.depth) };
+    let limit = margin * (1.0 + BOUND_SLACK);
+    let b = target.trees.bvh.bounds();
+    let within = Aabb3 { min: b.min - DVec3::splat(margin), max: b.max + DVec3::splat(margin) };
+    let candidates: Vec<u32> = querying
+        .trees
+        .vertices
+        .iter()
+        .copied()
+        .filter(|&v| bounds[v as usize] <= limit && filter(v) && inside_box(&within, querying.positions[v as usize]))
+        .collect();
+    let outside: Vec<bool> = candidates.iter().map(|&v| bounds[v as usize] > 0.0).collect();
+    let inside = target.inside_flags(querying.positions, querying.topology, &candidates, &outside);
+    let work = SharedWork::default();
+    let answers: Vec<(Vec<Near>, f64)> = candidates
+        .par_iter()
+        .zip(&inside)
+        .with_min_len(256)
+        .map_init(Vec::new, |leaves, (&v, &inside)| {
+            let q = querying.positions[v as usize];
+            work.measure(|| target.near(winding, q, inside, reach.gap, reach.depth, leaves))
+        })
+        .collect();
+    work.record();
+    candidates
+        .into_iter()
+        .zip(answers)
+        .filter_map(|(v, (near, bound))| {
+            bounds[v as usize] = bound;
+            (!near.is_empty()).then_some((v, near))
+        })
+        .collect()
 }
 
 fn inside_box(b: &Aabb3, p: DVec3) -> bool {
     p.cmpge(b.min).all() && p.cmple(b.max).all()
-}
-
-/// The intersection of two boxes widened by `margin`, if they overlap.
-fn overlap_box(a: &Aabb3, b: &Aabb3, margin: f64) -> Option<Aabb3> {
-    let min = a.min.max(b.min) - DVec3::splat(margin);
-    let max = a.max.min(b.max) + DVec3::splat(margin);
-    (min.cmple(max).all()).then_some(Aabb3 { min, max })
 }
 
 /// Each non-zero move spread over the movable vertices within `radius` (edge paths, Euclidean
@@ -510,17 +770,18 @@ fn spread_moves(
 }
 
 /// Applies object `i`'s whole correction to its deformed regions, each solving its bulge height
-/// again for its volume.
+/// again for its volume (`terms`: per region, its volume terms of the last round).
 fn correct_regions(
     frame: &Frame,
     i: usize,
     cache: &ObjectCache,
     correction: &[DVec3],
     outcomes: &mut [Option<RegionOutcome>],
+    terms: &mut [SweptTerms],
 ) -> Result<(), PipelineError> {
     let object = &frame.objects[i];
     let err = |source| PipelineError::Deform { object: object.name.to_string(), source };
-    for (region, outcome) in cache.regions.iter().zip(outcomes.iter_mut()) {
+    for ((region, outcome), terms) in cache.regions.iter().zip(outcomes.iter_mut()).zip(terms) {
         let Some(outcome) = outcome.as_mut() else { continue };
         let (mesh, topology, local) = match region.sub.as_deref() {
             None => (object.mesh, &cache.topology, correction.to_vec()),
@@ -542,7 +803,7 @@ fn correct_regions(
             bulge: object.params.bulge,
             extent: outcome.extent,
         };
-        outcome.deformation.correct(mesh, topology, &local, choice).map_err(err)?;
+        outcome.deformation.correct(mesh, topology, &local, choice, terms).map_err(err)?;
     }
     Ok(())
 }

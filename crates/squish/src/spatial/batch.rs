@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::bvh::TriangleBvh;
 use super::queries::{ClosestPoint, Hit, Ray, hit_order};
+use crate::stage::SharedWork;
 
 /// Queries per parallel task: large enough to amortize task overhead, small enough to balance.
 const CHUNK: usize = 128;
@@ -92,20 +93,24 @@ impl<T: Clone + Send> Batch<T> {
             }
             return Self { offsets, hits };
         }
+        let work = SharedWork::default();
         let chunks: Vec<(Vec<usize>, Vec<T>)> = queries
             .par_chunks(CHUNK)
             .map(|chunk| {
-                let mut counts = Vec::with_capacity(chunk.len());
-                let mut hits = Vec::new();
-                let mut scratch = Vec::new();
-                for q in chunk {
-                    run(q, &mut scratch);
-                    counts.push(scratch.len());
-                    hits.extend_from_slice(&scratch);
-                }
-                (counts, hits)
+                work.measure(|| {
+                    let mut counts = Vec::with_capacity(chunk.len());
+                    let mut hits = Vec::new();
+                    let mut scratch = Vec::new();
+                    for q in chunk {
+                        run(q, &mut scratch);
+                        counts.push(scratch.len());
+                        hits.extend_from_slice(&scratch);
+                    }
+                    (counts, hits)
+                })
             })
             .collect();
+        work.record();
         let total = chunks.iter().map(|c| c.1.len()).sum();
         let mut offsets = Vec::with_capacity(queries.len() + 1);
         let mut hits = Vec::with_capacity(total);
@@ -147,18 +152,28 @@ impl TriangleBvh {
 
     /// [`Self::ray_nearest`] for each ray, in parallel; results in input order.
     pub fn ray_nearest_batch(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        rays.par_iter().with_min_len(CHUNK / 4).map(|r| self.ray_nearest(r)).collect()
+        let work = SharedWork::default();
+        let hits = rays.par_iter().with_min_len(CHUNK / 4).map(|r| work.measure(|| self.ray_nearest(r))).collect();
+        work.record();
+        hits
     }
 
     /// [`Self::ray_farthest`] for each ray, in parallel; results in input order (the vertex
     /// matching of thesis §4.2.2).
     pub fn ray_farthest_batch(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        rays.par_iter().with_min_len(CHUNK / 4).map(|r| self.ray_farthest(r)).collect()
+        let work = SharedWork::default();
+        let hits = rays.par_iter().with_min_len(CHUNK / 4).map(|r| work.measure(|| self.ray_farthest(r))).collect();
+        work.record();
+        hits
     }
 
     /// [`Self::closest_point`] for each point, in parallel; results in input order.
     pub fn closest_point_batch(&self, points: &[DVec3]) -> Vec<Option<ClosestPoint>> {
-        points.par_iter().with_min_len(CHUNK / 4).map(|&p| self.closest_point(p)).collect()
+        let work = SharedWork::default();
+        let found =
+            points.par_iter().with_min_len(CHUNK / 4).map(|&p| work.measure(|| self.closest_point(p))).collect();
+        work.record();
+        found
     }
 }
 

@@ -114,6 +114,30 @@ impl TriangleBvh {
         Ok(())
     }
 
+    /// The same tree over a mesh that numbers the faces and vertices otherwise: face `f` of this
+    /// tree becomes `face_ids[f]`, vertex `v` becomes `vertex_ids[v]`, among `num_vertices`
+    /// vertices (a region's tree moved into its object's numbering). The nodes, boxes and corner
+    /// positions are kept, so every query answers as before with the new ids (queries whose ties
+    /// are broken by face id then follow the new ids). `None` when an id is out of either map.
+    pub fn relabeled(&self, face_ids: &[u32], vertex_ids: &[u32], num_vertices: usize) -> Option<Self> {
+        let faces = self.faces.iter().map(|&f| face_ids.get(f as usize).copied()).collect::<Option<Vec<u32>>>()?;
+        let map = |v: u32| vertex_ids.get(v as usize).copied().filter(|&w| (w as usize) < num_vertices);
+        let indices = self.indices.iter().map(|t| Some([map(t[0])?, map(t[1])?, map(t[2])?])).collect::<Option<_>>()?;
+        let mut fitted: Vec<(u32, DVec3)> =
+            self.fitted_vertices.iter().zip(&self.fitted).map(|(&v, &p)| Some((map(v)?, p))).collect::<Option<_>>()?;
+        fitted.sort_unstable_by_key(|&(v, _)| v);
+        Some(Self {
+            bvh: self.bvh.clone(),
+            faces,
+            indices,
+            corners: self.corners.clone(),
+            num_vertices,
+            bounds: self.bounds,
+            fitted_vertices: fitted.iter().map(|&(v, _)| v).collect(),
+            fitted: fitted.iter().map(|&(_, p)| p).collect(),
+        })
+    }
+
     /// Number of triangles in the tree.
     pub fn len(&self) -> usize {
         self.faces.len()

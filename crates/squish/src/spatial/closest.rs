@@ -8,9 +8,12 @@
 
 use glam::DVec3;
 
+use crate::stage::Work;
+
 /// Closest point of the triangle `t` to `p`, as barycentric coordinates on `t` (non-negative,
 /// summing to 1). Degenerate (zero-area) triangles are handled as their longest edge.
 pub fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> [f64; 3] {
+    Work::count_triangle_tests(1);
     let [a, b, c] = *t;
     let ab = b - a;
     let ac = c - a;

@@ -30,6 +30,8 @@
 //! triangle–triangle test of [`super::tri_tri`].
 
 use glam::{DVec2, DVec3};
+
+use crate::stage::Work;
 use robust::{Coord, Coord3D};
 
 #[inline(always)]
@@ -186,6 +188,7 @@ fn perturbed_edge_sign(value: f64, a: DVec3, b: DVec3, u: DVec3, v: DVec3) -> i8
 /// perturbation described in the module documentation. `None` if they do not cross.
 #[inline]
 pub(crate) fn segment_triangle(a: DVec3, b: DVec3, p: &[DVec3; 3]) -> Option<Crossing> {
+    Work::count_triangle_tests(1);
     let sa = orient3d(p[0], p[1], p[2], a);
     let sb = orient3d(p[0], p[1], p[2], b);
     if (sa > 0.0 && sb > 0.0) || (sa < 0.0 && sb < 0.0) {

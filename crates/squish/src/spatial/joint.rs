@@ -23,6 +23,7 @@ use super::bvh::TriangleBvh;
 use super::exact::segment_triangle;
 use super::queries::{Hit, hit_order};
 use crate::mesh::{NO_FACE, Topology};
+use crate::stage::{SharedWork, Work};
 
 /// One mesh of [`mutual_edge_crossings`]: its triangle tree, vertex positions and connectivity.
 #[derive(Clone, Copy, Debug)]
@@ -165,19 +166,25 @@ pub fn mutual_edge_crossings(a: EdgeSource, b: EdgeSource) -> [EdgeCrossings; 2]
             }
         }
     };
+    let work = SharedWork::default();
     let chunks: Vec<(Found, Found)> = pairs
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
-            for &(la, lb) in chunk {
-                if let (Some(oa), Some(ob)) = (owned_a.owned(la), owned_b.owned(lb)) {
-                    test(&a, &oa, &b, lb, &mut on_a);
-                    test(&b, &ob, &a, la, &mut on_b);
+            work.measure(|| {
+                let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
+                for &(la, lb) in chunk {
+                    if let (Some(oa), Some(ob)) = (owned_a.owned(la), owned_b.owned(lb)) {
+                        test(&a, &oa, &b, lb, &mut on_a);
+                        test(&b, &ob, &a, la, &mut on_b);
+                    }
                 }
-            }
-            (on_a, on_b)
+                (on_a, on_b)
+            })
         })
         .collect();
+    // One joint descent of the two trees, and the chunks' exact tests.
+    Work::count_queries(1);
+    work.record();
     let (mut found_a, mut found_b) = (Vec::new(), Vec::new());
     for (on_a, on_b) in chunks {
         found_a.extend(on_a);

@@ -26,6 +26,7 @@ use super::closest::{barycentric_point, closest_point_on_triangle};
 use super::exact::{Crossing, segment_triangle};
 use super::flat_bvh::{Node, Visit};
 use crate::mesh::Aabb3;
+use crate::stage::Work;
 
 /// A crossing of a query segment or ray with a triangle of the tree.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -117,6 +118,7 @@ impl TriangleBvh {
     /// Core traversal: every leaf whose triangle the segment crosses, with the crossing.
     #[inline]
     fn for_each_crossing(&self, a: DVec3, b: DVec3, mut f: impl FnMut(usize, Crossing)) {
+        Work::count_queries(1);
         let probe = SegmentProbe::new(a, b);
         self.bvh.traverse(|_, node| {
             if probe.clip(node.min, node.max).is_none() {
@@ -221,6 +223,7 @@ impl TriangleBvh {
     /// so the box of the answer is never pruned: the result does not depend on the tree's shape or
     /// on the order of the visit.
     fn extreme_crossing(&self, a: DVec3, b: DVec3, farthest: bool) -> Option<(usize, Crossing)> {
+        Work::count_queries(1);
         let probe = SegmentProbe::new(a, b);
         let mut best: Option<(usize, Crossing)> = None;
         // A node's key: where the answer could be in its clipped interval, smaller is better
@@ -261,6 +264,7 @@ impl TriangleBvh {
     /// always lies in boxes the traversal would visit. Returns an opaque hint for the next query:
     /// `Some` exactly when the segment crosses the mesh.
     pub fn segment_crossing_hint(&self, a: DVec3, b: DVec3, hint: Option<CrossingHint>) -> Option<CrossingHint> {
+        Work::count_queries(1);
         if let Some(CrossingHint(leaf)) = hint
             && let Some(corners) = self.corners.get(leaf as usize)
             && segment_triangle(a, b, corners).is_some()
@@ -287,6 +291,7 @@ impl TriangleBvh {
     /// Calls `f` with the face id of every triangle whose bounding box overlaps `query` (touching
     /// counts), in tree order.
     pub fn for_each_face_in_box(&self, query: &Aabb3, mut f: impl FnMut(u32)) {
+        Work::count_queries(1);
         self.bvh.for_each_in_box(query.min, query.max, |leaf| f(self.faces[leaf as usize]));
     }
 
@@ -300,6 +305,17 @@ impl TriangleBvh {
     /// Face ids of the triangles at distance ≤ `radius` from `p` (exact closest-point distance),
     /// sorted, written to `out`.
     pub fn faces_within(&self, p: DVec3, radius: f64, out: &mut Vec<u32>) {
+        self.leaves_within(p, radius, out);
+        for leaf in out.iter_mut() {
+            *leaf = self.faces[*leaf as usize];
+        }
+    }
+
+    /// The leaves (indices into [`Self::faces`], see [`Self::leaf_corners`]) of the triangles at
+    /// distance ≤ `radius` from `p`, sorted by face id: [`Self::faces_within`] without a search
+    /// for each face's corners in a tree over some of a mesh's faces.
+    pub fn leaves_within(&self, p: DVec3, radius: f64, out: &mut Vec<u32>) {
+        Work::count_queries(1);
         out.clear();
         if !p.is_finite() {
             return;
@@ -312,12 +328,12 @@ impl TriangleBvh {
             if let Some(leaf) = node.item() {
                 let t = &self.corners[leaf as usize];
                 if (barycentric_point(t, closest_point_on_triangle(p, t)) - p).length_squared() <= r2 {
-                    out.push(self.faces[leaf as usize]);
+                    out.push(leaf);
                 }
             }
             Visit::Continue
         });
-        out.sort_unstable();
+        out.sort_unstable_by_key(|&leaf| self.faces[leaf as usize]);
     }
 
     /// The closest point of the mesh to `p` (`None` only for an empty tree).
@@ -327,6 +343,7 @@ impl TriangleBvh {
 
     /// The closest point of the mesh to `p` if it is at distance ≤ `max_distance`.
     pub fn closest_point_within(&self, p: DVec3, max_distance: f64) -> Option<ClosestPoint> {
+        Work::count_queries(1);
         if !p.is_finite() || max_distance.is_nan() || max_distance < 0.0 {
             return None;
         }

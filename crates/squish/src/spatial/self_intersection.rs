@@ -42,8 +42,11 @@ use super::SpatialError;
 use super::bvh::TriangleBvh;
 use super::exact::cross_exact;
 use super::obb_tree::{Item, ObbTree};
-use super::tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
+#[cfg(any(test, doc))]
+use super::tri_tri::triangles_intersect_away_from_shared;
+use super::tri_tri::{intersect, intersect_away_from_shared, triangles_intersect};
 use crate::mesh::{MeshError, TriMesh, faces_around_vertices};
+use crate::stage::{SharedWork, Work};
 
 /// Stars and edges with at most this many faces test all their pairs.
 const SMALL: usize = 24;
@@ -110,6 +113,9 @@ fn search(
         }
     }
     let set = FaceSet::new(mesh, &faces, merge_copies);
+    // Each face stops at its first intersecting partner, which depends on the threads' schedule:
+    // the work counted is one query per face searched (its tests are not counted).
+    Work::count_queries(set.len() as u64);
     let found: Vec<AtomicBool> = (0..set.len()).map(|_| AtomicBool::new(false)).collect();
     for &(k, _) in &set.copies {
         found[k as usize].store(true, Ordering::Relaxed);
@@ -231,7 +237,7 @@ impl<R: Fn(u32, u32) -> bool + Sync> Search<'_, R> {
             return false;
         }
         let (ta, tb) = (&set.corners[a as usize], &set.corners[b as usize]);
-        let hit = if shared == 0 { triangles_intersect(ta, tb) } else { triangles_intersect_away_from_shared(ta, tb) };
+        let hit = if shared == 0 { intersect(ta, tb) } else { intersect_away_from_shared(ta, tb) };
         if hit {
             self.found[a as usize].store(true, Ordering::Relaxed);
             self.found[b as usize].store(true, Ordering::Relaxed);
@@ -434,21 +440,22 @@ impl TriangleBvh {
     /// Intersecting pairs `[face of self, face of other]` (closed triangles: touching counts),
     /// sorted.
     pub fn intersections_with(&self, other: &TriangleBvh) -> Vec<[u32; 2]> {
-        let mut pairs: Vec<[u32; 2]> = (0..self.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .fold(Vec::new, |mut found, i| {
-                let ti = &self.corners[i];
-                let (min, max) = super::bvh::triangle_aabb(ti);
-                other.bvh.for_each_in_box(min, max, |j| {
-                    if triangles_intersect(ti, &other.corners[j as usize]) {
-                        found.push([self.faces[i], other.faces[j as usize]]);
-                    }
-                });
-                found
+        // The leaf pairs whose boxes overlap, by one joint descent of the two trees (a query per
+        // face of `self` costs its whole size even when the meshes barely overlap), then the
+        // exact tests in parallel.
+        let mut candidates: Vec<[u32; 2]> = Vec::new();
+        self.bvh.for_each_overlapping_pair(&other.bvh, |i, j| candidates.push([i, j]));
+        let work = SharedWork::default();
+        let mut pairs: Vec<[u32; 2]> = candidates
+            .par_iter()
+            .with_min_len(256)
+            .filter(|&&[i, j]| {
+                work.measure(|| triangles_intersect(&self.corners[i as usize], &other.corners[j as usize]))
             })
-            .flatten_iter()
+            .map(|&[i, j]| [self.faces[i as usize], other.faces[j as usize]])
             .collect();
+        Work::count_queries(1);
+        work.record();
         pairs.par_sort_unstable();
         pairs.dedup();
         pairs

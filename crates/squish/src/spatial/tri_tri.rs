@@ -20,6 +20,8 @@
 
 use glam::DVec3;
 
+use crate::stage::Work;
+
 use super::exact::{
     cross_exact, lex_less, orient2d, orient3d, project, projection_axis, segment_touches_triangle, segments_touch_3d,
     sign, triangles_touch_2d,
@@ -27,6 +29,13 @@ use super::exact::{
 
 /// True if the closed triangles `t1` and `t2` share at least one point (touching counts).
 pub fn triangles_intersect(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
+    Work::count_triangle_tests(1);
+    intersect(t1, t2)
+}
+
+/// [`triangles_intersect`] without counting it (for searches whose number of tests depends on the
+/// schedule of their threads, see [`crate::stage::Work`]).
+pub(super) fn intersect(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
     let n1 = cross_exact(t1[0], t1[1], t1[2]);
     let n2 = cross_exact(t2[0], t2[1], t2[2]);
     let degenerate1 = n1 == [0.0; 3];
@@ -71,6 +80,12 @@ pub fn triangles_intersect(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
 ///
 /// Zero-area faces are never reported (they are reported as degenerate by mesh validation).
 pub fn triangles_intersect_away_from_shared(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
+    Work::count_triangle_tests(1);
+    intersect_away_from_shared(t1, t2)
+}
+
+/// [`triangles_intersect_away_from_shared`] without counting it (see [`intersect`]).
+pub(super) fn intersect_away_from_shared(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bool {
     let n1 = cross_exact(t1[0], t1[1], t1[2]);
     let n2 = cross_exact(t2[0], t2[1], t2[2]);
     if n1 == [0.0; 3] || n2 == [0.0; 3] {

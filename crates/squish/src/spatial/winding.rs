@@ -21,6 +21,8 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
+
+use crate::stage::{SharedWork, Work};
 use rayon::prelude::*;
 
 use super::SpatialError;
@@ -34,6 +36,7 @@ use crate::mesh::{Topology, TriMesh};
 /// the triangle, which makes the winding number ½ on the surface).
 #[inline]
 pub fn solid_angle(p: DVec3, t: &[DVec3; 3]) -> f64 {
+    Work::count_triangle_tests(1);
     let (a, b, c) = (t[0] - p, t[1] - p, t[2] - p);
     let (la, lb, lc) = (a.length(), b.length(), c.length());
     let det = a.dot(b.cross(c));
@@ -93,6 +96,23 @@ impl TriangleBvh {
         w
     }
 
+    /// How the winding number changes from `a` to `b`: entries minus exits of the segment
+    /// `[a, b]` (the rule of [`Self::segment_hits`]), so that
+    /// `winding_number(b) = winding_number(a) + winding_change(a, b)` for a closed mesh. Both
+    /// count crossings under the same perturbation of a query point (along `(1, ε, ε²)`, which is
+    /// also where the ray of [`Self::winding_number`] leaves), so the identity holds exactly, for
+    /// points on the surface too (tested). A short segment visits a few nodes where the ray
+    /// crosses the whole tree: a walk along a mesh's edges classifies its vertices for the cost
+    /// of one ray.
+    pub fn winding_change(&self, a: DVec3, b: DVec3) -> i32 {
+        if self.is_empty() || !a.is_finite() || !b.is_finite() {
+            return 0;
+        }
+        let mut w = 0;
+        self.for_each_segment_hit(a, b, |h| w += if h.entering { 1 } else { -1 });
+        w
+    }
+
     /// `p` is inside the closed mesh (non-zero [`Self::winding_number`]).
     pub fn contains(&self, p: DVec3) -> bool {
         self.winding_number(p) != 0
@@ -107,11 +127,16 @@ impl TriangleBvh {
     /// For each point: its distance to the mesh if it is inside (non-zero winding number), else 0.
     /// The mesh must be closed. Parallel; results in input order.
     pub fn penetration_depths(&self, points: &[DVec3]) -> Vec<f64> {
-        points
+        let work = SharedWork::default();
+        let depths = points
             .par_iter()
             .with_min_len(32)
-            .map(|&p| if self.contains(p) { self.closest_point(p).map_or(0.0, |c| c.distance) } else { 0.0 })
-            .collect()
+            .map(|&p| {
+                work.measure(|| if self.contains(p) { self.closest_point(p).map_or(0.0, |c| c.distance) } else { 0.0 })
+            })
+            .collect();
+        work.record();
+        depths
     }
 }
 
@@ -163,8 +188,44 @@ impl<'a> FastWinding<'a> {
         Self { tree, clusters, accuracy: accuracy.max(1.0) }
     }
 
+    /// [`Self::new`] in O(n), for trees refitted and queried again and again (the rounds of the
+    /// separation pass): each inner node's moments are its two children's summed, and its radius is
+    /// bounded by the smaller of the sphere about its centre holding its children's spheres and
+    /// the farthest corner of its box. The bound is at least the exact radius of [`Self::new`],
+    /// so a cluster is approximated only where it would be there too (the error is at most
+    /// [`Self::new`]'s, tested); the moments are summed in another order, so the bits differ.
+    pub fn from_children(tree: &'a TriangleBvh, accuracy: f64) -> Self {
+        let nodes = tree.bvh.nodes();
+        // Per node: its area, area-weighted centroid sum, area vector, centroid sum and count.
+        let mut moments = vec![Moments::default(); nodes.len()];
+        let mut clusters = vec![Cluster::default(); nodes.len()];
+        for i in (0..nodes.len()).rev() {
+            let node = &nodes[i];
+            match node.children(i) {
+                None => {
+                    let Some(corners) = node.item().and_then(|l| tree.corners.get(l as usize)) else { continue };
+                    moments[i] = Moments::of(corners);
+                    clusters[i] = cluster_of(std::iter::once(corners));
+                }
+                Some([left, right]) => {
+                    let m = moments[left].plus(&moments[right]);
+                    let center = m.center();
+                    let spheres = [left, right]
+                        .map(|c| (clusters[c].center - center).length() + clusters[c].radius)
+                        .into_iter()
+                        .fold(0.0, f64::max);
+                    let corner = (center - node.min).abs().max((node.max - center).abs()).length();
+                    moments[i] = m;
+                    clusters[i] = Cluster { center, area_normal: m.area_normal, radius: spheres.min(corner) };
+                }
+            }
+        }
+        Self { tree, clusters, accuracy: accuracy.max(1.0) }
+    }
+
     /// Approximate generalized winding number at `p`.
     pub fn winding_number(&self, p: DVec3) -> f64 {
+        Work::count_queries(1);
         let mut sum = 0.0;
         let beta2 = self.accuracy * self.accuracy;
         self.tree.bvh.traverse(|i, node| {
@@ -189,7 +250,50 @@ impl<'a> FastWinding<'a> {
 
     /// [`Self::winding_number`] for many points, in parallel, in input order.
     pub fn winding_numbers(&self, points: &[DVec3]) -> Vec<f64> {
-        points.par_iter().with_min_len(32).map(|&p| self.winding_number(p)).collect()
+        let work = SharedWork::default();
+        let numbers = points.par_iter().with_min_len(32).map(|&p| work.measure(|| self.winding_number(p))).collect();
+        work.record();
+        numbers
+    }
+}
+
+/// The sums [`cluster_of`] takes over triangles, for [`FastWinding::from_children`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Moments {
+    area: f64,
+    weighted: DVec3,
+    area_normal: DVec3,
+    mean: DVec3,
+    count: f64,
+}
+
+impl Moments {
+    fn of(t: &[DVec3; 3]) -> Self {
+        let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
+        let area = n.length();
+        let centroid = (t[0] + t[1] + t[2]) / 3.0;
+        Self { area, weighted: area * centroid, area_normal: n, mean: centroid, count: 1.0 }
+    }
+
+    fn plus(&self, o: &Self) -> Self {
+        Self {
+            area: self.area + o.area,
+            weighted: self.weighted + o.weighted,
+            area_normal: self.area_normal + o.area_normal,
+            mean: self.mean + o.mean,
+            count: self.count + o.count,
+        }
+    }
+
+    /// The area-weighted centre (the mean centroid for zero area), as in [`cluster_of`].
+    fn center(&self) -> DVec3 {
+        if self.area > 0.0 {
+            self.weighted / self.area
+        } else if self.count > 0.0 {
+            self.mean / self.count
+        } else {
+            DVec3::ZERO
+        }
     }
 }
 
@@ -288,6 +392,40 @@ mod tests {
     }
 
     #[test]
+    fn the_winding_change_along_a_segment_links_the_winding_numbers_of_its_ends() {
+        // Points on the cube's lattice lie on its faces, edges and corners and on the planes of
+        // its triangles' diagonals (every perturbation rule is exercised), and random points;
+        // two interpenetrating cubes give winding numbers up to 2.
+        let mut mesh = shapes::cube(2.0, 2);
+        let mut shifted = shapes::cube(1.0, 2);
+        shifted.map_positions(|p| p + DVec3::new(0.5, 0.5, 0.0));
+        let offset = mesh.positions.len() as u32;
+        mesh.positions.extend(shifted.positions);
+        mesh.triangles.extend(shifted.triangles.iter().map(|t| t.map(|v| v + offset)));
+        let tree = TriangleBvh::new(&mesh).unwrap();
+        let mut points: Vec<DVec3> = Vec::new();
+        for i in -3..=3 {
+            for j in -3..=3 {
+                for k in -3..=3 {
+                    points.push(DVec3::new(i as f64, j as f64, k as f64) * 0.5);
+                }
+            }
+        }
+        points.extend(sample_points(200, 1.6));
+        let mut lcg = Lcg::from_state(5);
+        let (mut checked, mut deep) = (0, 0);
+        for _ in 0..4000 {
+            let a = points[lcg.next_index(points.len())];
+            let b = points[lcg.next_index(points.len())];
+            let (wa, wb) = (tree.winding_number(a), tree.winding_number(b));
+            assert_eq!(wb, wa + tree.winding_change(a, b), "{a} → {b}");
+            checked += 1;
+            deep += usize::from(wa == 2);
+        }
+        assert!(checked == 4000 && deep > 20, "{deep}");
+    }
+
+    #[test]
     fn bunny_inside_outside_agrees_between_crossings_and_solid_angles() {
         let Some(bunny) = crate::spatial::test_meshes::bunny() else {
             return;
@@ -331,6 +469,37 @@ mod tests {
             .fold(0.0, f64::max);
         eprintln!("fast winding, accuracy 4: worst error {worst_fine:.2e}");
         assert!(worst_fine < worst, "{worst_fine} vs {worst}");
+    }
+
+    #[test]
+    fn fast_winding_from_children_is_as_accurate_as_the_exact_radii() {
+        // A closed sphere and an open sheet (a grid bent into a half cylinder), points near and far.
+        let mut sheet = shapes::grid(2.0, 2.0, 24, 24);
+        sheet.map_positions(|p| DVec3::new(p.x, p.y.sin(), p.y.cos() - 0.5));
+        for mesh in [shapes::icosphere(1.0, 4), sheet] {
+            let tree = TriangleBvh::new(&mesh).unwrap();
+            let points = sample_points(400, 1.5);
+            for accuracy in [2.0, 4.0] {
+                let (exact_radii, from_children) =
+                    (FastWinding::new(&tree, accuracy), FastWinding::from_children(&tree, accuracy));
+                let (mut worst_new, mut worst_children) = (0.0f64, 0.0f64);
+                for &p in &points {
+                    let exact = tree.generalized_winding_number(p);
+                    worst_new = worst_new.max((exact_radii.winding_number(p) - exact).abs());
+                    worst_children = worst_children.max((from_children.winding_number(p) - exact).abs());
+                }
+                assert!(worst_children <= worst_new + 1e-12, "β {accuracy}: {worst_children} vs {worst_new}");
+            }
+            // Every cluster radius bounds its corners.
+            let from_children = FastWinding::from_children(&tree, 4.0);
+            let nodes = tree.bvh.nodes();
+            let ends = tree.bvh.subtree_ends();
+            for (i, c) in from_children.clusters.iter().enumerate() {
+                let corners = nodes[i..ends[i]].iter().filter_map(|n| n.item()).flat_map(|l| tree.corners[l as usize]);
+                let farthest = corners.map(|q| (q - c.center).length()).fold(0.0, f64::max);
+                assert!(farthest <= c.radius * (1.0 + 1e-12), "node {i}: {farthest} > {}", c.radius);
+            }
+        }
     }
 
     #[test]
