@@ -173,7 +173,7 @@ mod tests {
 
     /// A grid pressed from above by a rigid sphere; 𝒟 = the grid vertices within `reach` of the
     /// contact's axis, outside the zone.
-    fn pressed_grid(mapping: DVec3) -> (TriMesh, Vec<ContactZone>, ContactSet, Vec<bool>) {
+    fn pressed_grid(mapping: DVec3) -> (TriMesh, ContactZone, ContactSet, Vec<bool>) {
         let mesh = shapes::grid(3.0, 3.0, 60, 60);
         let topology = Topology::new(&mesh);
         let mut zone = sphere_zone(&mesh, &topology, DVec3::new(0.0, 0.0, 0.45), 0.5);
@@ -181,14 +181,13 @@ mod tests {
         let contact = ContactSet::new(&mesh, &topology, &[&zone]).unwrap();
         let deformable =
             (0..mesh.num_vertices()).map(|v| !contact.contains(v as u32) && mesh.positions[v].length() < 1.2).collect();
-        (mesh, vec![zone], contact, deformable)
+        (mesh, zone, contact, deformable)
     }
 
     #[test]
     fn a_normal_press_bulges_on_every_side_decreasing_with_distance() {
-        let (mesh, zones, contact, deformable) = pressed_grid(DVec3::Z);
-        let (eta, fallback) =
-            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, zone, contact, deformable) = pressed_grid(DVec3::Z);
+        let (eta, fallback) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
         assert!(!fallback);
         let at = |p: DVec3| eta[crate::deform::test_support::nearest_vertex(&mesh, p)];
         // Emitters on 𝒮 (below the grid plane): positive on all sides, although d̂·(x − p_j) = 0
@@ -205,9 +204,8 @@ mod tests {
 
     #[test]
     fn a_tilted_mapping_direction_puts_the_bulge_in_front() {
-        let (mesh, zones, contact, deformable) = pressed_grid(DVec3::new(0.5, 0.0, 1.0).normalize());
-        let (eta, _) =
-            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, zone, contact, deformable) = pressed_grid(DVec3::new(0.5, 0.0, 1.0).normalize());
+        let (eta, _) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
         let (mut front, mut back) = (0.0, 0.0);
         for v in 0..mesh.num_vertices() {
             if deformable[v] {
@@ -222,12 +220,10 @@ mod tests {
     fn the_map_does_not_depend_on_the_orientation_of_the_pair() {
         // d̂ is oriented along the second object's normals, so swapping the pair flips it; the
         // map orients each zone's d̂ towards its own 𝒟 and must give the same result.
-        let (mesh, zones, contact, deformable) = pressed_grid(DVec3::Z);
-        let (up, _) =
-            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
-        let (mesh, zones, contact, deformable) = pressed_grid(-DVec3::Z);
-        let (down, fallback) =
-            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, zone, contact, deformable) = pressed_grid(DVec3::Z);
+        let (up, _) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, zone, contact, deformable) = pressed_grid(-DVec3::Z);
+        let (down, fallback) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
         assert!(!fallback);
         assert_eq!(up, down);
     }
@@ -255,15 +251,14 @@ mod tests {
 
     #[test]
     fn without_penetration_the_map_falls_back_to_uniform() {
-        let (mesh, mut zones, contact, deformable) = pressed_grid(DVec3::Z);
-        zones[0].targets = mesh.positions.clone();
-        let (eta, fallback) =
-            anisotropic_bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, &PARAMS, 1.0);
+        let (mesh, mut zone, contact, deformable) = pressed_grid(DVec3::Z);
+        zone.targets = mesh.positions.clone();
+        let (eta, fallback) = anisotropic_bulge_map(&mesh, &[&zone], &contact, &deformable, &PARAMS, 1.0);
         assert!(fallback && eta.iter().all(|&x| x == 1.0));
         // A painted map multiplies.
         let painted: Vec<f64> =
             (0..mesh.num_vertices()).map(|v| if mesh.positions[v].x < 0.0 { 0.0 } else { 2.0 }).collect();
-        let map = bulge_map(&mesh, &zones.iter().collect::<Vec<_>>(), &contact, &deformable, Some(&painted), None, 1.0);
+        let map = bulge_map(&mesh, &[&zone], &contact, &deformable, Some(&painted), None, 1.0);
         assert_eq!(map.weights, painted);
     }
 }

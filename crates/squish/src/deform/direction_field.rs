@@ -321,9 +321,9 @@ mod tests {
         let mut solver = RegionSolver::new(&mesh, &topology).unwrap();
         let bottom = plane_zone(&mesh, &topology, DVec3::Z, -0.8);
         let top = plane_zone(&mesh, &topology, -DVec3::Z, -0.8);
-        let zones = [bottom, top];
-        let (_, _, raw) = setup(&mesh, &topology, &mut solver, &zones.iter().collect::<Vec<_>>(), 1.5, false);
-        let (_, p, unit) = setup(&mesh, &topology, &mut solver, &zones.iter().collect::<Vec<_>>(), 1.5, true);
+        let zones = [&bottom, &top];
+        let (_, _, raw) = setup(&mesh, &topology, &mut solver, &zones, 1.5, false);
+        let (_, p, unit) = setup(&mesh, &topology, &mut solver, &zones, 1.5, true);
         let normals = vertex_normals(&mesh);
         let equator: Vec<usize> = (0..mesh.num_vertices()).filter(|&v| mesh.positions[v].z.abs() < 1e-9).collect();
         assert!(!equator.is_empty());

@@ -685,46 +685,26 @@ fn one_pass_volumes_are_the_bits_of_two_passes() {
 #[test]
 fn normals_given_by_the_caller_give_the_bits_of_computed_ones_and_must_fit_the_region() {
     let mut press = PlanePress::icosphere(3);
-    let zones = [press.zone(-0.8)];
+    let zone = press.zone(-0.8);
+    let zones = [&zone];
     let params = DeformParams::new(0.8);
-    let computed = press.deform(&zones.iter().collect::<Vec<_>>(), &params);
+    let computed = press.deform(&zones, &params);
     let normals = crate::mesh::vertex_normals(&press.mesh);
     let overrides = RegionOverrides { normals: Some(&normals), ..RegionOverrides::default() };
-    let given = deform_region_with(
-        &press.mesh,
-        &press.topology,
-        &mut press.solver,
-        &zones.iter().collect::<Vec<_>>(),
-        &params,
-        &overrides,
-    )
-    .unwrap();
+    let given =
+        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap();
     let bits = |r: &RegionDeformation| r.positions.iter().map(|p| p.to_array().map(f64::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&computed), bits(&given));
     // Other normals are used as given (they steer the directions of §5.2).
     let tilted: Vec<DVec3> = normals.iter().map(|n| (*n + DVec3::new(0.3, 0.0, 0.0)).normalize()).collect();
     let overrides = RegionOverrides { normals: Some(&tilted), ..RegionOverrides::default() };
-    let steered = deform_region_with(
-        &press.mesh,
-        &press.topology,
-        &mut press.solver,
-        &zones.iter().collect::<Vec<_>>(),
-        &params,
-        &overrides,
-    )
-    .unwrap();
+    let steered =
+        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap();
     assert_ne!(bits(&computed), bits(&steered));
     // Normals of another mesh are an error naming them, not a panic.
     let short = &normals[..normals.len() - 1];
     let overrides = RegionOverrides { normals: Some(short), ..RegionOverrides::default() };
-    let error = deform_region_with(
-        &press.mesh,
-        &press.topology,
-        &mut press.solver,
-        &zones.iter().collect::<Vec<_>>(),
-        &params,
-        &overrides,
-    )
-    .unwrap_err();
+    let error =
+        deform_region_with(&press.mesh, &press.topology, &mut press.solver, &zones, &params, &overrides).unwrap_err();
     assert!(error.to_string().contains("normals"), "{error}");
 }
