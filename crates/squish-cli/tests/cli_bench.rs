@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use serde_json::Value;
-use squish::stage::Stage;
+use squish::stage::{Stage, StageWork};
 
 /// Every row of the table, in order.
 const SCENES: [&str; 13] = [
@@ -227,6 +227,34 @@ fn check_self_contact_row(scene: &Value) {
     assert_eq!(grouped, 48.0);
     // The walk always has a pair of parts touching (the legs, the arms against the torso).
     assert!(counts[0] >= 1.0, "{counts:?}");
+    guard_self_contact_work(scene);
+}
+
+/// The work guard of the walk (the bounds of `squish_scenes::work_guard`): every self-contact
+/// step counts its work, the same on one and two threads, within the committed figures
+/// (`tests/cesium_man_work.json`, the `--frames 2` run of [`bench_json`]; rewritten with
+/// `SQUISH_WRITE_WORK_FIGURES=1`, saying why in the commit).
+fn guard_self_contact_work(scene: &Value) {
+    assert_eq!(scene["same_work_across_threads"], true, "{}", scene["multi"]["work_timed_frames"]);
+    let work: StageWork =
+        serde_json::from_value(scene["single"]["work_timed_frames"].clone()).expect("work_timed_frames");
+    for stage in [Stage::Setup, Stage::PartContacts, Stage::Quality] {
+        assert!(work[stage].queries + work[stage].rows > 0, "{stage}: no work counted: {:?}", work[stage]);
+    }
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/cesium_man_work.json");
+    if std::env::var_os("SQUISH_WRITE_WORK_FIGURES").is_some() {
+        let json = serde_json::to_string_pretty(&work).expect("figures");
+        std::fs::write(&path, json + "\n").expect("write the figures");
+        return;
+    }
+    let committed: StageWork =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("committed figures")).expect("figures");
+    let failures = squish_scenes::work_guard::departures("cesium-man-walk", &committed, &work);
+    assert!(
+        failures.is_empty(),
+        "work outside the committed figures (if meant, rewrite them with SQUISH_WRITE_WORK_FIGURES=1 and say why):\n{}",
+        failures.join("\n")
+    );
 }
 
 #[test]

@@ -8,9 +8,11 @@
 //! - [`bench`]: animated scenes at the sizes of the thesis' performance tables (ch. 7 §5,
 //!   tables 7.1–7.3), each with the thesis row it is compared with;
 //! - [`timing`]: the timing of one region's factorizations, the reference a frame is measured
-//!   against.
+//!   against;
+//! - [`work_guard`]: the bounds of the clock-free guard on each stage's work.
 
 pub mod bench;
 pub mod fem;
 pub mod procedural;
 pub mod timing;
+pub mod work_guard;

@@ -6,14 +6,15 @@
 //! the timed frames, is compared with the figures committed in `bench_work.json` — the same
 //! figures `squish bench --quick --json` reports as `work_timed_frames` of its single-thread run.
 //! The counts are deterministic (the same on any machine and thread count), so the guard needs no
-//! clock; it allows [`RATIO`] either way plus a small absolute slack per kind, so that a change
+//! clock; it allows [`squish_scenes::work_guard::RATIO`] either way plus a small absolute slack per kind, so that a change
 //! which multiplies a stage's work fails, and one that removes work asks for the figures to be
 //! brought down with it.
 //!
 //! A change that means to cost more (or less) writes new figures with
 //! `SQUISH_WRITE_WORK_FIGURES=1 cargo test -p squish-scenes --test bench_work` and says why in
 //! its commit. The scenes that read a mesh from `../shared/data` are skipped with a note when it is
-//! absent; the skinned character's walk is not guarded (its self-contact is not counted yet).
+//! absent; the skinned character's walk is guarded by `squish-cli/tests/cli_bench.rs` (its scene is
+//! posed from a file by the CLI), with the same bounds ([`squish_scenes::work_guard`]).
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -23,16 +24,10 @@ use std::path::PathBuf;
 
 use squish::stage::{Stage, StageWork, Work};
 use squish_scenes::bench::{BenchScene, BenchSize};
+use squish_scenes::work_guard::departures;
 
 /// Timed frames per scene: those of `squish bench --quick`.
 const FRAMES: usize = 3;
-/// Largest factor a count may grow or shrink by.
-const RATIO: f64 = 1.25;
-
-/// Absolute slack per kind of work, in the order of [`Work::fields`]: small counts may move by
-/// this much (a round more, a few queries) without failing.
-const SLACK: [u64; 5] = [64, 256, 2, 64, 4096];
-
 fn figures_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/bench_work.json")
 }
@@ -42,21 +37,6 @@ fn scene_work(scene: &BenchScene) -> StageWork {
     let mut total = StageWork::default();
     scene.animate(FRAMES, |_, _| {}, |_, result, _| total += &result.stats.work).unwrap();
     total
-}
-
-/// The counts out of bounds, one line each.
-fn departures(scene: &str, expected: &StageWork, actual: &StageWork) -> Vec<String> {
-    let mut lines = Vec::new();
-    for stage in Stage::ALL {
-        let fields = expected[stage].fields().into_iter().zip(actual[stage].fields()).zip(SLACK);
-        for (((kind, e), (_, a)), slack) in fields {
-            let (low, high) = (e as f64 / RATIO - slack as f64, e as f64 * RATIO + slack as f64);
-            if (a as f64) < low || (a as f64) > high {
-                lines.push(format!("{scene}, {stage}: {kind} {a}, committed {e} (allowed {low:.0}–{high:.0})"));
-            }
-        }
-    }
-    lines
 }
 
 #[test]

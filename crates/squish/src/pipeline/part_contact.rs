@@ -61,6 +61,7 @@ use super::{Deformer, Frame, FrameObject, FramePair, PipelineError};
 use crate::mesh::TriMesh;
 use crate::params::{ObjectParams, PairParams, SkinParts};
 use crate::skinning::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
+use crate::stage::Work;
 
 /// Rings of faces each side of a part pair takes from its neighbouring parts: the first, then
 /// the wider ones tried in turn when a contact reaches a region's border (the intersection is
@@ -339,6 +340,21 @@ pub(super) struct PartContactResult {
     /// contacts.
     pub self_intersecting_faces: [usize; 2],
     pub untangled: Untangled,
+    /// The search for the touching pairs (and the faces crossing before them): its time and work.
+    pub search: Spent,
+    /// Per pair (in the order of `pairs`): its work, its nested frame's included.
+    pub pair_work: Vec<Work>,
+    /// The work of the untangling.
+    pub untangle_work: Work,
+    /// The counts of the faces crossing in the input and the result.
+    pub counts: Spent,
+}
+
+/// The time and work of a step.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Spent {
+    pub time: Duration,
+    pub work: Work,
 }
 
 /// What the untangling after the part contacts (the `untangle` key; docs/decisions.md, "Untangling what is left") did on an object at a frame.
@@ -391,6 +407,10 @@ pub(super) fn resolve_part_contacts(
     let Some(setup) = cache.setup.as_mut() else {
         return Err(PipelineError::invalid_region(name, "no part contact setup".into()));
     };
+    // The work of this call is counted in laps of the enclosing span (given back at the end):
+    // the search, each pair, the untangling, the counts.
+    let outer = Work::lap();
+    let search_start = Instant::now();
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
     let beyond = |m: &TriMesh| -> Result<usize, PipelineError> {
@@ -404,8 +424,11 @@ pub(super) fn resolve_part_contacts(
     let mut moved = vec![false; n];
     let mut stats = Vec::with_capacity(touching.len());
     let neighbours = if touching.is_empty() { Vec::new() } else { vertex_neighbours(mesh) };
+    let search = Spent { time: search_start.elapsed(), work: Work::lap() };
+    let mut pair_work = Vec::with_capacity(touching.len());
     for pair in &touching {
         let start = Instant::now();
+        let mut nested_work = Work::ZERO;
         let current = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         let mut s = PartPairStats {
             object: index,
@@ -458,6 +481,10 @@ pub(super) fn resolve_part_contacts(
                 pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
             };
             let outcome = entry.deformer.deform(&frame).map_err(|e| e.to_string()).and_then(|result| {
+                // The nested frame counts its work in its own span.
+                for (_, w) in result.stats.work.iter() {
+                    nested_work += *w;
+                }
                 // A bulge taller than its extent: the extent was clamped to a sliver of the
                 // region (its seam too close), so the volume went into a spike.
                 match result.stats.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
@@ -506,6 +533,8 @@ pub(super) fn resolve_part_contacts(
         s.faces_after = crossing_faces(&after, parts, setup, pair.parts).map_err(spatial)?;
         s.time = start.elapsed();
         stats.push(s);
+        nested_work += Work::lap();
+        pair_work.push(nested_work);
     }
     // What the contacts leave crossing (or could not treat: folds of a crumpled skin, chords of
     // a coarse one) is untangled, then the volume restored; kept only if fewer faces cross.
@@ -547,9 +576,23 @@ pub(super) fn resolve_part_contacts(
     }
     untangled.faces_after = faces_now;
     untangled.time = untangle_start.elapsed();
+    let untangle_work = Work::lap();
+    let counts_start = Instant::now();
     let result = TriMesh { positions, triangles: mesh.triangles.clone() };
     let self_intersecting_faces = [beyond(input)?, beyond(&result)?];
-    Ok(PartContactResult { positions: result.positions, moved, pairs: stats, self_intersecting_faces, untangled })
+    let counts = Spent { time: counts_start.elapsed(), work: Work::lap() };
+    outer.record();
+    Ok(PartContactResult {
+        positions: result.positions,
+        moved,
+        pairs: stats,
+        self_intersecting_faces,
+        untangled,
+        search,
+        pair_work,
+        untangle_work,
+        counts,
+    })
 }
 
 #[cfg(test)]

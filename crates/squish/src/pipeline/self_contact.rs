@@ -28,7 +28,7 @@ use crate::skinning::{
     articulation_interiors, contact_articulation, deform_articulation, self_intersection_counts,
 };
 use crate::spatial::TriangleBvh;
-use crate::stage::{Stage, StageTimes};
+use crate::stage::{Stage, StageTimes, StageWork, Work};
 
 /// What the deformer keeps about an object's self-contacts between frames.
 #[derive(Debug, Default)]
@@ -79,10 +79,10 @@ struct Prepared {
 enum ArticulationState {
     /// Its caches are ready.
     Ready,
-    /// Its contact definition (ch. 4) is done.
-    Contact(Box<ArticulationContact>),
-    /// Its deformation (ch. 5) is planned.
-    Planned(Box<ArticulationPlan>),
+    /// Its contact definition (ch. 4) is done, with the work of its crease cut.
+    Contact(Box<ArticulationContact>, Box<StageWork>),
+    /// Its deformation (ch. 5) is planned, with its work.
+    Planned(Box<ArticulationPlan>, Work),
 }
 
 /// The plan's first level (see `plan`): every object with self-contact has its articulations
@@ -147,23 +147,33 @@ pub(super) fn resolve_self_contacts(
         })
         .collect::<Result<_, PipelineError>>()?;
     drop(slots);
-    let prepared: Vec<Option<Prepared>> = caches
+    // Each object's work counted in a span of its own, whatever thread runs it.
+    let prepared: Vec<(Result<Option<Prepared>, PipelineError>, Work)> = caches
         .par_iter_mut()
         .zip(&frame.objects)
         .zip(rests)
         .enumerate()
         .map(|(i, ((cache, object), rest))| {
-            let Some(rest) = rest else { return Ok(None) };
-            prepare(
-                cache,
-                object,
-                rest,
-                jobs.iter().zip(&states).filter(|((o, _), s)| *o == i && s.is_ok()).map(|((_, k), _)| *k),
-            )
-            .map(Some)
+            Work::measure(|| {
+                let Some(rest) = rest else { return Ok(None) };
+                prepare(
+                    cache,
+                    object,
+                    rest,
+                    jobs.iter().zip(&states).filter(|((o, _), s)| *o == i && s.is_ok()).map(|((_, k), _)| *k),
+                )
+                .map(Some)
+            })
         })
-        .collect::<Result<_, PipelineError>>()?;
-    trace.time(Stage::Setup, timer.elapsed());
+        .collect();
+    let mut setup_work = StageWork::default();
+    for (_, work) in &prepared {
+        setup_work[Stage::Setup] += *work;
+    }
+    let prepared: Vec<Option<Prepared>> = prepared.into_iter().map(|(p, _)| p).collect::<Result<_, PipelineError>>()?;
+    let mut setup_times = StageTimes::default();
+    setup_times[Stage::Setup] = timer.elapsed();
+    trace.add(&setup_times, &setup_work);
 
     // The crease cut and chapter 4 of every articulation, in parallel.
     let mut slots = setup_slots(caches, frame);
@@ -177,19 +187,26 @@ pub(super) fn resolve_self_contacts(
             else {
                 return Ok(state);
             };
-            let found =
-                contact_articulation(object.mesh, topology, &prepared.normals, &prepared.interior, setup, articulation);
-            job_outcome(object, articulation, found.map(|c| ArticulationState::Contact(Box::new(c))))
+            // Its work beyond chapter 4's own stages (the crease cut, the truncated regions) is
+            // the cut's.
+            let (found, rest) = Work::measure(|| {
+                contact_articulation(object.mesh, topology, &prepared.normals, &prepared.interior, setup, articulation)
+            });
+            let mut work = StageWork::default();
+            work[Stage::CreaseCut] = rest;
+            job_outcome(object, articulation, found.map(|c| ArticulationState::Contact(Box::new(c), Box::new(work))))
         })
         .collect::<Result<_, PipelineError>>()?;
     for (state, &job) in states.iter().zip(&records) {
-        if let Ok(ArticulationState::Contact(c)) = state {
+        if let Ok(ArticulationState::Contact(c, cut_work)) = state {
             let mut times = StageTimes::default();
             times[Stage::CreaseCut] = c.stats.cut_time;
+            let mut work = **cut_work;
             if let Some(contact) = &c.contact {
                 times += &contact.stats.timings;
+                work += &contact.stats.work;
             }
-            trace.add_to_job(job, &times, &Default::default());
+            trace.add_to_job(job, &times, &work);
             trace.jobs[job].in_contact = c.in_contact();
         }
     }
@@ -202,7 +219,7 @@ pub(super) fn resolve_self_contacts(
             let object = &frame.objects[*i];
             let articulation = &object.params.self_contact[*k];
             let found = match state {
-                Ok(ArticulationState::Contact(found)) => found,
+                Ok(ArticulationState::Contact(found, _)) => found,
                 Ok(_) => return Ok(Err("its caches were not ready".to_string())),
                 Err(reason) => return Ok(Err(reason)),
             };
@@ -214,8 +231,9 @@ pub(super) fn resolve_self_contacts(
             let mut deform_params = DeformParams::of(object.params, 1.0, preserve);
             // One value per object vertex: each articulation gathers its regions' values.
             deform_params.bulge_map = object.params.bulge_map.clone();
-            let planned = deform_articulation(*found, object.mesh, setup, articulation, &deform_params);
-            job_outcome(object, articulation, planned.map(|p| ArticulationState::Planned(Box::new(p))))
+            let (planned, work) =
+                Work::measure(|| deform_articulation(*found, object.mesh, setup, articulation, &deform_params));
+            job_outcome(object, articulation, planned.map(|p| ArticulationState::Planned(Box::new(p), work)))
         })
         .collect::<Result<_, PipelineError>>()?;
     drop(slots);
@@ -231,16 +249,21 @@ pub(super) fn resolve_self_contacts(
         let mut plans = Vec::new();
         while let Some(((state, job), &(o, k))) = states.next_if(|(_, (o, _))| *o == i) {
             let articulation = &object.params.self_contact[k];
-            let mut plan = match state {
-                Ok(ArticulationState::Planned(plan)) => *plan,
-                Ok(_) => inactive_plan(object.mesh.num_vertices(), articulation, "its caches were not ready".into()),
-                Err(reason) => inactive_plan(object.mesh.num_vertices(), articulation, reason),
+            let (mut plan, work) = match state {
+                Ok(ArticulationState::Planned(plan, work)) => (*plan, work),
+                Ok(_) => (
+                    inactive_plan(object.mesh.num_vertices(), articulation, "its caches were not ready".into()),
+                    Work::ZERO,
+                ),
+                Err(reason) => (inactive_plan(object.mesh.num_vertices(), articulation, reason), Work::ZERO),
             };
             plan.stats.object = o;
             let deformation = plan.stats.deformation_time;
             let mut times = StageTimes::default();
             times[Stage::Deformation] = deformation;
-            trace.add_to_job(job, &times, &Default::default());
+            let mut stage_work = StageWork::default();
+            stage_work[Stage::Deformation] = work;
+            trace.add_to_job(job, &times, &stage_work);
             trace.jobs[job].error.clone_from(&plan.stats.error);
             plans.push(plan);
         }
@@ -366,49 +389,53 @@ fn finish_object(
 ) -> Result<(SelfContactResult, Vec<ArticulationStats>, Vec<PartPairStats>), PipelineError> {
     let (name, mesh, params) = (object.name, object.mesh, object.params);
     let n = mesh.num_vertices();
-    let timer = Instant::now();
     let preserve = params.preserve_volume.unwrap_or(prepared.closed);
-    let applied = apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge)
+    let applied = trace
+        .run(Stage::Blend, || apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge))
         .map_err(|source| PipelineError::Deform { object: name.to_string(), source })?;
     let after = TriMesh { positions: applied.positions, triangles: mesh.triangles.clone() };
-    trace.time(Stage::Blend, timer.elapsed());
     let timer = Instant::now();
-    let mut contact = vec![false; n];
-    let mut moved = vec![false; n];
-    let mut cuts = Vec::with_capacity(plans.len());
-    let mut stats = Vec::with_capacity(plans.len());
-    for ((plan, &(height, exact)), setup) in plans.into_iter().zip(&applied.heights).zip(&cache.setups) {
-        for v in 0..n {
-            contact[v] |= plan.contact[v];
-            moved[v] |= plan.displacement.moved[v];
+    let (counted, quality_work) = Work::measure(|| -> Result<_, PipelineError> {
+        let mut contact = vec![false; n];
+        let mut moved = vec![false; n];
+        let mut cuts = Vec::with_capacity(plans.len());
+        let mut stats = Vec::with_capacity(plans.len());
+        for ((plan, &(height, exact)), setup) in plans.into_iter().zip(&applied.heights).zip(&cache.setups) {
+            for v in 0..n {
+                contact[v] |= plan.contact[v];
+                moved[v] |= plan.displacement.moved[v];
+            }
+            let mut s = plan.stats;
+            s.bulge_height = height;
+            s.applied_bulge_height = params.bulge * height;
+            s.volume_exact = exact;
+            if s.error.is_some() {
+                // Left inactive: nothing cut, nothing to count.
+                cuts.push((Vec::new(), Vec::new()));
+            } else if let Some(setup) = setup {
+                let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
+                let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
+                let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
+                s.self_intersecting_faces_before = before.all;
+                s.self_intersecting_faces_after = after.all;
+                s.self_intersecting_faces_across_before = before.across;
+                s.self_intersecting_faces_across_after = after.across;
+                cuts.push((setup.shared().vertices.clone(), plan.labels));
+            }
+            stats.push(s);
         }
-        let mut s = plan.stats;
-        s.bulge_height = height;
-        s.applied_bulge_height = params.bulge * height;
-        s.volume_exact = exact;
-        if s.error.is_some() {
-            // Left inactive: nothing cut, nothing to count.
-            cuts.push((Vec::new(), Vec::new()));
-        } else if let Some(setup) = setup {
-            let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
-            let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
-            let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
-            s.self_intersecting_faces_before = before.all;
-            s.self_intersecting_faces_after = after.all;
-            s.self_intersecting_faces_across_before = before.across;
-            s.self_intersecting_faces_across_after = after.across;
-            cuts.push((setup.shared().vertices.clone(), plan.labels));
-        }
-        stats.push(s);
-    }
+        Ok((contact, moved, cuts, stats))
+    });
+    let (contact, mut moved, cuts, stats) = counted?;
     trace.time(Stage::Quality, timer.elapsed());
+    trace.work[Stage::Quality] += quality_work;
     let (positions, part_pairs, self_intersecting_faces, untangled) = match &params.self_contact_parts {
         Some(parts) => {
             let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &prepared.rest, params, parts)?;
             // Each touching part pair is a job of the plan's first level (its figures in
             // `part_pairs`; its stages run inside its own nested frame until the self-contact
             // rework, issue 36).
-            for pair in &r.pairs {
+            for (pair, &pair_work) in r.pairs.iter().zip(&r.pair_work) {
                 let job_name = format!("{name}: parts \"{}\" – \"{}\" ({})", pair.parts[0], pair.parts[1], pair.kind);
                 let mut record = JobRecord::new(JobLevel::SelfContact, JobKind::Parts, job_name, [index, index]);
                 record.in_contact = pair.in_contact;
@@ -416,9 +443,21 @@ fn finish_object(
                 let job = trace.push_job(record);
                 let mut times = StageTimes::default();
                 times[Stage::PartContacts] = pair.time;
-                trace.add_to_job(job, &times, &Default::default());
+                let mut work = StageWork::default();
+                work[Stage::PartContacts] = pair_work;
+                trace.add_to_job(job, &times, &work);
             }
-            trace.time(Stage::Untangle, r.untangled.time);
+            // What the pairs share (the search for touching pairs) and the counts of the faces
+            // crossing before and after.
+            let mut times = StageTimes::default();
+            let mut work = StageWork::default();
+            times[Stage::PartContacts] = r.search.time;
+            work[Stage::PartContacts] = r.search.work;
+            times[Stage::Untangle] = r.untangled.time;
+            work[Stage::Untangle] = r.untangle_work;
+            times[Stage::Quality] = r.counts.time;
+            work[Stage::Quality] = r.counts.work;
+            trace.add(&times, &work);
             for (m, p) in moved.iter_mut().zip(r.moved) {
                 *m |= p;
             }

@@ -368,14 +368,20 @@ impl Truncated {
 /// their own faces without reaching other layers.
 fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertices: &[bool], epsilon: f64) -> Vec<bool> {
     use rayon::prelude::*;
-    (0..mesh.num_vertices())
+    // The queries are counted on whatever thread runs them, for the caller's span.
+    let work = crate::stage::SharedWork::default();
+    let flags = (0..mesh.num_vertices())
         .into_par_iter()
         .with_min_len(256)
         .map(|v| {
-            let (p, offset) = (mesh.positions[v], epsilon * normals[v]);
-            vertices[v] && tree.winding_number(p - offset).min(tree.winding_number(p + offset)) >= 1
+            work.measure(|| {
+                let (p, offset) = (mesh.positions[v], epsilon * normals[v]);
+                vertices[v] && tree.winding_number(p - offset).min(tree.winding_number(p + offset)) >= 1
+            })
         })
-        .collect()
+        .collect();
+    work.record();
+    flags
 }
 
 /// The zone `zone` of the region `from` (a sub-mesh of the object) on the region `to`, for the
