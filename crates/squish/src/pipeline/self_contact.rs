@@ -247,6 +247,7 @@ pub(super) fn resolve_self_contacts(
             continue;
         };
         let mut plans = Vec::new();
+        let mut plan_jobs = Vec::new();
         while let Some(((state, job), &(o, k))) = states.next_if(|(_, (o, _))| *o == i) {
             let articulation = &object.params.self_contact[k];
             let (mut plan, work) = match state {
@@ -266,8 +267,9 @@ pub(super) fn resolve_self_contacts(
             trace.add_to_job(job, &times, &stage_work);
             trace.jobs[job].error.clone_from(&plan.stats.error);
             plans.push(plan);
+            plan_jobs.push(job);
         }
-        let (result, stats, part_pairs) = finish_object(i, cache, object, prepared, plans, trace)?;
+        let (result, stats, part_pairs) = finish_object(i, cache, object, prepared, plans, &plan_jobs, trace)?;
         trace.articulations.extend(stats);
         trace.part_pairs.extend(part_pairs);
         results.push(Some(result));
@@ -384,15 +386,47 @@ fn finish_object(
     cache: &mut SelfContactCache,
     object: &FrameObject,
     prepared: &Prepared,
-    plans: Vec<ArticulationPlan>,
+    mut plans: Vec<ArticulationPlan>,
+    plan_jobs: &[usize],
     trace: &mut Trace,
 ) -> Result<(SelfContactResult, Vec<ArticulationStats>, Vec<PartPairStats>), PipelineError> {
     let (name, mesh, params) = (object.name, object.mesh, object.params);
     let n = mesh.num_vertices();
     let preserve = params.preserve_volume.unwrap_or(prepared.closed);
-    let applied = trace
-        .run(Stage::Blend, || apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge))
-        .map_err(|source| PipelineError::Deform { object: name.to_string(), source })?;
+    let applied = loop {
+        let applied = trace
+            .run(Stage::Blend, || apply_articulations(mesh, &plans, preserve, params.bulge_height, params.bulge))
+            .map_err(|source| PipelineError::Deform { object: name.to_string(), source })?;
+        // A bulge taller than its articulation's extent: the volume cubic's smallest root is far
+        // (no bulge of the region's size gives the volume back), so the volume would go into a
+        // spike. That articulation is left without effect and the others' heights are solved
+        // again (docs/decisions.md, "An articulation's bulge taller than its extent").
+        let spikes: Vec<(usize, f64)> = plans
+            .iter()
+            .zip(&applied.heights)
+            .enumerate()
+            .filter(|(_, (plan, (h, _)))| {
+                plan.stats.error.is_none() && plan.extent.is_finite() && (params.bulge * h).abs() > plan.extent
+            })
+            .map(|(k, (_, (h, _)))| (k, params.bulge * h))
+            .collect();
+        if spikes.is_empty() {
+            break applied;
+        }
+        for (k, height) in spikes {
+            let Some(articulation) = params.self_contact.get(k) else { continue };
+            let reason = format!(
+                "a bulge of height {height:.3e} over an extent of {:.3e} would put the volume into a spike; left without effect",
+                plans[k].extent
+            );
+            let object_index = plans[k].stats.object;
+            plans[k] = inactive_plan(n, articulation, reason.clone());
+            plans[k].stats.object = object_index;
+            if let Some(record) = plan_jobs.get(k).and_then(|&job| trace.jobs.get_mut(job)) {
+                record.error = Some(reason);
+            }
+        }
+    };
     let after = TriMesh { positions: applied.positions, triangles: mesh.triangles.clone() };
     let timer = Instant::now();
     let (counted, quality_work) = Work::measure(|| -> Result<_, PipelineError> {
