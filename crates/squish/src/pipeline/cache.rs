@@ -294,11 +294,15 @@ pub(super) struct RegionCache {
     pub solver: Option<RegionSolver>,
     /// True if built at this frame.
     pub rebuilt: bool,
+    /// The separation pass's trees of this region (in the object's numbering), kept between
+    /// frames so that each frame refits them instead of copying the cached trees again; they
+    /// live and die with the region's face set.
+    pub separation_trees: Option<Box<super::separation::SideTrees>>,
 }
 
 impl RegionCache {
     pub fn whole(components: &Components) -> Self {
-        Self { faces: None, sub: None, components: (0..components.count as u32).collect(), solver: None, rebuilt: true }
+        Self { faces: None, sub: None, components: (0..components.count as u32).collect(), solver: None, rebuilt: true, separation_trees: None }
     }
 
     pub fn cut(
@@ -333,6 +337,7 @@ impl RegionCache {
             })),
             solver: None,
             rebuilt: true,
+            separation_trees: None,
         })
     }
 

@@ -139,8 +139,10 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
 /// refitted to the outputs at each round. Every query the pass makes of them answers the same
 /// whatever the tree's shape (closest points and faces within a distance by (distance, face id),
 /// crossings and winding numbers exactly, the inside of an open surface exactly near its
-/// threshold), so a tree built at an earlier frame gives the bits of a fresh one.
-struct SideTrees {
+/// threshold), so a tree built at an earlier frame gives the bits of a fresh one. Kept in the
+/// region's cache between frames ([`super::cache::RegionCache::separation_trees`]).
+#[derive(Debug)]
+pub(super) struct SideTrees {
     /// The region's faces (object face ids) at the current positions.
     bvh: TriangleBvh,
     /// The whole object's tree when the region is cut out of a closed object (its inside).
@@ -396,14 +398,15 @@ const BLEND_POWER: i32 = 4;
 /// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
 /// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting. Its
 /// work ([`Work`]: its rounds, distance queries and exact tests) is recorded in the caller's span.
+/// The side trees of the regions in `caches` are taken for the pass and put back after it (see
+/// [`SideTrees`]).
 pub(super) fn separate(
     frame: &Frame,
-    caches: &[Option<ObjectCache>],
+    caches: &mut [Option<ObjectCache>],
     region_pairs: &[RegionPair],
     contacts: &[Option<PairContact>],
     outcomes: &mut [Vec<Option<RegionOutcome>>],
 ) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
-    let mut report = vec![PairSeparation::default(); region_pairs.len()];
     // The region pairs the pass works on: a gap, two regions, and a side it may move.
     let active: Vec<usize> = (0..region_pairs.len())
         .filter(|&k| {
@@ -416,8 +419,37 @@ pub(super) fn separate(
         })
         .collect();
     if active.is_empty() {
-        return Ok((report, Vec::new()));
+        return Ok((vec![PairSeparation::default(); region_pairs.len()], Vec::new()));
     }
+    // The trees kept by the regions' caches (None where a side has none yet).
+    let mut trees: Vec<Vec<Option<SideTrees>>> = caches
+        .iter_mut()
+        .map(|c| {
+            c.as_mut().map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
+        })
+        .collect();
+    let result = separate_with(frame, caches, region_pairs, contacts, outcomes, &active, &mut trees);
+    for (cache, trees) in caches.iter_mut().zip(trees) {
+        if let Some(cache) = cache.as_mut() {
+            for (region, side) in cache.regions.iter_mut().zip(trees) {
+                region.separation_trees = side.map(Box::new);
+            }
+        }
+    }
+    result
+}
+
+/// [`separate`] with the trees of every region (`trees[object][region]`, built where missing).
+fn separate_with(
+    frame: &Frame,
+    caches: &[Option<ObjectCache>],
+    region_pairs: &[RegionPair],
+    contacts: &[Option<PairContact>],
+    outcomes: &mut [Vec<Option<RegionOutcome>>],
+    active: &[usize],
+    trees: &mut [Vec<Option<SideTrees>>],
+) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
+    let mut report = vec![PairSeparation::default(); region_pairs.len()];
     let count = frame.objects.len();
     let slots: Vec<Vec<Option<(u32, u32)>>> = (0..count)
         .map(|i| match caches[i].as_ref() {
@@ -439,20 +471,20 @@ pub(super) fn separate(
         }
     };
     let mut positions: Vec<Vec<DVec3>> = (0..count).map(|i| positions_at(i, outcomes)).collect();
-    // The trees of every side of an active pair, once per frame, refitted after each round.
-    let mut trees: Vec<Vec<Option<SideTrees>>> = caches
-        .iter()
-        .map(|c| c.as_ref().map_or(Vec::new(), |c| (0..c.regions.len()).map(|_| None).collect()))
-        .collect();
-    for &k in &active {
+    // The trees of every side of an active pair: the region's kept trees or new ones, refitted
+    // to this frame's outputs and after each round.
+    let mut fitted: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
+    for &k in active {
         let Some(regions) = region_pairs[k].regions else { continue };
         let objects = frame.pairs[region_pairs[k].pair].objects;
         for l in 0..2 {
             let (i, r) = (objects[l], regions[l]);
-            if trees[i].get(r).is_some_and(Option::is_none)
-                && let Some(cache) = caches[i].as_ref()
-            {
-                trees[i][r] = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
+            let (Some(cache), Some(false)) = (caches[i].as_ref(), fitted[i].get(r).copied()) else { continue };
+            fitted[i][r] = true;
+            let side = &mut trees[i][r];
+            let refitted = side.as_mut().is_some_and(|t| t.refit(&positions[i]).is_ok());
+            if !refitted {
+                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
             }
         }
     }
@@ -484,7 +516,7 @@ pub(super) fn separate(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
+            let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| {
@@ -602,11 +634,11 @@ pub(super) fn separate(
         }
     }
     let mut warnings = Vec::new();
-    for &k in &active {
+    for &k in active {
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
+        let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
         let distinct = |side: usize| {
