@@ -302,7 +302,14 @@ pub(super) struct RegionCache {
 
 impl RegionCache {
     pub fn whole(components: &Components) -> Self {
-        Self { faces: None, sub: None, components: (0..components.count as u32).collect(), solver: None, rebuilt: true, separation_trees: None }
+        Self {
+            faces: None,
+            sub: None,
+            components: (0..components.count as u32).collect(),
+            solver: None,
+            rebuilt: true,
+            separation_trees: None,
+        }
     }
 
     pub fn cut(

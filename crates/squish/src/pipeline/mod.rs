@@ -404,8 +404,9 @@ impl Deformer {
         if self.skip_separation {
             return Ok(Vec::new());
         }
-        let (_, warnings) = trace
-            .run(Stage::Separation, || separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes))?;
+        let (_, warnings) = trace.run(Stage::Separation, || {
+            separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes)
+        })?;
         Ok(warnings)
     }
 }

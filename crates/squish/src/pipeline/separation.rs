@@ -58,7 +58,7 @@ use super::{Frame, PipelineError};
 use crate::contact::PairContact;
 use crate::deform::{HeightChoice, SweptTerms};
 use crate::mesh::{Aabb3, Topology, TriMesh, face_normal_unnormalized};
-use crate::spatial::{FastWinding, SpatialError, TriangleBvh, closest_point_on_triangle};
+use crate::spatial::{FastWinding, SpatialError, TriangleBvh, WindingClusters, closest_point_on_triangle};
 use crate::stage::{SharedWork, Work};
 
 /// Most rounds of moves and height solves per frame.
@@ -149,6 +149,9 @@ pub(super) struct SideTrees {
     whole: Option<TriangleBvh>,
     /// Vertices of the side (sorted, object ids).
     vertices: Vec<u32>,
+    /// The far-field clusters of `bvh` for the inside of an open side, refreshed each round
+    /// where a pair needs them (buffers kept).
+    clusters: WindingClusters,
 }
 
 impl SideTrees {
@@ -174,7 +177,7 @@ impl SideTrees {
         if let Some(whole) = whole.as_mut() {
             whole.refit(positions).ok()?;
         }
-        Some(Self { bvh, whole, vertices })
+        Some(Self { bvh, whole, vertices, clusters: WindingClusters::default() })
     }
 
     /// Moves the trees to new positions of the object.
@@ -213,6 +216,14 @@ const WINDING_ACCURACY: f64 = 4.0;
 /// above the far field's error at [`WINDING_ACCURACY`] (8·10⁻³ at worst on a sphere, see
 /// [`FastWinding`]).
 const WINDING_MARGIN: f64 = 0.05;
+/// A first, cheaper look at the winding number of an open surface (about 4× fewer nodes than
+/// at [`WINDING_ACCURACY`] near the surface) ...
+const COARSE_WINDING_ACCURACY: f64 = 2.0;
+/// ... which decides the points farther than this from [`OPEN_INSIDE_WINDING`]: far above the
+/// far field's error at [`COARSE_WINDING_ACCURACY`] (5·10⁻² at worst on a sphere, see
+/// [`FastWinding`]; under 0.1 on a sphere, a bent sheet and the bunny, tested), so the answers
+/// are those of the exact sum, as at [`WINDING_ACCURACY`].
+const COARSE_WINDING_MARGIN: f64 = 0.2;
 
 /// A point of a surface near a query: its face, its barycentric coordinates there, the query's
 /// signed distance to it (negative inside) and the unit direction out of the surface there.
@@ -229,7 +240,12 @@ impl Surface<'_> {
     /// [`OPEN_INSIDE_WINDING`], the fast approximation's unless it is within
     /// [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the answer
     /// does not depend on the tree's clusters).
+    /// Most points are decided at [`COARSE_WINDING_ACCURACY`] first (far from the threshold).
     fn behind_open(&self, winding: &FastWinding, q: DVec3) -> bool {
+        let coarse = winding.winding_number_at(q, COARSE_WINDING_ACCURACY);
+        if (coarse - OPEN_INSIDE_WINDING).abs() > COARSE_WINDING_MARGIN {
+            return coarse > OPEN_INSIDE_WINDING;
+        }
         let w = winding.winding_number(q);
         if (w - OPEN_INSIDE_WINDING).abs() > WINDING_MARGIN {
             return w > OPEN_INSIDE_WINDING;
@@ -425,7 +441,8 @@ pub(super) fn separate(
     let mut trees: Vec<Vec<Option<SideTrees>>> = caches
         .iter_mut()
         .map(|c| {
-            c.as_mut().map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
+            c.as_mut()
+                .map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
         })
         .collect();
     let result = separate_with(frame, caches, region_pairs, contacts, outcomes, &active, &mut trees);
@@ -504,8 +521,25 @@ fn separate_with(
         .iter()
         .map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()]))
         .collect();
+    // The sides some active pair sees as open (their inside is the generalized winding number).
+    let mut open_sides: Vec<(usize, usize)> = Vec::new();
+    for &k in active {
+        let Some(regions) = region_pairs[k].regions else { continue };
+        let objects = frame.pairs[region_pairs[k].pair].objects;
+        for l in 0..2 {
+            let closed = caches[objects[l]].as_ref().is_some_and(|c| c.closed) && objects[0] != objects[1];
+            if !closed && !open_sides.contains(&(objects[l], regions[l])) {
+                open_sides.push((objects[l], regions[l]));
+            }
+        }
+    }
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
+        for &(i, r) in &open_sides {
+            if let Some(side) = trees[i].get_mut(r).and_then(Option::as_mut) {
+                side.clusters.refresh(&side.bvh);
+            }
+        }
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
         let mut largest = 0.0f64;
         let mut stop_below = f64::INFINITY;
@@ -520,7 +554,10 @@ fn separate_with(
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| {
-                (!surfaces[l].closed).then(|| FastWinding::from_children(&surfaces[l].trees.bvh, WINDING_ACCURACY))
+                (!surfaces[l].closed).then(|| {
+                    let trees = surfaces[l].trees;
+                    FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY)
+                })
             });
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
