@@ -50,7 +50,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::cache::ObjectCache;
+use super::cache::{ObjectCache, SideTrees};
 use super::contacts::RegionPair;
 use super::deformations::RegionOutcome;
 use super::warnings::{FrameWarning, WarningKind};
@@ -132,26 +132,6 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
     let edges = cache.topology.edges();
     let total: f64 = edges.iter().map(|&[a, b]| (positions[a as usize] - positions[b as usize]).length()).sum();
     if edges.is_empty() { 0.0 } else { total / edges.len() as f64 }
-}
-
-/// The trees of one side (a region of an object) for the whole pass: taken from the object's
-/// cached trees (no new build; a cut region's tree renumbered into the object's ids) and
-/// refitted to the outputs at each round. Every query the pass makes of them answers the same
-/// whatever the tree's shape (closest points and faces within a distance by (distance, face id),
-/// crossings and winding numbers exactly, the inside of an open surface exactly near its
-/// threshold), so a tree built at an earlier frame gives the bits of a fresh one. Kept in the
-/// region's cache between frames ([`super::cache::RegionCache::separation_trees`]).
-#[derive(Debug)]
-pub(super) struct SideTrees {
-    /// The region's faces (object face ids) at the current positions.
-    bvh: TriangleBvh,
-    /// The whole object's tree when the region is cut out of a closed object (its inside).
-    whole: Option<TriangleBvh>,
-    /// Vertices of the side (sorted, object ids).
-    vertices: Vec<u32>,
-    /// The far-field clusters of `bvh` for the inside of an open side, refreshed each round
-    /// where a pair needs them (buffers kept).
-    clusters: WindingClusters,
 }
 
 impl SideTrees {
