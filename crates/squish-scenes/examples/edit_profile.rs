@@ -41,5 +41,9 @@ fn main() {
         let r = deformer.deform(&pose.frame()).unwrap();
         assert_eq!(r.stats.edit, !full);
     }
-    println!("{name}: {:.3} ms per {}", start.elapsed().as_secs_f64() * 1e3 / edits as f64, if full { "frame" } else { "edit" });
+    println!(
+        "{name}: {:.3} ms per {}",
+        start.elapsed().as_secs_f64() * 1e3 / edits as f64,
+        if full { "frame" } else { "edit" }
+    );
 }
