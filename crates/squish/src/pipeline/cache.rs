@@ -15,7 +15,7 @@ use super::{FrameObject, PipelineError};
 use crate::contact::ContactSide;
 use crate::deform::{RegionSolver, size_from_areas};
 use crate::mesh::{Aabb3, SubMesh, Topology, TriMesh, cut_border, region_vertex_normals, vertex_areas};
-use crate::spatial::TriangleBvh;
+use crate::spatial::{TriangleBvh, WindingClusters};
 
 /// What the deformer keeps about an object between frames: everything that depends on the
 /// connectivity only.
@@ -294,11 +294,22 @@ pub(super) struct RegionCache {
     pub solver: Option<RegionSolver>,
     /// True if built at this frame.
     pub rebuilt: bool,
+    /// The separation pass's trees of this region (in the object's numbering), kept between
+    /// frames so that each frame refits them instead of copying the cached trees again; they
+    /// live and die with the region's face set.
+    pub separation_trees: Option<Box<SideTrees>>,
 }
 
 impl RegionCache {
     pub fn whole(components: &Components) -> Self {
-        Self { faces: None, sub: None, components: (0..components.count as u32).collect(), solver: None, rebuilt: true }
+        Self {
+            faces: None,
+            sub: None,
+            components: (0..components.count as u32).collect(),
+            solver: None,
+            rebuilt: true,
+            separation_trees: None,
+        }
     }
 
     pub fn cut(
@@ -333,6 +344,7 @@ impl RegionCache {
             })),
             solver: None,
             rebuilt: true,
+            separation_trees: None,
         })
     }
 
@@ -352,4 +364,25 @@ impl RegionCache {
     pub fn num_faces(&self, parent: &TriMesh) -> usize {
         self.faces.as_ref().map_or(parent.num_triangles(), Vec::len)
     }
+}
+
+/// The trees of one side (a region of an object) for the whole pass: taken from the object's
+/// cached trees (no new build; a cut region's tree renumbered into the object's ids) and
+/// refitted to the outputs at each round. Every query the pass makes of them answers the same
+/// whatever the tree's shape (closest points and faces within a distance by (distance, face id),
+/// crossings and winding numbers exactly, the inside of an open surface exactly near its
+/// threshold), so a tree built at an earlier frame gives the bits of a fresh one. Kept in the
+/// region's cache between frames ([`RegionCache::separation_trees`]); built, refitted and
+/// queried by the separation pass (`separation`).
+#[derive(Debug)]
+pub(super) struct SideTrees {
+    /// The region's faces (object face ids) at the current positions.
+    pub bvh: TriangleBvh,
+    /// The whole object's tree when the region is cut out of a closed object (its inside).
+    pub whole: Option<TriangleBvh>,
+    /// Vertices of the side (sorted, object ids).
+    pub vertices: Vec<u32>,
+    /// The far-field clusters of `bvh` for the inside of an open side, refreshed each round
+    /// where a pair needs them (buffers kept).
+    pub clusters: WindingClusters,
 }

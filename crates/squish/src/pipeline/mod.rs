@@ -372,7 +372,7 @@ impl Deformer {
 
     /// An edit of the kept frame (see `edits`): its jobs' contacts and its regions' fields
     /// reused, §5.4–5.5 and the separation pass run with this frame's parameters.
-    fn edit(&self, frame: &Frame, state: &EditState, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
+    fn edit(&mut self, frame: &Frame, state: &EditState, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
         setup::check_frame(frame)?;
         let regions: Vec<usize> = self.caches.iter().flatten().map(|c| c.regions.len()).collect();
         let zones = RegionZones::gather(frame, &regions, &state.region_pairs, &state.contacts);
@@ -394,7 +394,7 @@ impl Deformer {
 
     /// The separation pass (unless left out), timed as its own stage; its warnings.
     fn separate(
-        &self,
+        &mut self,
         frame: &Frame,
         region_pairs: &[RegionPair],
         contacts: &[Option<PairContact>],
@@ -404,8 +404,9 @@ impl Deformer {
         if self.skip_separation {
             return Ok(Vec::new());
         }
-        let (_, warnings) = trace
-            .run(Stage::Separation, || separation::separate(frame, &self.caches, region_pairs, contacts, outcomes))?;
+        let (_, warnings) = trace.run(Stage::Separation, || {
+            separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes)
+        })?;
         Ok(warnings)
     }
 }

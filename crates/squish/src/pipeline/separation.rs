@@ -50,7 +50,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::cache::ObjectCache;
+use super::cache::{ObjectCache, SideTrees};
 use super::contacts::RegionPair;
 use super::deformations::RegionOutcome;
 use super::warnings::{FrameWarning, WarningKind};
@@ -58,7 +58,7 @@ use super::{Frame, PipelineError};
 use crate::contact::PairContact;
 use crate::deform::{HeightChoice, SweptTerms};
 use crate::mesh::{Aabb3, Topology, TriMesh, face_normal_unnormalized};
-use crate::spatial::{FastWinding, SpatialError, TriangleBvh, closest_point_on_triangle};
+use crate::spatial::{FastWinding, SpatialError, TriangleBvh, WindingClusters, closest_point_on_triangle};
 use crate::stage::{SharedWork, Work};
 
 /// Most rounds of moves and height solves per frame.
@@ -134,21 +134,6 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
     if edges.is_empty() { 0.0 } else { total / edges.len() as f64 }
 }
 
-/// The trees of one side (a region of an object) for the whole pass: taken from the object's
-/// cached trees (no new build; a cut region's tree renumbered into the object's ids) and
-/// refitted to the outputs at each round. Every query the pass makes of them answers the same
-/// whatever the tree's shape (closest points and faces within a distance by (distance, face id),
-/// crossings and winding numbers exactly, the inside of an open surface exactly near its
-/// threshold), so a tree built at an earlier frame gives the bits of a fresh one.
-struct SideTrees {
-    /// The region's faces (object face ids) at the current positions.
-    bvh: TriangleBvh,
-    /// The whole object's tree when the region is cut out of a closed object (its inside).
-    whole: Option<TriangleBvh>,
-    /// Vertices of the side (sorted, object ids).
-    vertices: Vec<u32>,
-}
-
 impl SideTrees {
     /// The trees of region `region` of an object at `positions`; `whole`: also the whole
     /// object's tree, for a cut region of a closed object.
@@ -172,7 +157,7 @@ impl SideTrees {
         if let Some(whole) = whole.as_mut() {
             whole.refit(positions).ok()?;
         }
-        Some(Self { bvh, whole, vertices })
+        Some(Self { bvh, whole, vertices, clusters: WindingClusters::default() })
     }
 
     /// Moves the trees to new positions of the object.
@@ -211,6 +196,14 @@ const WINDING_ACCURACY: f64 = 4.0;
 /// above the far field's error at [`WINDING_ACCURACY`] (8·10⁻³ at worst on a sphere, see
 /// [`FastWinding`]).
 const WINDING_MARGIN: f64 = 0.05;
+/// A first, cheaper look at the winding number of an open surface (about 4× fewer nodes than
+/// at [`WINDING_ACCURACY`] near the surface) ...
+const COARSE_WINDING_ACCURACY: f64 = 2.0;
+/// ... which decides the points farther than this from [`OPEN_INSIDE_WINDING`]: far above the
+/// far field's error at [`COARSE_WINDING_ACCURACY`] (5·10⁻² at worst on a sphere, see
+/// [`FastWinding`]; under 0.1 on a sphere, a bent sheet and the bunny, tested), so the answers
+/// are those of the exact sum, as at [`WINDING_ACCURACY`].
+const COARSE_WINDING_MARGIN: f64 = 0.2;
 
 /// A point of a surface near a query: its face, its barycentric coordinates there, the query's
 /// signed distance to it (negative inside) and the unit direction out of the surface there.
@@ -227,7 +220,12 @@ impl Surface<'_> {
     /// [`OPEN_INSIDE_WINDING`], the fast approximation's unless it is within
     /// [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the answer
     /// does not depend on the tree's clusters).
+    /// Most points are decided at [`COARSE_WINDING_ACCURACY`] first (far from the threshold).
     fn behind_open(&self, winding: &FastWinding, q: DVec3) -> bool {
+        let coarse = winding.winding_number_at(q, COARSE_WINDING_ACCURACY);
+        if (coarse - OPEN_INSIDE_WINDING).abs() > COARSE_WINDING_MARGIN {
+            return coarse > OPEN_INSIDE_WINDING;
+        }
         let w = winding.winding_number(q);
         if (w - OPEN_INSIDE_WINDING).abs() > WINDING_MARGIN {
             return w > OPEN_INSIDE_WINDING;
@@ -396,14 +394,15 @@ const BLEND_POWER: i32 = 4;
 /// Runs the pass on the outcomes of chapter 5 (see the module doc); returns, per region pair
 /// (order of `region_pairs`), what it did, and the warnings for the pairs left intersecting. Its
 /// work ([`Work`]: its rounds, distance queries and exact tests) is recorded in the caller's span.
+/// The side trees of the regions in `caches` are taken for the pass and put back after it (see
+/// [`SideTrees`]).
 pub(super) fn separate(
     frame: &Frame,
-    caches: &[Option<ObjectCache>],
+    caches: &mut [Option<ObjectCache>],
     region_pairs: &[RegionPair],
     contacts: &[Option<PairContact>],
     outcomes: &mut [Vec<Option<RegionOutcome>>],
 ) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
-    let mut report = vec![PairSeparation::default(); region_pairs.len()];
     // The region pairs the pass works on: a gap, two regions, and a side it may move.
     let active: Vec<usize> = (0..region_pairs.len())
         .filter(|&k| {
@@ -416,8 +415,38 @@ pub(super) fn separate(
         })
         .collect();
     if active.is_empty() {
-        return Ok((report, Vec::new()));
+        return Ok((vec![PairSeparation::default(); region_pairs.len()], Vec::new()));
     }
+    // The trees kept by the regions' caches (None where a side has none yet).
+    let mut trees: Vec<Vec<Option<SideTrees>>> = caches
+        .iter_mut()
+        .map(|c| {
+            c.as_mut()
+                .map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
+        })
+        .collect();
+    let result = separate_with(frame, caches, region_pairs, contacts, outcomes, &active, &mut trees);
+    for (cache, trees) in caches.iter_mut().zip(trees) {
+        if let Some(cache) = cache.as_mut() {
+            for (region, side) in cache.regions.iter_mut().zip(trees) {
+                region.separation_trees = side.map(Box::new);
+            }
+        }
+    }
+    result
+}
+
+/// [`separate`] with the trees of every region (`trees[object][region]`, built where missing).
+fn separate_with(
+    frame: &Frame,
+    caches: &[Option<ObjectCache>],
+    region_pairs: &[RegionPair],
+    contacts: &[Option<PairContact>],
+    outcomes: &mut [Vec<Option<RegionOutcome>>],
+    active: &[usize],
+    trees: &mut [Vec<Option<SideTrees>>],
+) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
+    let mut report = vec![PairSeparation::default(); region_pairs.len()];
     let count = frame.objects.len();
     let slots: Vec<Vec<Option<(u32, u32)>>> = (0..count)
         .map(|i| match caches[i].as_ref() {
@@ -439,20 +468,20 @@ pub(super) fn separate(
         }
     };
     let mut positions: Vec<Vec<DVec3>> = (0..count).map(|i| positions_at(i, outcomes)).collect();
-    // The trees of every side of an active pair, once per frame, refitted after each round.
-    let mut trees: Vec<Vec<Option<SideTrees>>> = caches
-        .iter()
-        .map(|c| c.as_ref().map_or(Vec::new(), |c| (0..c.regions.len()).map(|_| None).collect()))
-        .collect();
-    for &k in &active {
+    // The trees of every side of an active pair: the region's kept trees or new ones, refitted
+    // to this frame's outputs and after each round.
+    let mut fitted: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
+    for &k in active {
         let Some(regions) = region_pairs[k].regions else { continue };
         let objects = frame.pairs[region_pairs[k].pair].objects;
         for l in 0..2 {
             let (i, r) = (objects[l], regions[l]);
-            if trees[i].get(r).is_some_and(Option::is_none)
-                && let Some(cache) = caches[i].as_ref()
-            {
-                trees[i][r] = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
+            let (Some(cache), Some(false)) = (caches[i].as_ref(), fitted[i].get(r).copied()) else { continue };
+            fitted[i][r] = true;
+            let side = &mut trees[i][r];
+            let refitted = side.as_mut().is_some_and(|t| t.refit(&positions[i]).is_ok());
+            if !refitted {
+                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
             }
         }
     }
@@ -472,8 +501,25 @@ pub(super) fn separate(
         .iter()
         .map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()]))
         .collect();
+    // The sides some active pair sees as open (their inside is the generalized winding number).
+    let mut open_sides: Vec<(usize, usize)> = Vec::new();
+    for &k in active {
+        let Some(regions) = region_pairs[k].regions else { continue };
+        let objects = frame.pairs[region_pairs[k].pair].objects;
+        for l in 0..2 {
+            let closed = caches[objects[l]].as_ref().is_some_and(|c| c.closed) && objects[0] != objects[1];
+            if !closed && !open_sides.contains(&(objects[l], regions[l])) {
+                open_sides.push((objects[l], regions[l]));
+            }
+        }
+    }
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
+        for &(i, r) in &open_sides {
+            if let Some(side) = trees[i].get_mut(r).and_then(Option::as_mut) {
+                side.clusters.refresh(&side.bvh);
+            }
+        }
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
         let mut largest = 0.0f64;
         let mut stop_below = f64::INFINITY;
@@ -484,11 +530,14 @@ pub(super) fn separate(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
+            let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| {
-                (!surfaces[l].closed).then(|| FastWinding::from_children(&surfaces[l].trees.bvh, WINDING_ACCURACY))
+                (!surfaces[l].closed).then(|| {
+                    let trees = surfaces[l].trees;
+                    FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY)
+                })
             });
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
@@ -602,11 +651,11 @@ pub(super) fn separate(
         }
     }
     let mut warnings = Vec::new();
-    for &k in &active {
+    for &k in active {
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces = [0, 1].map(|l| surface(frame, caches, &trees, &positions, objects[l], regions[l], objects));
+        let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
         let distinct = |side: usize| {

@@ -49,7 +49,7 @@ pub use queries::{ClosestPoint, CrossingHint, Hit, Ray};
 pub use segment_slabs::SegmentSlabs;
 pub use self_intersection::{SelfIntersections, mesh_intersections, self_intersecting_faces, self_intersections};
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
-pub use winding::{FastWinding, generalized_winding_number, penetration_depths, solid_angle};
+pub use winding::{FastWinding, WindingClusters, generalized_winding_number, penetration_depths, solid_angle};
 
 use crate::mesh::MeshError;
 
