@@ -81,18 +81,15 @@ fn run(options: &Options, shot: &CharacterShot) -> Result<ShotFigures, String> {
         }
     }
     println!("{}: {} vertices, {} frames", shot.name, shot.character.rest.num_vertices(), shot.frames);
-    let figures = shots::measure(shot, options.first, |k, input, output| {
+    let figures = shots::measure(shot, options.first, |f, input, output| {
+        let k = f.frame;
         if options.obj {
             let file = format!("frame_{:04}.obj", k + 1);
             squish_io::write_obj(&dir.join("plain").join(&file), input).map_err(|e| e.to_string())?;
             squish_io::write_obj(&dir.join("auto").join(&file), output).map_err(|e| e.to_string())?;
         }
-        Ok(())
-    })?;
-    for (k, f) in figures.frames.iter().enumerate() {
-        let acc = if k >= 1 { figures.excess_acceleration.get(k - 1).copied() } else { None };
         println!(
-            "  frame {:>3}: {:>8.1} ms, faces {:>5} → {:>5}, moved {:>5.1}%, ΔV/V {:>9.1e}, offset {:>6.2} edges, excess acc. {}",
+            "  frame {:>3}: {:>8.1} ms, faces {:>5} → {:>5}, moved {:>5.1}%, ΔV/V {:>9.1e}, offset {:>7.2} edges",
             k + 1,
             f.ms,
             f.faces_before,
@@ -100,9 +97,15 @@ fn run(options: &Options, shot: &CharacterShot) -> Result<ShotFigures, String> {
             100.0 * f.moved,
             f.volume_change,
             f.offset,
-            acc.map_or_else(|| "-".to_string(), |a| format!("{a:.2}"))
         );
-    }
+        Ok(())
+    })?;
+    let accelerations: Vec<String> = figures.excess_acceleration.iter().map(|a| format!("{a:.2}")).collect();
+    println!(
+        "  excess acceleration, frames 2 to {}: {}",
+        figures.frames.len().saturating_sub(1),
+        accelerations.join(" ")
+    );
     Ok(figures)
 }
 

@@ -78,6 +78,26 @@ impl ShotFigures {
     pub fn median_moved(&self) -> f64 {
         median(&self.frames.iter().map(|f| f.moved).collect::<Vec<_>>())
     }
+    /// Frames whose input crosses itself beyond the rest pose (the shot's frames in contact;
+    /// a pose coming from rest has none at first).
+    pub fn frames_in_contact(&self) -> usize {
+        self.frames.iter().filter(|f| f.faces_before > 0).count()
+    }
+    /// The median excess acceleration over the inner frames in contact.
+    pub fn median_acceleration_in_contact(&self) -> f64 {
+        let values: Vec<f64> = self
+            .excess_acceleration
+            .iter()
+            .enumerate()
+            .filter(|&(t, _)| self.frames.get(t + 1).is_some_and(|f| f.faces_before > 0))
+            .map(|(_, &a)| a)
+            .collect();
+        median(&values)
+    }
+    /// The median share of vertices moved over the frames in contact.
+    pub fn median_moved_in_contact(&self) -> f64 {
+        median(&self.frames.iter().filter(|f| f.faces_before > 0).map(|f| f.moved).collect::<Vec<_>>())
+    }
     pub fn faces(&self) -> (usize, usize) {
         (self.frames.iter().map(|f| f.faces_before).sum(), self.frames.iter().map(|f| f.faces_after).sum())
     }
@@ -137,12 +157,12 @@ pub fn moved_share(input: &[DVec3], output: &[DVec3], height: f64) -> f64 {
 }
 
 /// Runs `shot` frame by frame with `self_contact = "auto"` on one deformer (no quality pass)
-/// and measures it against plain skinning. `each(frame, input, output)` sees every frame
-/// (e.g. to write it out). `frames` limits the run to the first frames (`None`: all).
+/// and measures it against plain skinning. `each(figures, input, output)` sees every frame as
+/// it is done (e.g. to write it out). `frames` limits the run to the first frames (`None`: all).
 pub fn measure(
     shot: &CharacterShot,
     frames: Option<usize>,
-    mut each: impl FnMut(usize, &TriMesh, &TriMesh) -> Result<(), String>,
+    mut each: impl FnMut(&FrameFigures, &TriMesh, &TriMesh) -> Result<(), String>,
 ) -> Result<ShotFigures, String> {
     let auto = shot.character.auto_self_contact();
     let rest = RestIntersections::new(&shot.character.rest).map_err(|e| e.to_string())?;
@@ -176,7 +196,9 @@ pub fn measure(
             volume_change: (squish::mesh::signed_volume(&output) - volume_in) / volume_in,
             offset: offset / figures.mean_edge,
         });
-        each(k, &input, &output)?;
+        if let Some(last) = figures.frames.last() {
+            each(last, &input, &output)?;
+        }
         inputs.push(input.positions);
         outputs.push(output.positions);
     }
@@ -214,22 +236,26 @@ pub fn step_ratios(
     Ok(ratios)
 }
 
-/// The table's header (markdown), for [`table_row`].
-pub const TABLE_HEADER: &str = "| shot | vertices | frames | excess acc. median | max | frames > 0.25 | moved median | faces before → after | frames worse | max ΔV/V | ms/frame mean | max |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
+/// The table's header (markdown), for [`table_row`]. "In contact": over the frames whose input
+/// crosses itself beyond the rest pose.
+pub const TABLE_HEADER: &str = "| shot | vertices | frames (in contact) | excess acc. median (in contact) | max | frames > 0.25 | moved median (in contact) | faces before → after | frames worse | max ΔV/V | ms/frame mean | max |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// One markdown row of a shot's figures.
 pub fn table_row(f: &ShotFigures) -> String {
     let (before, after) = f.faces();
     format!(
-        "| {} | {} | {} | {:.2} | {:.2} | {}/{} | {:.0}% | {} → {} | {} | {:.1e} | {:.0} | {:.0} |",
+        "| {} | {} | {} ({}) | {:.2} ({:.2}) | {:.2} | {}/{} | {:.0}% ({:.0}%) | {} → {} | {} | {:.1e} | {:.0} | {:.0} |",
         f.name,
         f.vertices,
         f.frames.len(),
+        f.frames_in_contact(),
         f.median_acceleration(),
+        f.median_acceleration_in_contact(),
         f.max_acceleration(),
         f.frames_above(0.25),
         f.excess_acceleration.len(),
         100.0 * f.median_moved(),
+        100.0 * f.median_moved_in_contact(),
         before,
         after,
         f.frames_worse(),
