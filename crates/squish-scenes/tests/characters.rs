@@ -254,18 +254,20 @@ fn the_harness_measures_plain_skinning_as_its_own_input() {
     assert!(acc[0] > 0.0 && acc[1] > 0.0);
 }
 
-/// The continuity check of issue 36 on the current `self_contact = "auto"`: the crossed arms
-/// swept around their deepest frames in small steps, the output's steps bounded by a constant
-/// times the input's. Slow in a debug build and failing on the current algorithm (it switches
-/// discretely); run with `cargo test --release -p squish-scenes --test characters -- --ignored`.
+/// The continuity check of issue 36 on `self_contact = "auto"`: the crossed arms swept in
+/// twentieths of a frame from frame 28 to 29 (0-based), the output's steps bounded by a
+/// constant times the input's. Ignored: ≈ 1 min, and it fails on the algorithm of main at
+/// b928e78 (frame 29's output blows up, a vertex ≈ 550 mean edges off; over frames 24–25 the
+/// ratios stay within 1–4.9). Run with
+/// `cargo test --release -p squish-scenes --test characters -- --ignored`.
 #[test]
-#[ignore = "issue 36: fails on the current algorithm; slow in debug"]
+#[ignore = "issue 36: about a minute; fails on the algorithm of main at b928e78"]
 fn automatic_self_contact_is_continuous_in_the_pose() {
     let h = Arc::new(characters::humanoid(characters::HUMANOID_CELL));
     let shot = characters::humanoid_shot(h.clone(), Pose::ArmsCrossed, 32);
     let auto = h.auto_self_contact();
-    let ratios = shots::step_ratios(&shot, 24.0, 25.0, 20, Some(&auto)).unwrap();
+    let ratios = shots::step_ratios(&shot, 28.0, 29.0, 20, Some(&auto)).unwrap();
     println!("{ratios:?}");
     let worst = ratios.iter().copied().fold(0.0, f64::max);
-    assert!(worst <= 5.0, "largest step ratio {worst}");
+    assert!(worst <= 10.0, "largest step ratio {worst}");
 }
