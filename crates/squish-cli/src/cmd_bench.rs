@@ -24,6 +24,12 @@
 //!   frame of its animation on one deformer, single thread: frame time, touching part pairs and
 //!   the part stage's time, grouped by the number of touching pairs ([`measure_self_contact`]).
 //!   Such scenes have no edit (the deformer never edits a frame with self-contact).
+//!   `cesium-man-15k-walk` is the same walk on CesiumMan subdivided 1-to-9 with interpolated
+//!   weights (21 026 vertices; every 12th frame with `--quick`); `humanoid-squat`,
+//!   `humanoid-crouch` and `humanoid-arms-crossed` the procedural humanoid of
+//!   [`squish_scenes::characters`] going into its extreme poses (32 frames; 8 frames of a coarser
+//!   humanoid with `--quick`). Issue 36's other figures for these shots (jitter, locality):
+//!   `cargo run --release -p squish-scenes --example self_contact_shots`.
 //!
 //! Then a shot of `--shot-frames` frames of one scene is processed with frames in parallel (one
 //! deformer per worker, contiguous chunks) with all threads and with one thread: frames per second.
@@ -254,10 +260,40 @@ fn cesium_man_walk(data: &Path) -> Result<BenchScene, String> {
     BenchScene::from_poses("cesium-man-walk", poses).ok_or_else(|| "no frame".to_string())
 }
 
-/// Every scene in table order; three read their mesh from `data/meshes`, one a glTF from
+/// CesiumMan subdivided 1-to-9 with interpolated weights (21 026 vertices,
+/// [`squish_scenes::characters::cesium_man_subdivided`]) walking with `self_contact = "auto"`:
+/// the 48 frames of `cesium-man-walk` (4 of them, every 12th, with `--quick`), or why it cannot
+/// be built.
+fn cesium_man_15k_walk(data: &Path, size: BenchSize) -> Result<BenchScene, String> {
+    let glb = data.join("rigged").join("CesiumMan.glb");
+    if !glb.is_file() {
+        return Err(format!("{} not found (set --data or SQUISH_DATA)", glb.display()));
+    }
+    let shot = squish_scenes::characters::cesium_man_walk(&glb, true)?;
+    let mut scene = shot.bench_scene()?;
+    if size == BenchSize::Quick {
+        scene.poses = scene.poses.into_iter().step_by(12).collect();
+    }
+    Ok(scene)
+}
+
+/// The procedural humanoid (4 314 vertices; 2 714 with `--quick`) going from rest into an
+/// extreme pose with `self_contact = "auto"`, 32 frames (8 with `--quick`).
+fn humanoid(pose: squish_scenes::characters::Pose, size: BenchSize) -> Result<BenchScene, String> {
+    use squish_scenes::characters;
+    let (cell, frames) = match size {
+        BenchSize::Full => (characters::HUMANOID_CELL, 32),
+        BenchSize::Quick => (0.03, 8),
+    };
+    characters::humanoid_shot(std::sync::Arc::new(characters::humanoid(cell)), pose, frames).bench_scene()
+}
+
+/// Every scene in table order; three read their mesh from `data/meshes`, two a glTF from
 /// `data/rigged`.
 fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
     let data_dir = data.to_path_buf();
+    let data_15k = data.to_path_buf();
+    use squish_scenes::characters::Pose;
     let mesh = |file: &str| -> Result<squish::TriMesh, String> {
         let path = data.join("meshes").join(file);
         if !path.is_file() {
@@ -293,6 +329,18 @@ fn scene_list(size: BenchSize, data: &Path) -> Vec<SceneEntry> {
         SceneEntry::procedural("press-100k", None, b::press_100k, size),
         SceneEntry::procedural("press-100k-automatic", None, b::press_100k_automatic, size),
         SceneEntry { name: "cesium-man-walk", thesis: None, build: Box::new(move || cesium_man_walk(&data_dir)) },
+        SceneEntry {
+            name: "cesium-man-15k-walk",
+            thesis: None,
+            build: Box::new(move || cesium_man_15k_walk(&data_15k, size)),
+        },
+        SceneEntry { name: "humanoid-squat", thesis: None, build: Box::new(move || humanoid(Pose::Squat, size)) },
+        SceneEntry { name: "humanoid-crouch", thesis: None, build: Box::new(move || humanoid(Pose::Crouch, size)) },
+        SceneEntry {
+            name: "humanoid-arms-crossed",
+            thesis: None,
+            build: Box::new(move || humanoid(Pose::ArmsCrossed, size)),
+        },
     ]
 }
 

@@ -8,7 +8,7 @@ use serde_json::Value;
 use squish::stage::{Stage, StageWork};
 
 /// Every row of the table, in order.
-const SCENES: [&str; 13] = [
+const SCENES: [&str; 17] = [
     "fingers-ball",
     "fingers-palm",
     "sphere-plane",
@@ -22,6 +22,10 @@ const SCENES: [&str; 13] = [
     "press-100k",
     "press-100k-automatic",
     "cesium-man-walk",
+    "cesium-man-15k-walk",
+    "humanoid-squat",
+    "humanoid-crouch",
+    "humanoid-arms-crossed",
 ];
 
 fn shared_data() -> PathBuf {
@@ -56,9 +60,22 @@ fn quick_bench_reports_every_scene_with_consistent_figures() {
     for scene in scenes {
         let name = scene["name"].as_str().unwrap_or_default();
         assert!(scene["error"].is_null(), "{name}: {}", scene["error"]);
-        if name == "cesium-man-walk" {
-            check_self_contact_row(scene);
-            continue;
+        match name {
+            "cesium-man-walk" => {
+                check_self_contact_row(scene, 48, true, true);
+                continue;
+            }
+            // Issue 36's test characters: their figures are the new algorithm's targets, not
+            // the bench's, so frames worse than the input are allowed here.
+            "cesium-man-15k-walk" => {
+                check_self_contact_row(scene, 4, true, false);
+                continue;
+            }
+            _ if name.starts_with("humanoid-") => {
+                check_self_contact_row(scene, 8, false, false);
+                continue;
+            }
+            _ => {}
         }
         if !scene["skipped"].is_null() {
             assert!(!data_present, "{name} skipped although the shared data is present: {}", scene["skipped"]);
@@ -197,12 +214,14 @@ fn rounds_report_the_median_round_and_every_round() {
     assert!((number(&shot["single_seconds"], "shot") - median(&shot_single)).abs() < 1e-9);
 }
 
-/// The CesiumMan row (skipped without `rigged/CesiumMan.glb`): a walk of 48 frames with
-/// self-contact, no edit (never an edit with self-contact), every frame's figures consistent and
-/// grouped by touching part pairs. Its self-contact time is outside the stage breakdown (not a
-/// stage of its own), so the breakdown checks of the other rows do not apply.
-fn check_self_contact_row(scene: &Value) {
-    if !shared_data().join("rigged/CesiumMan.glb").is_file() {
+/// A row of a character with self-contact (CesiumMan's, skipped without
+/// `rigged/CesiumMan.glb` when `needs_data`): `frames` frames with self-contact, no edit (never
+/// an edit with self-contact), every frame's figures consistent and grouped by touching part
+/// pairs, and with `no_worse` no frame worse than the input; for CesiumMan's walk, the work
+/// guard of its self-contact. The breakdown checks of the other rows do not apply (its stages
+/// are the self-contact level's).
+fn check_self_contact_row(scene: &Value, count: usize, needs_data: bool, no_worse: bool) {
+    if needs_data && !shared_data().join("rigged/CesiumMan.glb").is_file() {
         assert!(scene["skipped"].as_str().is_some_and(|s| s.contains("not found")), "{scene}");
         return;
     }
@@ -211,23 +230,28 @@ fn check_self_contact_row(scene: &Value) {
     assert!(scene["edit"].is_null());
     let growth = &scene["self_contact"];
     let frames = growth["frames"].as_array().expect("self_contact.frames");
-    assert_eq!(frames.len(), 48);
+    assert_eq!(frames.len(), count);
     for (k, f) in frames.iter().enumerate() {
         assert_eq!(f["frame"], k);
         let ms = number(&f["ms"], "ms");
         assert!(number(&f["pairs_in_contact"], "in contact") <= number(&f["touching_pairs"], "touching"), "{f}");
         assert!(number(&f["part_pairs_ms"], "part ms") + number(&f["articulations_ms"], "art. ms") <= ms, "{f}");
         let faces = f["faces"].as_array().expect("faces");
-        assert!(number(&faces[1], "after") <= number(&faces[0], "before"), "no frame worse than the input: {f}");
+        assert!(
+            !no_worse || number(&faces[1], "after") <= number(&faces[0], "before"),
+            "no frame worse than the input: {f}"
+        );
     }
     let groups = growth["by_touching_pairs"].as_array().expect("by_touching_pairs");
     let counts: Vec<f64> = groups.iter().map(|g| number(&g["touching_pairs"], "pairs")).collect();
     assert!(counts.windows(2).all(|w| w[0] < w[1]), "{counts:?}");
     let grouped: f64 = groups.iter().map(|g| number(&g["frames"], "frames")).sum();
-    assert_eq!(grouped, 48.0);
-    // The walk always has a pair of parts touching (the legs, the arms against the torso).
-    assert!(counts[0] >= 1.0, "{counts:?}");
-    guard_self_contact_work(scene);
+    assert_eq!(grouped, count as f64);
+    // CesiumMan's walk always has a pair of parts touching (the legs, the arms against the torso).
+    assert!(!needs_data || counts[0] >= 1.0, "{counts:?}");
+    if scene["name"] == "cesium-man-walk" {
+        guard_self_contact_work(scene);
+    }
 }
 
 /// The work guard of the walk (the bounds of `squish_scenes::work_guard`): every self-contact

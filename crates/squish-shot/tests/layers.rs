@@ -1,9 +1,9 @@
 //! Layers, read from the source text and the manifests (`docs/architecture.md`, "Layers"):
 //!
-//! - the workspace's crates point down: the core below squish-io, squish-render and
-//!   squish-scenes, those below squish-shot, squish-shot below the command line and the Python
-//!   module; and the Python module's dependencies hold neither the command line nor its server
-//!   (axum, tokio);
+//! - the workspace's crates point down: the core below squish-io and squish-render, those below
+//!   squish-scenes (its characters read glTF skins), that below squish-shot, squish-shot below
+//!   the command line and the Python module; and the Python module's dependencies hold neither
+//!   the command line nor its server (axum, tokio);
 //! - squish-shot's modules point down too: a module uses only modules of the layers below its own.
 
 #[path = "../../squish/tests/layers/imports.rs"]
@@ -14,10 +14,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The workspace's crates, bottom layer first.
-const CRATE_LAYERS: [&[&str]; 5] = [
+const CRATE_LAYERS: [&[&str]; 6] = [
     &["squish-derive"],
     &["squish"],
-    &["squish-io", "squish-render", "squish-scenes"],
+    &["squish-io", "squish-render"],
+    &["squish-scenes"],
     &["squish-shot"],
     &["squish-cli", "squish-py"],
 ];
