@@ -271,3 +271,33 @@ fn automatic_self_contact_is_continuous_in_the_pose() {
     let worst = ratios.iter().copied().fold(0.0, f64::max);
     assert!(worst <= 10.0, "largest step ratio {worst}");
 }
+
+/// The crouch's frame 26 (0-based, 32 frames): the right knee's articulation (thigh against
+/// shin) finds no bulge of its region's size that gives the volume back; the smallest root of
+/// its volume cubic is 41 model units (the character is 1.7 tall), which put a vertex 1 100 mean
+/// edges off before the rule of docs/decisions.md ("An articulation's bulge taller than its
+/// extent"). That articulation is left without effect, with its reason; every articulation kept
+/// has a bulge within its extent, nothing flies off and the frame is not worse than its input.
+#[test]
+fn an_articulation_whose_bulge_would_be_a_spike_is_left_without_effect() {
+    let shot = characters::humanoid_shots(characters::HUMANOID_CELL, 32)
+        .into_iter()
+        .find(|s| s.name == "humanoid-crouch")
+        .unwrap();
+    let auto = shot.character.auto_self_contact();
+    let object = shot.character.object(&shot.world(26.0), Some(&auto)).unwrap();
+    let frame = squish::OwnedFrame { objects: vec![object.clone()], pairs: vec![] };
+    let result = squish::pipeline::Deformer::new().deform(&frame.frame()).unwrap();
+    let knee = result.stats.articulations.iter().find(|a| a.name == "thigh.R / shin.R").unwrap();
+    assert!(knee.error.as_deref().is_some_and(|e| e.contains("spike")), "{knee:?}");
+    assert_eq!(knee.applied_bulge_height, 0.0);
+    for a in result.stats.articulations.iter().filter(|a| a.error.is_none()) {
+        assert!(a.applied_bulge_height.abs() <= a.extent, "{}: {} over {}", a.name, a.applied_bulge_height, a.extent);
+    }
+    let edge = shots::first_edge_mean(&object.mesh);
+    let offset = object.mesh.positions.iter().zip(&result.positions[0]).map(|(a, b)| (*a - *b).length());
+    let offset = offset.fold(0.0, f64::max) / edge;
+    assert!(offset < 5.0, "a vertex {offset:.1} mean edges off");
+    let [before, after] = result.stats.objects[0].self_intersecting_faces.unwrap();
+    assert!(after <= before, "{before} → {after} faces");
+}

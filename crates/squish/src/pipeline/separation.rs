@@ -183,6 +183,16 @@ struct Surface<'a> {
     closed: bool,
 }
 
+/// A point of a surface near a query: its face, its barycentric coordinates there, the query's
+/// signed distance to it (negative inside) and the unit direction out of the surface there.
+#[derive(Clone, Copy, Debug)]
+struct Near {
+    face: u32,
+    bary: [f64; 3],
+    distance: f64,
+    out: DVec3,
+}
+
 /// Generalized winding number above which a point is inside an open surface: behind a flat
 /// sheet it is ½, in front −½, inside a bowl near its bottom close to 1.
 const OPEN_INSIDE_WINDING: f64 = 0.25;
@@ -196,36 +206,13 @@ const WINDING_ACCURACY: f64 = 4.0;
 /// above the far field's error at [`WINDING_ACCURACY`] (8·10⁻³ at worst on a sphere, see
 /// [`FastWinding`]).
 const WINDING_MARGIN: f64 = 0.05;
-/// A first, cheaper look at the winding number of an open surface (about 4× fewer nodes than
-/// at [`WINDING_ACCURACY`] near the surface) ...
-const COARSE_WINDING_ACCURACY: f64 = 2.0;
-/// ... which decides the points farther than this from [`OPEN_INSIDE_WINDING`]: far above the
-/// far field's error at [`COARSE_WINDING_ACCURACY`] (5·10⁻² at worst on a sphere, see
-/// [`FastWinding`]; under 0.1 on a sphere, a bent sheet and the bunny, tested), so the answers
-/// are those of the exact sum, as at [`WINDING_ACCURACY`].
-const COARSE_WINDING_MARGIN: f64 = 0.2;
-
-/// A point of a surface near a query: its face, its barycentric coordinates there, the query's
-/// signed distance to it (negative inside) and the unit direction out of the surface there.
-#[derive(Clone, Copy, Debug)]
-struct Near {
-    face: u32,
-    bary: [f64; 3],
-    distance: f64,
-    out: DVec3,
-}
 
 impl Surface<'_> {
     /// True if `q` is behind the open surface: its generalized winding number above
     /// [`OPEN_INSIDE_WINDING`], the fast approximation's unless it is within
     /// [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the answer
     /// does not depend on the tree's clusters).
-    /// Most points are decided at [`COARSE_WINDING_ACCURACY`] first (far from the threshold).
     fn behind_open(&self, winding: &FastWinding, q: DVec3) -> bool {
-        let coarse = winding.winding_number_at(q, COARSE_WINDING_ACCURACY);
-        if (coarse - OPEN_INSIDE_WINDING).abs() > COARSE_WINDING_MARGIN {
-            return coarse > OPEN_INSIDE_WINDING;
-        }
         let w = winding.winding_number(q);
         if (w - OPEN_INSIDE_WINDING).abs() > WINDING_MARGIN {
             return w > OPEN_INSIDE_WINDING;
