@@ -1,6 +1,7 @@
 //! The deformation stage of a frame (thesis ch. 5, §5.2.2, §7.1.2): every working region with
 //! contact zones is deformed with all its zones at once (regions in parallel, objects in
-//! parallel), then each object's regions are written back into one object-sized result.
+//! parallel), then each object's regions are written back into one object-sized result
+//! ([`object_results`], with the figures of the object and its regions).
 //!
 //! Inputs: the object caches (each region's sub-mesh and [`RegionSolver`]), the frame, the
 //! [`RegionZones`] of the contact stage, the component figures and region sizes of the setup.
@@ -23,17 +24,17 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::cache::{ObjectCache, RegionCache, SubRegion};
-use super::contacts::RegionZones;
+use super::contacts::{RegionZones, ZoneSummary};
 use super::plan::Trace;
 use super::store::FrameStore;
-use super::{Frame, FrameObject, PipelineError};
+use super::{Frame, FrameObject, ObjectStats, PipelineError, RegionStats, RegionSummary};
 use crate::contact::ContactZone;
 use crate::deform::{
     DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver,
-    automatic_extent, deform_with_fields, region_fields,
+    automatic_extent, deform_with_fields, region_fields, swept_volume_change,
 };
 use crate::linalg::FillOrder;
-use crate::mesh::Topology;
+use crate::mesh::{Topology, signed_volume, signed_volume_of};
 use crate::stage::{Stage, Work};
 
 /// The deformation of one region.
@@ -391,4 +392,126 @@ pub(super) fn combine(
         t.fallbacks.clamped_slopes += s.fallbacks.clamped_slopes;
     }
     Some(out)
+}
+
+/// Per object, in frame order: its positions, its deformation and its figures; and every working
+/// region's figures and summary.
+pub(super) struct ObjectResults {
+    pub positions: Vec<Vec<DVec3>>,
+    pub deformations: Vec<Option<RegionDeformation>>,
+    pub stats: Vec<ObjectStats>,
+    pub regions: Vec<RegionStats>,
+    pub summaries: Vec<RegionSummary>,
+}
+
+/// Writes every object's regions back and gathers the figures of objects and regions.
+pub(super) fn object_results(
+    frame: &Frame,
+    caches: &[Option<ObjectCache>],
+    zones: &ZoneSummary,
+    outcomes: Vec<Vec<Option<RegionOutcome>>>,
+) -> ObjectResults {
+    let count = frame.objects.len();
+    let ZoneSummary { zones, touching } = zones;
+    let mut positions = Vec::with_capacity(count);
+    let mut object_stats = Vec::with_capacity(count);
+    let mut kept = Vec::with_capacity(count);
+    let mut region_stats = Vec::new();
+    let mut summaries = Vec::new();
+    for (i, (object, outcomes)) in frame.objects.iter().zip(outcomes).enumerate() {
+        let Some(cache) = caches[i].as_ref() else { continue };
+        let input = &object.mesh.positions;
+        let volume_before = signed_volume(object.mesh);
+        let mut stats = ObjectStats {
+            name: object.name.to_string(),
+            vertices: input.len(),
+            rigid: object.params.rigid,
+            volume_before,
+            volume_after: volume_before,
+            preserve_volume: object.params.preserve_volume.unwrap_or(true),
+            regions: cache.regions.len(),
+            zones: zones[i].iter().sum(),
+            ..ObjectStats::default()
+        };
+        for (r, (region, outcome)) in cache.regions.iter().zip(&outcomes).enumerate() {
+            let sub = region.sub.as_deref();
+            let mut rs = RegionStats {
+                object: i,
+                name: object.name.to_string(),
+                region: r,
+                whole: sub.is_none(),
+                vertices: sub.map_or(input.len(), |s| s.sub.num_vertices()),
+                faces: region.num_faces(object.mesh),
+                cut_border_vertices: sub.map_or(0, |s| s.border_count),
+                rebuilt: region.rebuilt,
+                touching: touching[i][r].clone(),
+                zones: zones[i][r],
+                ..RegionStats::default()
+            };
+            if let Some(outcome) = outcome {
+                let s = &outcome.deformation.stats;
+                rs.deformed = true;
+                rs.extent = outcome.extent;
+                rs.extent_clamped = outcome.clamped;
+                rs.domain_reaches_cut = outcome.domain_reaches_cut;
+                rs.domain_vertices = outcome.deformation.domain.iter().filter(|&&d| d).count();
+                rs.bulge_height = s.bulge_height;
+                rs.applied_bulge_height = s.applied_bulge_height;
+                rs.contact_vertices = s.num_contact;
+                rs.deformable_vertices = s.num_deformable;
+                rs.time = outcome.time;
+                rs.nested_dissection = region.solver.as_ref().is_some_and(RegionSolver::uses_nested_dissection);
+                if !stats.deformed {
+                    stats.extent = outcome.extent;
+                    stats.bulge_height = s.bulge_height;
+                    stats.applied_bulge_height = s.applied_bulge_height;
+                }
+                stats.deformed = true;
+                stats.extent_clamped |= outcome.clamped;
+                stats.domain_reaches_cut |= outcome.domain_reaches_cut;
+                stats.contact_vertices += s.num_contact;
+                stats.deformable_vertices += s.num_deformable;
+                stats.fallbacks += s.fallbacks.direction_blend
+                    + s.fallbacks.bulge_map
+                    + s.fallbacks.volume_without_root
+                    + s.fallbacks.clamped_slopes;
+            }
+            region_stats.push(rs);
+            summaries.push(RegionSummary {
+                object: i,
+                region: r,
+                whole: sub.is_none(),
+                faces: region.faces.clone().unwrap_or_default(),
+                vertices: sub.map(|s| s.sub.parent_vertex.clone()).unwrap_or_default(),
+                cut_border: sub
+                    .map(|s| s.sub.parent_vertex.iter().zip(&s.border).filter(|(_, b)| **b).map(|(v, _)| *v).collect())
+                    .unwrap_or_default(),
+            });
+        }
+        let combined = combine(input, &cache.regions, outcomes);
+        match combined {
+            Some(deformation) => {
+                stats.volume_after = if cache.closed {
+                    signed_volume_of(&deformation.positions, &object.mesh.triangles)
+                } else {
+                    // An open mesh keeps the volume its displacement sweeps (`deform::volume`).
+                    volume_before
+                        + swept_volume_change(object.mesh, &cache.topology, &deformation.positions).unwrap_or(f64::NAN)
+                };
+                stats.max_displacement =
+                    input.iter().zip(&deformation.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+                positions.push(deformation.positions.clone());
+                kept.push(Some(deformation));
+            }
+            None => {
+                positions.push(input.clone());
+                kept.push(None);
+            }
+        }
+        if volume_before != 0.0 {
+            stats.relative_volume_change = (stats.volume_after - volume_before) / volume_before.abs();
+        }
+        object_stats.push(stats);
+    }
+    ObjectResults { positions, deformations: kept, stats: object_stats, regions: region_stats, summaries }
 }

@@ -191,41 +191,38 @@ impl FrameResult {
 }
 
 /// Runs the pipeline frame after frame, keeping connectivity-only caches (see the module doc).
+#[derive(Default)]
 pub struct Deformer {
-    caches: Vec<Option<ObjectCache>>,
-    /// Symbolic factorizations run since creation (one per deformed region unless its face set
-    /// or connectivity changes): lets benchmarks check that frames reuse them.
-    symbolic_analyses: usize,
+    /// The contacts between objects (level 2 of the plan) and their caches.
+    objects: ObjectContacts,
     /// Per object: the caches of its self-contacts (ch. 6).
     self_contact: Vec<self_contact::SelfContactCache>,
     /// Whether to keep what edits reuse ([`Deformer::keep_for_edits`]).
     keep_edits: bool,
     /// What the last full frame left for edits.
     edits: Option<EditState>,
-    /// Whether to leave out the separation pass ([`Deformer::without_separation`]).
-    skip_separation: bool,
     /// The quality pass's trees; `None` when it is left out ([`Deformer::without_quality`]).
     quality: Option<quality::QualityCache>,
 }
 
-impl Default for Deformer {
-    fn default() -> Self {
-        Self {
-            caches: Vec::new(),
-            symbolic_analyses: 0,
-            self_contact: Vec::new(),
-            keep_edits: false,
-            edits: None,
-            skip_separation: false,
-            quality: Some(quality::QualityCache::default()),
-        }
-    }
+/// The stages of the contacts between regions, and what they keep between frames: each object's
+/// cache (its working regions with their sub-meshes, trees and factorizations). The frame's
+/// contacts between objects run through one; so does each touching part pair of a skinned
+/// object (`part_contact`), on its two regions of one mesh.
+#[derive(Default)]
+pub(super) struct ObjectContacts {
+    caches: Vec<Option<ObjectCache>>,
+    /// Symbolic factorizations run since creation (one per deformed region unless its face set
+    /// or connectivity changes): lets benchmarks check that frames reuse them.
+    symbolic_analyses: usize,
+    /// Whether to leave out the separation pass ([`Deformer::without_separation`]).
+    skip_separation: bool,
 }
 
 impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {
-        Self::default()
+        Self { quality: Some(quality::QualityCache::default()), ..Self::default() }
     }
 
     /// Leaves out the quality pass ([`PairQuality`]: penetrations and intersecting faces
@@ -247,7 +244,7 @@ impl Deformer {
     /// Leaves out the separation pass (`separation`, issue 29): the outputs of chapter 5 as
     /// they are, for comparisons (the thesis' method with the contact gap's targets only).
     pub fn without_separation(mut self) -> Self {
-        self.skip_separation = true;
+        self.objects.skip_separation = true;
         self
     }
 
@@ -255,7 +252,7 @@ impl Deformer {
     /// deformed region on its first frame (and again only if its face set or connectivity
     /// changes).
     pub fn symbolic_analyses(&self) -> usize {
-        self.symbolic_analyses
+        self.objects.symbolic_analyses
     }
 
     /// Deforms one frame: the frame plan (`plan`) level by level, then the results. See the
@@ -299,19 +296,32 @@ impl Deformer {
         // the kept frame's.
         let level = match edit {
             Some(state) => {
-                let level = self.edit(&between, &state, &mut trace);
+                let level = self.objects.edit(&between, &state, &mut trace);
                 self.edits = Some(state);
                 level?
             }
-            None => self.contact_objects(&between, self.keep_edits && !self_contact, &mut trace)?,
+            None => {
+                let keep = self.keep_edits && !self_contact;
+                let (level, kept) = self.objects.contact(&between, keep, &mut trace)?;
+                self.edits = kept;
+                level
+            }
         };
-        results::assemble(&frame, &between, &self.caches, level, resolved, self.quality.as_mut(), trace, start)
+        results::assemble(&frame, &between, &self.objects.caches, level, resolved, self.quality.as_mut(), trace, start)
     }
+}
 
+impl ObjectContacts {
     /// The contacts between objects, stage after stage: setup, working regions, their region
     /// pairs as jobs, the contact definition of every job (ch. 4), the deformation of every
-    /// region with zones (ch. 5), the separation pass. `keep`: keep what edits reuse.
-    fn contact_objects(&mut self, frame: &Frame, keep: bool, trace: &mut Trace) -> Result<ObjectsLevel, PipelineError> {
+    /// region with zones (ch. 5), the separation pass. `keep`: keep what edits reuse, given back
+    /// with the level.
+    fn contact(
+        &mut self,
+        frame: &Frame,
+        keep: bool,
+        trace: &mut Trace,
+    ) -> Result<(ObjectsLevel, Option<EditState>), PipelineError> {
         // Setup (ch. 3): the frame checked before any work, then every object's cache.
         let pairing = setup::check_frame(frame)?;
         let figures =
@@ -341,12 +351,13 @@ impl Deformer {
         deformations::record(&outcomes, trace);
         self.symbolic_analyses += outcomes.iter().flatten().flatten().filter(|o| o.new_solver).count();
         let summary = zones.summary();
+        let mut kept_state = None;
         if keep {
             let kept = outcomes
                 .iter_mut()
                 .map(|o| o.iter_mut().map(|o| o.as_mut().and_then(|o| o.kept.take())).collect())
                 .collect();
-            self.edits = Some(EditState::new(
+            kept_state = Some(EditState::new(
                 frame,
                 contacts.clone(),
                 region_pairs.clone(),
@@ -358,7 +369,7 @@ impl Deformer {
 
         // The separation pass on the outputs (issue 29).
         let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, trace)?;
-        Ok(ObjectsLevel {
+        let level = ObjectsLevel {
             region_pairs,
             contacts,
             outcomes,
@@ -367,7 +378,8 @@ impl Deformer {
             closed: store.closed,
             unseparated,
             edit: false,
-        })
+        };
+        Ok((level, kept_state))
     }
 
     /// An edit of the kept frame (see `edits`): its jobs' contacts and its regions' fields

@@ -43,9 +43,16 @@
 //!
 //! **Continuity.** When a pair starts to touch its intersection is small and the method's
 //! displacement is proportional to the depth, so it starts from zero; a pair that stops
-//! touching is not run (zero displacement). Every pair keeps its own nested [`Deformer`] (its
-//! connectivity-only caches) per margin in a map ordered by part ids; a grown region's deformer
-//! is rebuilt when its labels change.
+//! touching is not run (zero displacement).
+//!
+//! **A pair is a job of the frame plan.** Its two regions run the stages of the contacts between
+//! regions ([`ObjectContacts`]: chapter 4, chapter 5, the separation pass) as one object paired
+//! with itself, without a nested frame: no results assembly, no quality pass of its own. Each
+//! pair keeps the caches of those stages (its regions' sub-meshes, trees and factorizations)
+//! per margin in a map ordered by part ids; a grown region's caches are rebuilt when its labels
+//! change. The stages' times and work go to the pair's job and to the frame's breakdown; what
+//! the pair does around them (its regions, the interior, the volume over the seam, its counts)
+//! is `part_contacts`.
 //!
 //! **Failures** of a pair (an intersection reaching its region's far border: parts too small
 //! for the contact; a rejected or undone result) leave that pair unresolved and are reported in
@@ -57,11 +64,13 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::{Deformer, Frame, FrameObject, FramePair, PipelineError};
+use super::deformations::object_results;
+use super::plan::Trace;
+use super::{Frame, FrameObject, FramePair, ObjectContacts, PipelineError};
 use crate::mesh::TriMesh;
 use crate::params::{ObjectParams, PairParams, SkinParts};
 use crate::skinning::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
-use crate::stage::Work;
+use crate::stage::{Stage, StageTimes, StageWork, Work};
 
 /// Rings of faces each side of a part pair takes from its neighbouring parts: the first, then
 /// the wider ones tried in turn when a contact reaches a region's border (the intersection is
@@ -102,9 +111,9 @@ pub struct PartPairStats {
     pub time: Duration,
 }
 
-/// A touching pair's nested deformer and the regions it was built for.
-struct PairDeformer {
-    deformer: Deformer,
+/// A touching pair's caches of the contact stages and the regions they were built for.
+struct PairRegions {
+    contacts: ObjectContacts,
     labels: Vec<f64>,
     region_faces: [usize; 2],
 }
@@ -115,12 +124,12 @@ pub(super) struct PartContactCache {
     setup: Option<PartContactSetup>,
     rest_intersections: Option<RestIntersections>,
     parts: Option<SkinParts>,
-    deformers: BTreeMap<([u32; 2], TouchingKind, bool, usize), PairDeformer>,
+    regions: BTreeMap<([u32; 2], TouchingKind, bool, usize), PairRegions>,
 }
 
 impl std::fmt::Debug for PartContactCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PartContactCache").field("pairs", &self.deformers.len()).finish()
+        f.debug_struct("PartContactCache").field("pairs", &self.regions.len()).finish()
     }
 }
 
@@ -342,8 +351,9 @@ pub(super) struct PartContactResult {
     pub untangled: Untangled,
     /// The search for the touching pairs (and the faces crossing before them): its time and work.
     pub search: Spent,
-    /// Per pair (in the order of `pairs`): its work, its nested frame's included.
-    pub pair_work: Vec<Work>,
+    /// Per pair (in the order of `pairs`): the time and work of the stages it ran, its own
+    /// (`part_contacts`) and those of its contact stages.
+    pub pair_stages: Vec<(StageTimes, StageWork)>,
     /// The work of the untangling.
     pub untangle_work: Work,
     /// The counts of the faces crossing in the input and the result.
@@ -401,7 +411,7 @@ pub(super) fn resolve_part_contacts(
             setup: Some(PartContactSetup::new(rest).map_err(spatial)?),
             rest_intersections: Some(RestIntersections::new(rest).map_err(spatial)?),
             parts: Some(parts.clone()),
-            deformers: BTreeMap::new(),
+            regions: BTreeMap::new(),
         };
     }
     let Some(setup) = cache.setup.as_mut() else {
@@ -425,10 +435,11 @@ pub(super) fn resolve_part_contacts(
     let mut stats = Vec::with_capacity(touching.len());
     let neighbours = if touching.is_empty() { Vec::new() } else { vertex_neighbours(mesh) };
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
-    let mut pair_work = Vec::with_capacity(touching.len());
+    let mut pair_stages = Vec::with_capacity(touching.len());
     for pair in &touching {
         let start = Instant::now();
-        let mut nested_work = Work::ZERO;
+        // The pair's contact stages, traced apart from what the pair does around them.
+        let mut stages = Trace::default();
         let current = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         let mut s = PartPairStats {
             object: index,
@@ -456,17 +467,17 @@ pub(super) fn resolve_part_contacts(
             } else {
                 pair_labels(mesh, parts, pair.parts, rings)
             };
-            // Grown regions follow the intersection: a new deformer when they change.
+            // Grown regions follow the intersection: new caches when they change.
             let key = (pair.parts, pair.kind, grown, rings);
-            if cache.deformers.get(&key).is_some_and(|d| d.labels != labels) {
-                cache.deformers.remove(&key);
+            if cache.regions.get(&key).is_some_and(|d| d.labels != labels) {
+                cache.regions.remove(&key);
             }
-            let entry = cache.deformers.entry(key).or_insert_with(|| {
+            let entry = cache.regions.entry(key).or_insert_with(|| {
                 let faces_of = |k: f64| -> usize {
                     mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
                 };
                 let region_faces = [faces_of(1.0), faces_of(2.0)];
-                PairDeformer { deformer: Deformer::new(), labels, region_faces }
+                PairRegions { contacts: ObjectContacts::default(), labels, region_faces }
             });
             s.region_faces = entry.region_faces;
             s.margin_rings = rings;
@@ -480,27 +491,27 @@ pub(super) fn resolve_part_contacts(
                 objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
                 pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
             };
-            let outcome = entry.deformer.deform(&frame).map_err(|e| e.to_string()).and_then(|result| {
-                // The nested frame counts its work in its own span.
-                for (_, w) in result.stats.work.iter() {
-                    nested_work += *w;
-                }
-                // A bulge taller than its extent: the extent was clamped to a sliver of the
-                // region (its seam too close), so the volume went into a spike.
-                match result.stats.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
-                    Some(r) => Err(format!(
-                        "region {}: a bulge of height {:.3e} over an extent of {:.3e}; a wider margin is needed",
-                        r.region, r.applied_bulge_height, r.extent
-                    )),
-                    None => Ok(result),
-                }
-            });
+            let outcome =
+                entry.contacts.contact(&frame, false, &mut stages).map_err(|e| e.to_string()).and_then(|(level, _)| {
+                    let in_contact = level.contacts.iter().flatten().any(|c| !c.is_empty());
+                    let contact_area: f64 = level.contacts.iter().flatten().map(|c| c.contact_area).sum();
+                    let results = object_results(&frame, &entry.contacts.caches, &level.zones, level.outcomes);
+                    // A bulge taller than its extent: the extent was clamped to a sliver of the
+                    // region (its seam too close), so the volume went into a spike.
+                    match results.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
+                        Some(r) => Err(format!(
+                            "region {}: a bulge of height {:.3e} over an extent of {:.3e}; a wider margin is needed",
+                            r.region, r.applied_bulge_height, r.extent
+                        )),
+                        None => Ok((in_contact, contact_area, results.positions)),
+                    }
+                });
             match outcome {
-                Ok(result) => {
+                Ok((in_contact, contact_area, positions_out)) => {
                     s.error = None;
-                    s.in_contact = result.stats.pairs.iter().any(|p| p.in_contact);
-                    s.contact_area = result.stats.pairs.iter().map(|p| p.contact_area).sum();
-                    if let Some(new) = result.positions.into_iter().next() {
+                    s.in_contact = in_contact;
+                    s.contact_area = contact_area;
+                    if let Some(new) = positions_out.into_iter().next() {
                         let Some(new) = restore_volume(&current, new) else {
                             s.error = Some("the object's volume cannot be restored over the seam".into());
                             break;
@@ -532,9 +543,14 @@ pub(super) fn resolve_part_contacts(
         let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         s.faces_after = crossing_faces(&after, parts, setup, pair.parts).map_err(spatial)?;
         s.time = start.elapsed();
+        // The pair's own share: its time beyond its contact stages', its work around them (they
+        // count theirs in spans of their own).
+        let Trace { stages: mut times, mut work, .. } = stages;
+        let staged: Duration = Stage::spans().map(|stage| times[stage]).sum();
+        times[Stage::PartContacts] += s.time.saturating_sub(staged);
+        work[Stage::PartContacts] += Work::lap();
         stats.push(s);
-        nested_work += Work::lap();
-        pair_work.push(nested_work);
+        pair_stages.push((times, work));
     }
     // What the contacts leave crossing (or could not treat: folds of a crumpled skin, chords of
     // a coarse one) is untangled, then the volume restored; kept only if fewer faces cross.
@@ -589,7 +605,7 @@ pub(super) fn resolve_part_contacts(
         self_intersecting_faces,
         untangled,
         search,
-        pair_work,
+        pair_stages,
         untangle_work,
         counts,
     })
@@ -599,6 +615,7 @@ pub(super) fn resolve_part_contacts(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::Deformer;
     use crate::mesh::{shapes, signed_volume};
     use crate::skinning::{SkinWeights, parts_from_skin};
 
@@ -673,6 +690,32 @@ mod tests {
         let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
         assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
         assert!(result.stats.objects[0].deformed);
+    }
+
+    #[test]
+    fn a_part_pair_is_a_job_that_records_the_contact_stages_it_ran() {
+        let s = Siblings::new();
+        let posed = s.pose(0.8, std::f64::consts::FRAC_PI_2);
+        let result = s.run(&mut Deformer::new(), &posed, &s.params(&s.rest));
+        let jobs: Vec<_> = result.stats.jobs.iter().filter(|j| j.kind == super::super::JobKind::Parts).collect();
+        assert_eq!(jobs.len(), 1, "{:?}", result.stats.jobs);
+        let job = jobs[0];
+        assert!(job.in_contact && job.error.is_none(), "{job:?}");
+        // Chapter 4, chapter 5 and the separation pass run as stages of the job, not inside a
+        // nested frame; its own share (regions, interior, volume over the seam) is
+        // `part_contacts`; no quality pass of its own.
+        for stage in [Stage::Intersection, Stage::Mapping, Stage::Parametrization, Stage::Deformation] {
+            assert!(!job.stages[stage].is_zero(), "{stage}: {job:?}");
+            assert!(!job.work[stage].is_zero() || stage == Stage::Deformation, "{stage}: {job:?}");
+        }
+        assert!(!job.stages[Stage::PartContacts].is_zero() && !job.work[Stage::PartContacts].is_zero());
+        assert!(job.stages[Stage::Quality].is_zero() && job.work[Stage::Quality].is_zero(), "{job:?}");
+        // The job's stages are within the frame's, and together within the pair's time.
+        for stage in Stage::ALL {
+            assert!(job.stages[stage] <= result.stats.stages[stage], "{stage}");
+        }
+        let staged: Duration = Stage::spans().map(|stage| job.stages[stage]).sum();
+        assert!(staged <= result.stats.part_pairs[0].time + Duration::from_micros(1), "{staged:?}");
     }
 
     #[test]

@@ -467,19 +467,14 @@ fn finish_object(
         Some(parts) => {
             let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &prepared.rest, params, parts)?;
             // Each touching part pair is a job of the plan's first level (its figures in
-            // `part_pairs`; its stages run inside its own nested frame until the self-contact
-            // rework, issue 36).
-            for (pair, &pair_work) in r.pairs.iter().zip(&r.pair_work) {
+            // `part_pairs`), with the stages it ran.
+            for (pair, (times, work)) in r.pairs.iter().zip(&r.pair_stages) {
                 let job_name = format!("{name}: parts \"{}\" – \"{}\" ({})", pair.parts[0], pair.parts[1], pair.kind);
                 let mut record = JobRecord::new(JobLevel::SelfContact, JobKind::Parts, job_name, [index, index]);
                 record.in_contact = pair.in_contact;
                 record.error.clone_from(&pair.error);
                 let job = trace.push_job(record);
-                let mut times = StageTimes::default();
-                times[Stage::PartContacts] = pair.time;
-                let mut work = StageWork::default();
-                work[Stage::PartContacts] = pair_work;
-                trace.add_to_job(job, &times, &work);
+                trace.add_to_job(job, times, work);
             }
             // What the pairs share (the search for touching pairs) and the counts of the faces
             // crossing before and after.
