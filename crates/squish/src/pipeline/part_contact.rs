@@ -69,7 +69,7 @@ use super::plan::Trace;
 use super::{Frame, FrameObject, FramePair, ObjectContacts, PipelineError};
 use crate::mesh::TriMesh;
 use crate::params::{ObjectParams, PairParams, SkinParts};
-use crate::skinning::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
+use crate::skinning::{FacesBeyond, PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
 use crate::stage::{Stage, StageTimes, StageWork, Work};
 
 /// Rings of faces each side of a part pair takes from its neighbouring parts: the first, then
@@ -273,6 +273,28 @@ fn inside_itself(mesh: &TriMesh) -> Result<Vec<bool>, crate::spatial::SpatialErr
     Ok(winding.winding_numbers(&mesh.positions).iter().map(|w| w.abs() > 1.0).collect())
 }
 
+/// The faces crossing beyond the rest pose's ([`RestIntersections::faces_beyond`]) of each mesh
+/// the stage makes, each counted from the last one counted ([`RestIntersections::
+/// faces_beyond_after`]: a search where vertices moved, the same faces as a whole search).
+struct Crossings<'r> {
+    /// `None`: no rest pose to count from (no face crosses).
+    rest: Option<&'r RestIntersections>,
+    last: Option<FacesBeyond>,
+}
+
+impl Crossings<'_> {
+    fn faces(&mut self, mesh: &TriMesh) -> Result<Vec<u32>, crate::spatial::SpatialError> {
+        let Some(rest) = self.rest else { return Ok(Vec::new()) };
+        let counted = match &self.last {
+            Some(last) => rest.faces_beyond_after(last, mesh)?,
+            None => rest.counted(mesh)?,
+        };
+        let faces = counted.faces.clone();
+        self.last = Some(counted);
+        Ok(faces)
+    }
+}
+
 /// `new` (the pair's result on `current`) with the object's volume brought back to `current`'s
 /// exactly: the regions' heights keep their own swept volumes, but their open seams move, and
 /// the faces of the strip between them with it. The moved vertices are offset along their unit
@@ -423,13 +445,10 @@ pub(super) fn resolve_part_contacts(
     let search_start = Instant::now();
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
-    let beyond = |m: &TriMesh| -> Result<usize, PipelineError> {
-        match rest_intersections {
-            Some(r) => Ok(r.faces_beyond(m).map_err(spatial)?.len()),
-            None => Ok(0),
-        }
-    };
-    let mut faces_now = if touching.is_empty() { 0 } else { beyond(mesh)? };
+    let mut crossings = Crossings { rest: rest_intersections.as_ref(), last: None };
+    let mut faces_now = if touching.is_empty() { 0 } else { crossings.faces(mesh).map_err(spatial)?.len() };
+    // The count of the stage's input starts from this one (the articulations moved few vertices).
+    let first = crossings.last.clone();
     let mut positions = mesh.positions.clone();
     let mut moved = vec![false; n];
     let mut stats = Vec::with_capacity(touching.len());
@@ -467,18 +486,26 @@ pub(super) fn resolve_part_contacts(
             } else {
                 pair_labels(mesh, parts, pair.parts, rings)
             };
-            // Grown regions follow the intersection: new caches when they change.
+            // Grown regions follow the intersection: when they change, the regions' caches are
+            // updated for their new faces (the object's are kept).
+            let faces_of = |k: f64| -> usize {
+                mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
+            };
             let key = (pair.parts, pair.kind, grown, rings);
-            if cache.regions.get(&key).is_some_and(|d| d.labels != labels) {
-                cache.regions.remove(&key);
-            }
-            let entry = cache.regions.entry(key).or_insert_with(|| {
-                let faces_of = |k: f64| -> usize {
-                    mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
-                };
-                let region_faces = [faces_of(1.0), faces_of(2.0)];
-                PairRegions { contacts: ObjectContacts::default(), labels, region_faces }
-            });
+            let entry = match cache.regions.entry(key) {
+                std::collections::btree_map::Entry::Occupied(entry) => {
+                    let entry = entry.into_mut();
+                    if entry.labels != labels {
+                        entry.region_faces = [faces_of(1.0), faces_of(2.0)];
+                        entry.labels = labels;
+                    }
+                    entry
+                }
+                std::collections::btree_map::Entry::Vacant(entry) => {
+                    let region_faces = [faces_of(1.0), faces_of(2.0)];
+                    entry.insert(PairRegions { contacts: ObjectContacts::default(), labels, region_faces })
+                }
+            };
             s.region_faces = entry.region_faces;
             s.margin_rings = rings;
             s.grown_from_intersection = grown;
@@ -519,7 +546,7 @@ pub(super) fn resolve_part_contacts(
                         // Never worse than this pair's input: a result that leaves the object
                         // more self-intersecting faces is undone.
                         let candidate = TriMesh { positions: new, triangles: mesh.triangles.clone() };
-                        let faces = beyond(&candidate)?;
+                        let faces = crossings.faces(&candidate).map_err(spatial)?.len();
                         if faces > faces_now {
                             s.error = Some(format!(
                                 "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
@@ -556,13 +583,12 @@ pub(super) fn resolve_part_contacts(
     // a coarse one) is untangled, then the volume restored; kept only if fewer faces cross.
     let untangle_start = Instant::now();
     let mut untangled = Untangled { faces_before: faces_now, ..Untangled::default() };
-    if let (Some(rest_intersections), Some(setup)) = (rest_intersections, cache.setup.as_ref())
+    if let (Some(_), Some(setup)) = (rest_intersections, cache.setup.as_ref())
         && faces_now > 0
         && params.untangle
     {
-        let crossing = |p: &[DVec3]| {
-            rest_intersections.faces_beyond(&TriMesh { positions: p.to_vec(), triangles: mesh.triangles.clone() })
-        };
+        let crossing =
+            |p: &[DVec3]| crossings.faces(&TriMesh { positions: p.to_vec(), triangles: mesh.triangles.clone() });
         let mut candidate = positions.clone();
         let outcome =
             super::untangle::relax(&mesh.triangles, &mut candidate, &neighbours, setup.position_ids(), crossing)
@@ -577,7 +603,7 @@ pub(super) fn resolve_part_contacts(
             && let Some(restored) = restore_volume_with(&before, candidate, &carriers)
         {
             let restored_mesh = TriMesh { positions: restored, triangles: mesh.triangles.clone() };
-            let faces = beyond(&restored_mesh)?;
+            let faces = crossings.faces(&restored_mesh).map_err(spatial)?.len();
             if faces < faces_now {
                 untangled.rounds = outcome.rounds;
                 faces_now = faces;
@@ -595,7 +621,11 @@ pub(super) fn resolve_part_contacts(
     let untangle_work = Work::lap();
     let counts_start = Instant::now();
     let result = TriMesh { positions, triangles: mesh.triangles.clone() };
-    let self_intersecting_faces = [beyond(input)?, beyond(&result)?];
+    let after = crossings.faces(&result).map_err(spatial)?.len();
+    if first.is_some() {
+        crossings.last = first;
+    }
+    let self_intersecting_faces = [crossings.faces(input).map_err(spatial)?.len(), after];
     let counts = Spent { time: counts_start.elapsed(), work: Work::lap() };
     outer.record();
     Ok(PartContactResult {
@@ -716,6 +746,20 @@ mod tests {
         }
         let staged: Duration = Stage::spans().map(|stage| job.stages[stage]).sum();
         assert!(staged <= result.stats.part_pairs[0].time + Duration::from_micros(1), "{staged:?}");
+    }
+
+    #[test]
+    fn caches_kept_from_frame_to_frame_give_the_bits_of_fresh_ones() {
+        let s = Siblings::new();
+        let mut kept = Deformer::new();
+        for (x, turn) in [(0.9, 1.5), (0.8, 1.6), (0.6, 1.4), (0.85, 1.55)] {
+            let posed = s.pose(x, turn);
+            let params = s.params(&s.rest);
+            let reused = s.run(&mut kept, &posed, &params);
+            let fresh = s.run(&mut Deformer::new(), &posed, &params);
+            assert!(reused.stats.part_pairs.iter().any(|p| p.in_contact), "x = {x}");
+            assert_eq!(reused.positions, fresh.positions, "x = {x}");
+        }
     }
 
     #[test]

@@ -25,10 +25,10 @@ use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
 use crate::skinning::{
     ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations,
-    articulation_interiors, contact_articulation, deform_articulation, self_intersection_counts,
+    articulation_crossings, articulation_interiors, contact_articulation, deform_articulation,
 };
 use crate::spatial::TriangleBvh;
-use crate::stage::{Stage, StageTimes, StageWork, Work};
+use crate::stage::{SharedWork, Stage, StageTimes, StageWork, Work};
 
 /// What the deformer keeps about an object's self-contacts between frames.
 #[derive(Debug, Default)]
@@ -430,11 +430,31 @@ fn finish_object(
     let after = TriMesh { positions: applied.positions, triangles: mesh.triangles.clone() };
     let timer = Instant::now();
     let (counted, quality_work) = Work::measure(|| -> Result<_, PipelineError> {
+        let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
+        // Each articulation's faces crossing before and after, articulations in parallel (each
+        // task counts its work in a span of its own).
+        let work = SharedWork::default();
+        let counts: Vec<Option<_>> = plans
+            .par_iter()
+            .zip(&cache.setups)
+            .map(|(plan, setup)| match setup {
+                Some(setup) if plan.stats.error.is_none() => work.measure(|| {
+                    let before = articulation_crossings(mesh, setup, &plan.labels, None)?;
+                    let after = articulation_crossings(&after, setup, &plan.labels, Some(&before))?;
+                    Ok(Some((before.counts(), after.counts())))
+                }),
+                _ => Ok(None),
+            })
+            .collect::<Result<_, _>>()
+            .map_err(spatial)?;
+        work.record();
         let mut contact = vec![false; n];
         let mut moved = vec![false; n];
         let mut cuts = Vec::with_capacity(plans.len());
         let mut stats = Vec::with_capacity(plans.len());
-        for ((plan, &(height, exact)), setup) in plans.into_iter().zip(&applied.heights).zip(&cache.setups) {
+        for (((plan, &(height, exact)), setup), counts) in
+            plans.into_iter().zip(&applied.heights).zip(&cache.setups).zip(counts)
+        {
             for v in 0..n {
                 contact[v] |= plan.contact[v];
                 moved[v] |= plan.displacement.moved[v];
@@ -446,10 +466,7 @@ fn finish_object(
             if s.error.is_some() {
                 // Left inactive: nothing cut, nothing to count.
                 cuts.push((Vec::new(), Vec::new()));
-            } else if let Some(setup) = setup {
-                let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
-                let before = self_intersection_counts(mesh, setup, &plan.labels).map_err(spatial)?;
-                let after = self_intersection_counts(&after, setup, &plan.labels).map_err(spatial)?;
+            } else if let (Some(setup), Some((before, after))) = (setup, counts) {
                 s.self_intersecting_faces_before = before.all;
                 s.self_intersecting_faces_after = after.all;
                 s.self_intersecting_faces_across_before = before.across;

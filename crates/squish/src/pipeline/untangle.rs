@@ -54,7 +54,7 @@ pub(super) fn relax(
     positions: &mut [DVec3],
     neighbours: &[Vec<u32>],
     position_ids: &[u32],
-    crossing: impl Fn(&[DVec3]) -> Result<Vec<u32>, SpatialError>,
+    mut crossing: impl FnMut(&[DVec3]) -> Result<Vec<u32>, SpatialError>,
 ) -> Result<Relaxed, SpatialError> {
     let mut faces = crossing(positions)?;
     let mut relaxed = Relaxed { rounds: 0, faces_after: faces.len() };

@@ -14,10 +14,12 @@ mod self_contact;
 pub use articulation::{ArticulationError, articulation_direction, joints_direction, regions_from_skin_weights};
 pub use lbs::{Skin, SkinError, SkinWeights, joint_matrices, linear_blend_skinning};
 pub use partition::{Seed, SharedRegion};
-pub use parts::{PartContactSetup, RestIntersections, TouchingKind, TouchingPair, dominant_joints, parts_from_skin};
+pub use parts::{
+    FacesBeyond, PartContactSetup, RestIntersections, TouchingKind, TouchingPair, dominant_joints, parts_from_skin,
+};
 pub use self_contact::{
-    AppliedArticulations, ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats,
-    CONTACT_THRESHOLD_FLOOR, FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError, SelfIntersectionCounts,
-    apply_articulations, articulation_interiors, contact_articulation, deform_articulation, plan_articulation,
-    self_intersection_counts,
+    AppliedArticulations, ArticulationContact, ArticulationCrossings, ArticulationPlan, ArticulationSetup,
+    ArticulationStats, CONTACT_THRESHOLD_FLOOR, FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError,
+    SelfIntersectionCounts, apply_articulations, articulation_crossings, articulation_interiors, contact_articulation,
+    deform_articulation, plan_articulation, self_intersection_counts,
 };

@@ -360,6 +360,32 @@ impl RestIntersections {
             self.pairs.binary_search(&[f.min(g), f.max(g)]).is_err()
         })
     }
+
+    /// [`Self::faces_beyond`] of a whole mesh, kept to count again after some of its vertices
+    /// move ([`Self::faces_beyond_after`]).
+    pub fn counted(&self, mesh: &TriMesh) -> Result<FacesBeyond, SpatialError> {
+        Ok(FacesBeyond { faces: self.faces_beyond(mesh)?, positions: mesh.positions.clone() })
+    }
+
+    /// [`Self::faces_beyond`] of `mesh`, the mesh `before` was counted on with some vertices
+    /// moved: searched only where they can have changed
+    /// ([`crate::spatial::self_intersecting_faces_after`]), the same faces.
+    pub fn faces_beyond_after(&self, before: &FacesBeyond, mesh: &TriMesh) -> Result<FacesBeyond, SpatialError> {
+        let all: Vec<u32> = (0..mesh.num_triangles() as u32).collect();
+        let related = |f: u32, g: u32| self.pairs.binary_search(&[f.min(g), f.max(g)]).is_err();
+        let faces =
+            crate::spatial::self_intersecting_faces_after(mesh, &all, related, &before.positions, &before.faces)?;
+        Ok(FacesBeyond { faces, positions: mesh.positions.clone() })
+    }
+}
+
+/// The faces [`RestIntersections::faces_beyond`] found on a mesh, with the positions they were
+/// found at.
+#[derive(Clone, Debug)]
+pub struct FacesBeyond {
+    /// The faces, sorted.
+    pub faces: Vec<u32>,
+    positions: Vec<DVec3>,
 }
 
 #[cfg(test)]
@@ -436,6 +462,41 @@ mod tests {
         assert_eq!(left.len(), 1);
         assert_eq!(left[0].kind, TouchingKind::AfterArticulation);
         assert_eq!(left[0].faces, touching[0].faces);
+    }
+
+    #[test]
+    fn counting_again_after_a_move_finds_the_faces_of_a_whole_search() {
+        // Rest: the capsules overlap a little (the asset's own); then the second moves through
+        // the first, a few vertices at a time, so faces start and stop crossing, far from and
+        // next to the moved ones.
+        let (rest, _) = two_capsules(0.95);
+        let rest_intersections = RestIntersections::new(&rest).unwrap();
+        assert!(!rest_intersections.pairs.is_empty());
+        let half = rest.num_vertices() / 2;
+        let mut mesh = rest.clone();
+        let mut counted = rest_intersections.counted(&mesh).unwrap();
+        assert!(counted.faces.is_empty());
+        let mut seen_crossing = false;
+        for step in 0..40 {
+            // Each step moves one band of the second capsule's vertices (by index) toward the
+            // first, and every few steps brings one band back out.
+            let band = (step * 37) % half;
+            for v in half + band..(half + band + 23).min(2 * half) {
+                mesh.positions[v].x -= if step % 5 == 4 { -0.2 } else { 0.09 };
+            }
+            let incremental = rest_intersections.faces_beyond_after(&counted, &mesh).unwrap();
+            let whole = rest_intersections.faces_beyond(&mesh).unwrap();
+            assert_eq!(incremental.faces, whole, "step {step}");
+            seen_crossing |= !whole.is_empty();
+            counted = incremental;
+        }
+        assert!(seen_crossing);
+        // Nothing moved: the same faces; everything moved: a whole search.
+        assert_eq!(rest_intersections.faces_beyond_after(&counted, &mesh).unwrap().faces, counted.faces);
+        let shifted =
+            TriMesh { positions: mesh.positions.iter().map(|p| *p * 0.5).collect(), triangles: mesh.triangles.clone() };
+        let after = rest_intersections.faces_beyond_after(&counted, &shifted).unwrap();
+        assert_eq!(after.faces, rest_intersections.faces_beyond(&shifted).unwrap());
     }
 
     #[test]

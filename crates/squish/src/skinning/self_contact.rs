@@ -850,6 +850,21 @@ pub struct SelfIntersectionCounts {
     pub across: usize,
 }
 
+/// The faces behind [`SelfIntersectionCounts`], with the positions they were found at: what
+/// [`self_intersection_counts_after`] counts again from.
+#[derive(Clone, Debug, Default)]
+pub struct ArticulationCrossings {
+    pub all: Vec<u32>,
+    pub across: Vec<u32>,
+    positions: Vec<DVec3>,
+}
+
+impl ArticulationCrossings {
+    pub fn counts(&self) -> SelfIntersectionCounts {
+        SelfIntersectionCounts { all: self.all.len(), across: self.across.len() }
+    }
+}
+
 /// [`SelfIntersectionCounts`] of `mesh` (the object at this frame, input or result) for the
 /// articulation of `setup`. A vertex is on side 1 in 𝒲₁ \ ℛ, on side 2 in 𝒲₂ \ ℛ, and on the
 /// side of its crease-cut label in ℛ (`labels`, in the order of [`SharedRegion::vertices`],
@@ -859,8 +874,20 @@ pub fn self_intersection_counts(
     setup: &ArticulationSetup,
     labels: &[bool],
 ) -> Result<SelfIntersectionCounts, SpatialError> {
+    Ok(articulation_crossings(mesh, setup, labels, None)?.counts())
+}
+
+/// The faces of [`self_intersection_counts`]; counted again from `before` (the same
+/// articulation and labels on the same connectivity, other positions) where given: searched only
+/// where vertices moved ([`crate::spatial::self_intersecting_faces_after`]), the same faces.
+pub fn articulation_crossings(
+    mesh: &TriMesh,
+    setup: &ArticulationSetup,
+    labels: &[bool],
+    before: Option<&ArticulationCrossings>,
+) -> Result<ArticulationCrossings, SpatialError> {
     if setup.faces.is_empty() {
-        return Ok(SelfIntersectionCounts::default());
+        return Ok(ArticulationCrossings::default());
     }
     let shared = &setup.shared;
     let mut side: Vec<u8> = shared
@@ -878,10 +905,18 @@ pub fn self_intersection_counts(
     let sides_of = |f: u32| -> u8 {
         mesh.triangles[f as usize].iter().fold(0u8, |mask, &v| mask | side.get(v as usize).copied().unwrap_or(0))
     };
-    let faces = setup.faces.iter().copied();
-    let all = crate::spatial::self_intersecting_faces(mesh, faces.clone(), |_, _| true)?;
-    let across = crate::spatial::self_intersecting_faces(mesh, faces, |f, g| sides_of(f) | sides_of(g) == 3)?;
-    Ok(SelfIntersectionCounts { all: all.len(), across: across.len() })
+    let across = |f: u32, g: u32| sides_of(f) | sides_of(g) == 3;
+    let (all, across) = match before {
+        Some(b) => (
+            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, |_, _| true, &b.positions, &b.all)?,
+            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, across, &b.positions, &b.across)?,
+        ),
+        None => (
+            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), |_, _| true)?,
+            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), across)?,
+        ),
+    };
+    Ok(ArticulationCrossings { all, across, positions: mesh.positions.clone() })
 }
 
 #[cfg(test)]

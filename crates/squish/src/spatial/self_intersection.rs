@@ -39,13 +39,14 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::SpatialError;
+use super::aabb_tree::AabbTree;
 use super::bvh::TriangleBvh;
 use super::exact::cross_exact;
 use super::obb_tree::{Item, ObbTree};
 #[cfg(any(test, doc))]
 use super::tri_tri::triangles_intersect_away_from_shared;
 use super::tri_tri::{intersect, intersect_away_from_shared, triangles_intersect};
-use crate::mesh::{MeshError, TriMesh, faces_around_vertices};
+use crate::mesh::{Aabb3, MeshError, TriMesh, faces_around_vertices};
 use crate::stage::{SharedWork, Work};
 
 /// Stars and edges with at most this many faces test all their pairs.
@@ -82,6 +83,67 @@ pub fn self_intersecting_faces(
     related: impl Fn(u32, u32) -> bool + Sync,
 ) -> Result<Vec<u32>, SpatialError> {
     search(mesh, faces, &related, false)
+}
+
+/// [`self_intersecting_faces`] of `mesh` among `faces`, given `found`: what the same search
+/// (same faces, same `related`, which must not depend on positions) found on the same
+/// connectivity at the positions `before`. The same faces as a whole search, found by searching
+/// only where they can have changed: a pair of faces that both kept their corners intersects as
+/// before, so the search runs among the faces with a moved corner, the faces whose boxes touch
+/// theirs, and `found`; a pair with a face outside these is a pair of unmoved faces of which one
+/// intersected nothing, which still holds. A move of most of the faces searches them whole.
+pub fn self_intersecting_faces_after(
+    mesh: &TriMesh,
+    faces: &[u32],
+    related: impl Fn(u32, u32) -> bool + Sync,
+    before: &[DVec3],
+    found: &[u32],
+) -> Result<Vec<u32>, SpatialError> {
+    if before.len() != mesh.positions.len() {
+        return search(mesh, faces.iter().copied(), &related, false);
+    }
+    let triangle = |f: u32| {
+        mesh.triangles.get(f as usize).ok_or(SpatialError::FaceOutOfRange { face: f, faces: mesh.triangles.len() })
+    };
+    let mut touched = Vec::new();
+    for &f in faces {
+        let moved = triangle(f)?.iter().any(|&v| before.get(v as usize) != mesh.positions.get(v as usize));
+        if moved {
+            touched.push(f);
+        }
+    }
+    if touched.is_empty() {
+        return Ok(found.to_vec());
+    }
+    if 2 * touched.len() > faces.len() {
+        return search(mesh, faces.iter().copied(), &related, false);
+    }
+    let corners = |f: u32| -> Result<[DVec3; 3], SpatialError> {
+        let t = triangle(f)?;
+        let mut c = [DVec3::ZERO; 3];
+        for (c, &v) in c.iter_mut().zip(t) {
+            *c = *mesh.positions.get(v as usize).ok_or(MeshError::IndexOutOfRange {
+                triangle: f as usize,
+                index: v as u64,
+                vertices: mesh.positions.len(),
+            })?;
+        }
+        Ok(c)
+    };
+    let face_box = |f: u32| corners(f).map(Aabb3::from_points);
+    let boxes: Vec<Aabb3> = touched.iter().map(|&f| face_box(f)).collect::<Result<_, _>>()?;
+    let tree = AabbTree::new(&boxes)?;
+    Work::count_queries(faces.len() as u64);
+    let mut candidates: Vec<u32> = touched;
+    candidates.extend_from_slice(found);
+    for &f in faces {
+        let mut near = false;
+        tree.for_each_overlapping(&face_box(f)?, |_| near = true);
+        if near {
+            candidates.push(f);
+        }
+    }
+    search(mesh, candidates, &related, false)
 }
 
 /// [`self_intersecting_faces`]; with `merge_copies` (only for a relation that holds for every
@@ -531,6 +593,37 @@ mod tests {
         let within =
             self_intersecting_faces(&mesh, 0..mesh.num_triangles() as u32, |f, g| (f < n0) == (g < n0)).unwrap();
         assert!(within.is_empty(), "{within:?}");
+    }
+
+    #[test]
+    fn searching_again_after_a_move_finds_the_faces_of_a_whole_search() {
+        // Two spheres of one mesh; the faces searched are every other face, the relation "one
+        // face of each sphere"; the second sphere moves a few vertices at a time through the
+        // first and back.
+        let mut mesh = shapes::icosphere(1.0, 2);
+        let mut other = shapes::icosphere(0.8, 2);
+        other.map_positions(|p| p + DVec3::new(2.0, 0.0, 0.0));
+        mesh.append(&other);
+        let n0 = 320u32;
+        let faces: Vec<u32> = (0..mesh.num_triangles() as u32).filter(|f| f % 2 == 0).collect();
+        let related = |f: u32, g: u32| (f < n0) != (g < n0);
+        let whole = |m: &TriMesh| self_intersecting_faces(m, faces.iter().copied(), related).unwrap();
+        let mut before = (mesh.positions.clone(), whole(&mesh));
+        assert!(before.1.is_empty());
+        let first = mesh.positions.len() / 2;
+        let mut seen = false;
+        for step in 0..30usize {
+            let start = first + (step * 29) % (mesh.positions.len() - first - 10);
+            for p in &mut mesh.positions[start..start + 10] {
+                p.x -= if step % 6 == 5 { -0.5 } else { 0.35 };
+            }
+            let found = self_intersecting_faces_after(&mesh, &faces, related, &before.0, &before.1).unwrap();
+            let expected = whole(&mesh);
+            assert_eq!(found, expected, "step {step}");
+            seen |= !expected.is_empty();
+            before = (mesh.positions.clone(), found);
+        }
+        assert!(seen);
     }
 
     #[test]
