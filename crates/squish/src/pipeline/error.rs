@@ -42,8 +42,60 @@ pub enum PipelineError {
 }
 
 impl PipelineError {
+    /// The failure of a contact between regions the pipeline chose itself (the part pairs of
+    /// `self_contact = "auto"`): the same fault, without advice about a working region that the
+    /// user never gave.
+    pub(super) fn automatic_wording(&self) -> String {
+        match self {
+            Self::Contact { source, .. } => contact_automatic_wording(source),
+            Self::RegionTooSmall { region, reason, .. } => format!("region {region}: {reason}"),
+            other => other.to_string(),
+        }
+    }
+
     /// A working-region message of `object` as the pipeline's error.
     pub(super) fn invalid_region(object: &str, reason: String) -> Self {
         Self::InvalidRegion { object: object.to_string(), reason }
+    }
+}
+
+/// [`PipelineError::automatic_wording`] of a contact stage's failure (also an automatic
+/// articulation's).
+pub(super) fn contact_automatic_wording(error: &ContactError) -> String {
+    match error {
+        ContactError::IntersectionReachesBorder { vertex, .. } => format!(
+            "the intersection reaches vertex {vertex} on the border of its regions: it does not close inside them"
+        ),
+        ContactError::DirectionUndefined => {
+            "the automatic mapping direction is undefined: the normals over the intersection regions cancel out \
+             (Eq. 4.1)"
+                .to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn automatic_contacts_fail_without_advice_about_working_regions() {
+        let border = PipelineError::Contact {
+            a: "fox (region 0)".into(),
+            b: "fox (region 1)".into(),
+            source: ContactError::IntersectionReachesBorder { object: "fox (region 1)".into(), vertex: 7 },
+        };
+        let small = PipelineError::RegionTooSmall { object: "fox".into(), region: 1, reason: "too thin".into() };
+        let undefined =
+            PipelineError::Contact { a: "a".into(), b: "b".into(), source: ContactError::DirectionUndefined };
+        for (error, names) in [(&border, "vertex 7"), (&small, "region 1: too thin"), (&undefined, "Eq. 4.1")] {
+            let automatic = error.automatic_wording();
+            assert!(error.to_string().contains("working region") || error.to_string().contains("give the pair"));
+            assert!(automatic.contains(names), "{automatic}");
+            for advice in ["working region", "use a", "give the"] {
+                assert!(!automatic.contains(advice), "{automatic}");
+            }
+        }
     }
 }

@@ -191,7 +191,6 @@ impl FrameResult {
 }
 
 /// Runs the pipeline frame after frame, keeping connectivity-only caches (see the module doc).
-#[derive(Default)]
 pub struct Deformer {
     /// The contacts between objects (level 2 of the plan) and their caches.
     objects: ObjectContacts,
@@ -203,6 +202,19 @@ pub struct Deformer {
     edits: Option<EditState>,
     /// The quality pass's trees; `None` when it is left out ([`Deformer::without_quality`]).
     quality: Option<quality::QualityCache>,
+}
+
+impl Default for Deformer {
+    /// With the quality pass (as [`Deformer::new`]).
+    fn default() -> Self {
+        Self {
+            objects: ObjectContacts::default(),
+            self_contact: Vec::new(),
+            keep_edits: false,
+            edits: None,
+            quality: Some(quality::QualityCache::default()),
+        }
+    }
 }
 
 /// The stages of the contacts between regions, and what they keep between frames: each object's
@@ -222,7 +234,7 @@ pub(super) struct ObjectContacts {
 impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {
-        Self { quality: Some(quality::QualityCache::default()), ..Self::default() }
+        Self::default()
     }
 
     /// Leaves out the quality pass ([`PairQuality`]: penetrations and intersecting faces

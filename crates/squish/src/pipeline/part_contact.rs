@@ -518,8 +518,11 @@ pub(super) fn resolve_part_contacts(
                 objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
                 pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
             };
-            let outcome =
-                entry.contacts.contact(&frame, false, &mut stages).map_err(|e| e.to_string()).and_then(|(level, _)| {
+            let outcome = entry
+                .contacts
+                .contact(&frame, false, &mut stages)
+                .map_err(|e| e.automatic_wording())
+                .and_then(|(level, _)| {
                     let in_contact = level.contacts.iter().flatten().any(|c| !c.is_empty());
                     let contact_area: f64 = level.contacts.iter().flatten().map(|c| c.contact_area).sum();
                     let results = object_results(&frame, &entry.contacts.caches, &level.zones, level.outcomes);

@@ -304,6 +304,10 @@ fn job_outcome<T>(
 ) -> Result<Result<T, String>, PipelineError> {
     match outcome {
         Ok(t) => Ok(Ok(t)),
+        // An automatic articulation's regions are the pipeline's: no advice about working regions.
+        Err(crate::skinning::SelfContactError::Contact(e)) if articulation.automatic => {
+            Ok(Err(format!("contact between its two sides: {}", super::error::contact_automatic_wording(&e))))
+        }
         Err(e) if articulation.automatic => Ok(Err(e.to_string())),
         Err(e) => Err(PipelineError::SelfContact {
             object: object.name.to_string(),

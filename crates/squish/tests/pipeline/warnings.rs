@@ -117,6 +117,9 @@ fn the_quality_pass_measures_the_penetration_before_and_after() {
     assert!(after <= RESIDUAL_PENETRATION_TOLERANCE * before, "{after} of {before}");
     assert!(q.intersecting_faces_before[0] > 0 && q.intersecting_faces_after == [0, 0], "{q:?}");
     assert!(!kinds(&result).contains(&WarningKind::ResidualPenetration));
+    // A default deformer (a shot's worker) runs it too.
+    let default = Deformer::default().deform(&scene.frame()).unwrap();
+    assert_eq!(default.stats.quality, result.stats.quality);
     let without = Deformer::new().without_quality().deform(&scene.frame()).unwrap();
     assert!(without.stats.quality.is_empty());
     assert_eq!(without.positions, result.positions);
