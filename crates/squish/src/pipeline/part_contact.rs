@@ -70,6 +70,7 @@ use super::{Frame, FrameObject, FramePair, ObjectContacts, PipelineError};
 use crate::mesh::TriMesh;
 use crate::params::{ObjectParams, PairParams, SkinParts};
 use crate::skinning::{FacesBeyond, PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
+use crate::spatial::IntersectingPairs;
 use crate::stage::{Stage, StageTimes, StageWork, Work};
 
 /// Rings of faces each side of a part pair takes from its neighbouring parts: the first, then
@@ -274,17 +275,53 @@ fn inside_itself(mesh: &TriMesh) -> Result<Vec<bool>, crate::spatial::SpatialErr
 }
 
 /// The faces crossing beyond the rest pose's ([`RestIntersections::faces_beyond`]) of each mesh
-/// the stage makes, each counted from the last one counted ([`RestIntersections::
-/// faces_beyond_after`]: a search where vertices moved, the same faces as a whole search).
+/// the stage makes, each counted from the last one counted: from every intersecting face pair,
+/// enumerated again where vertices moved ([`IntersectingPairs`]), or where their boxes overlap too
+/// often for that (a fan), by a search where vertices moved ([`RestIntersections::
+/// faces_beyond_after`]). The same faces either way.
 struct Crossings<'r> {
     /// `None`: no rest pose to count from (no face crosses).
     rest: Option<&'r RestIntersections>,
     last: Option<FacesBeyond>,
+    /// The intersecting pairs of the last mesh counted; `Err(())` once their enumeration went
+    /// past its budget.
+    pairs: Result<Option<IntersectingPairs>, ()>,
 }
 
-impl Crossings<'_> {
+/// Pairs of faces with overlapping boxes, per face of the mesh, beyond which [`Crossings`]
+/// searches for faces instead of enumerating pairs.
+const PAIRS_PER_FACE: usize = 64;
+
+impl<'r> Crossings<'r> {
+    fn new(rest: Option<&'r RestIntersections>) -> Self {
+        Self { rest, last: None, pairs: Ok(None) }
+    }
+
+    /// Every intersecting face pair of `mesh`, unless their enumeration is past its budget.
+    fn pairs(&mut self, mesh: &TriMesh) -> Result<Option<&[[u32; 2]]>, crate::spatial::SpatialError> {
+        let budget = PAIRS_PER_FACE * mesh.num_triangles();
+        let within = match &mut self.pairs {
+            Err(()) => false,
+            Ok(Some(pairs)) => pairs.update(mesh, budget)?,
+            Ok(None) => match IntersectingPairs::new(mesh, budget)? {
+                Some(pairs) => {
+                    self.pairs = Ok(Some(pairs));
+                    true
+                }
+                None => false,
+            },
+        };
+        if !within {
+            self.pairs = Err(());
+        }
+        Ok(self.pairs.as_ref().ok().and_then(Option::as_ref).map(IntersectingPairs::pairs))
+    }
+
     fn faces(&mut self, mesh: &TriMesh) -> Result<Vec<u32>, crate::spatial::SpatialError> {
         let Some(rest) = self.rest else { return Ok(Vec::new()) };
+        if let Some(pairs) = self.pairs(mesh)? {
+            return Ok(rest.faces_beyond_in(pairs));
+        }
         let counted = match &self.last {
             Some(last) => rest.faces_beyond_after(last, mesh)?,
             None => rest.counted(mesh)?,
@@ -344,20 +381,33 @@ fn restore_volume_with(current: &TriMesh, new: Vec<DVec3>, carriers: &[bool]) ->
 }
 
 /// How many faces of parts `pair.parts` intersect a face of the other part (of the same part
-/// for a fold within one), not adjacent, not a rest-pose pair.
+/// for a fold within one), not adjacent, not a rest-pose pair: from the intersecting face pairs
+/// of `mesh` when `crossings` has them, else searched.
 fn crossing_faces(
+    crossings: &mut Crossings,
     mesh: &TriMesh,
     parts: &SkinParts,
     setup: &PartContactSetup,
     [a, b]: [u32; 2],
 ) -> Result<usize, crate::spatial::SpatialError> {
     let part = |f: u32| parts.face_parts[f as usize];
-    let faces = (0..mesh.num_triangles() as u32).filter(|&f| part(f) == a || part(f) == b);
+    let of_pair = |f: u32| part(f) == a || part(f) == b;
     let related = |f: u32, g: u32| {
         (a == b || part(f) != part(g))
             && setup.rest_pairs().binary_search(&[f.min(g), f.max(g)]).is_err()
             && !setup.adjacent(f, g)
     };
+    if let Some(pairs) = crossings.pairs(mesh)? {
+        let mut faces: Vec<u32> = pairs
+            .iter()
+            .filter(|&&[f, g]| of_pair(f) && of_pair(g) && related(f, g))
+            .flat_map(|&[f, g]| [f, g])
+            .collect();
+        faces.sort_unstable();
+        faces.dedup();
+        return Ok(faces.len());
+    }
+    let faces = (0..mesh.num_triangles() as u32).filter(|&f| of_pair(f));
     Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())
 }
 
@@ -445,7 +495,7 @@ pub(super) fn resolve_part_contacts(
     let search_start = Instant::now();
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
-    let mut crossings = Crossings { rest: rest_intersections.as_ref(), last: None };
+    let mut crossings = Crossings::new(rest_intersections.as_ref());
     let mut faces_now = if touching.is_empty() { 0 } else { crossings.faces(mesh).map_err(spatial)?.len() };
     // The count of the stage's input starts from this one (the articulations moved few vertices).
     let first = crossings.last.clone();
@@ -474,7 +524,7 @@ pub(super) fn resolve_part_contacts(
             ..PartPairStats::default()
         };
         let Some(setup) = cache.setup.as_ref() else { break };
-        s.faces_before = crossing_faces(&current, parts, setup, pair.parts).map_err(spatial)?;
+        s.faces_before = crossing_faces(&mut crossings, &current, parts, setup, pair.parts).map_err(spatial)?;
         // Regions from the parts only for two parts apart: a parent and child share their
         // articulation's seam, a fold has one part.
         let interior = inside_itself(&current).map_err(spatial)?;
@@ -571,7 +621,7 @@ pub(super) fn resolve_part_contacts(
             }
         }
         let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
-        s.faces_after = crossing_faces(&after, parts, setup, pair.parts).map_err(spatial)?;
+        s.faces_after = crossing_faces(&mut crossings, &after, parts, setup, pair.parts).map_err(spatial)?;
         s.time = start.elapsed();
         // The pair's own share: its time beyond its contact stages', its work around them (they
         // count theirs in spans of their own).

@@ -26,9 +26,15 @@ use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
 use crate::skinning::{
     ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations,
     articulation_crossings, articulation_interiors, contact_articulation, deform_articulation,
+    self_intersection_counts_from_pairs,
 };
 use crate::spatial::TriangleBvh;
 use crate::stage::{SharedWork, Stage, StageTimes, StageWork, Work};
+
+/// Pairs of faces with overlapping boxes, per face counted, beyond which the articulations'
+/// crossing faces are searched articulation by articulation rather than from one enumeration of
+/// the intersecting pairs (see [`crate::spatial::self_intersecting_pairs`]).
+const PAIRS_PER_FACE: usize = 64;
 
 /// What the deformer keeps about an object's self-contacts between frames.
 #[derive(Debug, Default)]
@@ -437,20 +443,59 @@ fn finish_object(
         let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
         // Each articulation's faces crossing before and after, articulations in parallel (each
         // task counts its work in a span of its own).
-        let work = SharedWork::default();
-        let counts: Vec<Option<_>> = plans
-            .par_iter()
+        // The intersecting face pairs of the input and of the result over the articulations'
+        // faces, enumerated once each, give every articulation's counts; where the faces' boxes
+        // overlap too often for that (a fan), each articulation searches its own faces.
+        let counted: Vec<bool> = plans
+            .iter()
             .zip(&cache.setups)
-            .map(|(plan, setup)| match setup {
-                Some(setup) if plan.stats.error.is_none() => work.measure(|| {
-                    let before = articulation_crossings(mesh, setup, &plan.labels, None)?;
-                    let after = articulation_crossings(&after, setup, &plan.labels, Some(&before))?;
-                    Ok(Some((before.counts(), after.counts())))
-                }),
-                _ => Ok(None),
-            })
-            .collect::<Result<_, _>>()
-            .map_err(spatial)?;
+            .map(|(plan, setup)| setup.is_some() && plan.stats.error.is_none())
+            .collect();
+        let mut faces: Vec<u32> = plans
+            .iter()
+            .zip(&cache.setups)
+            .zip(&counted)
+            .filter(|(_, c)| **c)
+            .filter_map(|((_, setup), _)| setup.as_ref())
+            .flat_map(|setup| setup.faces().iter().copied())
+            .collect();
+        faces.sort_unstable();
+        faces.dedup();
+        let budget = PAIRS_PER_FACE * faces.len();
+        let work = SharedWork::default();
+        let (pairs_before, pairs_after) = rayon::join(
+            || work.measure(|| crate::spatial::self_intersecting_pairs(mesh, &faces, budget)),
+            || work.measure(|| crate::spatial::self_intersecting_pairs(&after, &faces, budget)),
+        );
+        let counts: Vec<Option<_>> = match (pairs_before.map_err(spatial)?, pairs_after.map_err(spatial)?) {
+            (Some(before), Some(after_pairs)) => plans
+                .iter()
+                .zip(&cache.setups)
+                .zip(&counted)
+                .map(|((plan, setup), &counted)| {
+                    setup.as_ref().filter(|_| counted).map(|setup| {
+                        (
+                            self_intersection_counts_from_pairs(mesh, setup, &plan.labels, &before),
+                            self_intersection_counts_from_pairs(&after, setup, &plan.labels, &after_pairs),
+                        )
+                    })
+                })
+                .collect(),
+            _ => plans
+                .par_iter()
+                .zip(&cache.setups)
+                .zip(&counted)
+                .map(|((plan, setup), &counted)| match setup {
+                    Some(setup) if counted => work.measure(|| {
+                        let before = articulation_crossings(mesh, setup, &plan.labels, None)?;
+                        let after = articulation_crossings(&after, setup, &plan.labels, Some(&before))?;
+                        Ok(Some((before.counts(), after.counts())))
+                    }),
+                    _ => Ok(None),
+                })
+                .collect::<Result<_, _>>()
+                .map_err(spatial)?,
+        };
         work.record();
         let mut contact = vec![false; n];
         let mut moved = vec![false; n];

@@ -21,5 +21,5 @@ pub use self_contact::{
     AppliedArticulations, ArticulationContact, ArticulationCrossings, ArticulationPlan, ArticulationSetup,
     ArticulationStats, CONTACT_THRESHOLD_FLOOR, FOLD_EXTENT_SCALE, GAP_FRACTION, SelfContactError,
     SelfIntersectionCounts, apply_articulations, articulation_crossings, articulation_interiors, contact_articulation,
-    deform_articulation, plan_articulation, self_intersection_counts,
+    deform_articulation, plan_articulation, self_intersection_counts, self_intersection_counts_from_pairs,
 };

@@ -893,6 +893,24 @@ pub fn articulation_crossings(
     if setup.faces.is_empty() {
         return Ok(ArticulationCrossings::default());
     }
+    let side = vertex_sides(setup, labels);
+    let across = |f: u32, g: u32| joins_sides(mesh, &side, f, g);
+    let (all, across) = match before {
+        Some(b) => (
+            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, |_, _| true, &b.positions, &b.all)?,
+            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, across, &b.positions, &b.across)?,
+        ),
+        None => (
+            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), |_, _| true)?,
+            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), across)?,
+        ),
+    };
+    Ok(ArticulationCrossings { all, across, positions: mesh.positions.clone() })
+}
+
+/// Per vertex of the object, its side of the articulation for [`self_intersection_counts`]: 1,
+/// 2, or 0 (neither).
+fn vertex_sides(setup: &ArticulationSetup, labels: &[bool]) -> Vec<u8> {
     let shared = &setup.shared;
     let mut side: Vec<u8> = shared
         .membership
@@ -906,21 +924,47 @@ pub fn articulation_crossings(
     for (&v, &first) in shared.vertices.iter().zip(labels) {
         side[v as usize] = if first { 1 } else { 2 };
     }
+    side
+}
+
+/// True if faces `f` and `g` of `mesh` have vertices on both sides (`side` of [`vertex_sides`]).
+fn joins_sides(mesh: &TriMesh, side: &[u8], f: u32, g: u32) -> bool {
     let sides_of = |f: u32| -> u8 {
         mesh.triangles[f as usize].iter().fold(0u8, |mask, &v| mask | side.get(v as usize).copied().unwrap_or(0))
     };
-    let across = |f: u32, g: u32| sides_of(f) | sides_of(g) == 3;
-    let (all, across) = match before {
-        Some(b) => (
-            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, |_, _| true, &b.positions, &b.all)?,
-            crate::spatial::self_intersecting_faces_after(mesh, &setup.faces, across, &b.positions, &b.across)?,
-        ),
-        None => (
-            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), |_, _| true)?,
-            crate::spatial::self_intersecting_faces(mesh, setup.faces.iter().copied(), across)?,
-        ),
-    };
-    Ok(ArticulationCrossings { all, across, positions: mesh.positions.clone() })
+    sides_of(f) | sides_of(g) == 3
+}
+
+/// [`self_intersection_counts`] from `pairs`, every intersecting pair of faces of `mesh` among
+/// faces that include the articulation's ([`crate::spatial::self_intersecting_pairs`]): the
+/// faces of the pairs within the articulation's faces, the same counts as its own search.
+pub fn self_intersection_counts_from_pairs(
+    mesh: &TriMesh,
+    setup: &ArticulationSetup,
+    labels: &[bool],
+    pairs: &[[u32; 2]],
+) -> SelfIntersectionCounts {
+    let mut member = vec![false; mesh.triangles.len()];
+    for &f in &setup.faces {
+        if let Some(m) = member.get_mut(f as usize) {
+            *m = true;
+        }
+    }
+    let side = vertex_sides(setup, labels);
+    // Per face: 1 = in a pair, 2 = in a pair joining the sides.
+    let mut found = vec![0u8; mesh.triangles.len()];
+    for &[f, g] in pairs {
+        if !(member.get(f as usize) == Some(&true) && member.get(g as usize) == Some(&true)) {
+            continue;
+        }
+        let mark = if joins_sides(mesh, &side, f, g) { 3 } else { 1 };
+        found[f as usize] |= mark;
+        found[g as usize] |= mark;
+    }
+    SelfIntersectionCounts {
+        all: found.iter().filter(|&&m| m & 1 != 0).count(),
+        across: found.iter().filter(|&&m| m & 2 != 0).count(),
+    }
 }
 
 #[cfg(test)]

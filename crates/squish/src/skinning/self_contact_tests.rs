@@ -129,6 +129,15 @@ fn sweep(blend: f64, max_degrees: f64, frames: usize) -> Vec<SweepFrame> {
         let mesh = capsule.posed(angle);
         let (out, plan, _) = run(&capsule, &mut setup, &mesh, &capsule.articulation(angle));
         let result = TriMesh { positions: out.clone(), triangles: mesh.triangles.clone() };
+        // The counts from the pairs of every face are the articulation's own search's.
+        for m in [&mesh, &result] {
+            let all: Vec<u32> = (0..m.num_triangles() as u32).collect();
+            let pairs = crate::spatial::self_intersecting_pairs(m, &all, usize::MAX).unwrap().unwrap();
+            assert_eq!(
+                super::self_intersection_counts_from_pairs(m, &setup, &plan.labels, &pairs),
+                self_intersection_counts(m, &setup, &plan.labels).unwrap()
+            );
+        }
         let v0 = signed_volume(&mesh);
         let largest = |a: &[DVec3], b: &[DVec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max);
         let (step, input_step, extra_step, label_changes) =

@@ -39,7 +39,55 @@ pub struct TriangleBvh {
     /// them instead of comparing every triangle's corners.
     fitted_vertices: Vec<u32>,
     fitted: Vec<DVec3>,
+    /// What a refit of a few moved vertices walks, built at the first such refit.
+    links: Option<Box<RefitLinks>>,
 }
+
+/// The links a partial refit follows from a moved vertex to the boxes it changes.
+#[derive(Clone, Debug)]
+struct RefitLinks {
+    /// Per node its parent (`u32::MAX`: the root).
+    parent: Vec<u32>,
+    /// Per leaf its node.
+    leaf_node: Vec<u32>,
+    /// The leaves using each fitted vertex (position in `fitted_vertices`):
+    /// `leaves[offsets[k]..offsets[k + 1]]`.
+    offsets: Vec<u32>,
+    leaves: Vec<u32>,
+    /// Per node, whether the refit under way has it to recompute (all false between refits).
+    marked: Vec<bool>,
+}
+
+impl RefitLinks {
+    fn new(bvh: &FlatBvh, indices: &[[u32; 3]], fitted_vertices: &[u32]) -> Self {
+        let (parent, leaf_node) = bvh.parents_and_leaves(indices.len());
+        let slot = |v: u32| fitted_vertices.binary_search(&v).unwrap_or(0);
+        let mut offsets = vec![0u32; fitted_vertices.len() + 1];
+        for tri in indices {
+            for &v in tri {
+                offsets[slot(v) + 1] += 1;
+            }
+        }
+        for k in 0..fitted_vertices.len() {
+            offsets[k + 1] += offsets[k];
+        }
+        let mut next = offsets.clone();
+        let mut leaves = vec![0u32; offsets[fitted_vertices.len()] as usize];
+        for (leaf, tri) in indices.iter().enumerate() {
+            for &v in tri {
+                let k = slot(v);
+                leaves[next[k] as usize] = leaf as u32;
+                next[k] += 1;
+            }
+        }
+        let marked = vec![false; parent.len()];
+        Self { parent, leaf_node, offsets, leaves, marked }
+    }
+}
+
+/// A refit touching at most one vertex in this many of the tree's follows the moved vertices to
+/// their leaves and ancestors; more, and every box is recomputed.
+const PARTIAL_REFIT: usize = 4;
 
 impl TriangleBvh {
     /// Builds the tree over all triangles of `mesh`. Fails on an out-of-range index or a
@@ -77,7 +125,7 @@ impl TriangleBvh {
         fitted_vertices.sort_unstable();
         fitted_vertices.dedup();
         let fitted = fitted_vertices.iter().map(|&v| mesh.positions[v as usize]).collect();
-        Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds, fitted_vertices, fitted })
+        Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds, fitted_vertices, fitted, links: None })
     }
 
     /// Moves the triangles to new vertex positions (same mesh connectivity, `positions.len()` equal
@@ -91,26 +139,51 @@ impl TriangleBvh {
         // whose triangles moved since the last frame (a static ground, a prop at rest) is left
         // as is: the boxes are the same either way.
         let bits = |p: DVec3| p.to_array().map(f64::to_bits);
-        if self.fitted_vertices.iter().zip(&self.fitted).all(|(&v, &p)| bits(positions[v as usize]) == bits(p)) {
-            return Ok(());
-        }
-        for (&v, p) in self.fitted_vertices.iter().zip(self.fitted.iter_mut()) {
-            *p = positions[v as usize];
-        }
-        let mut moved = false;
-        for (tri, corners) in self.indices.iter().zip(self.corners.iter_mut()) {
-            let new = tri.map(|i| positions[i as usize]);
-            if !same_bits(&new, corners) {
-                *corners = new;
-                moved = true;
+        let mut moved: Vec<u32> = Vec::new();
+        for (k, (&v, p)) in self.fitted_vertices.iter().zip(self.fitted.iter_mut()).enumerate() {
+            let now = positions[v as usize];
+            if bits(now) != bits(*p) {
+                *p = now;
+                moved.push(k as u32);
             }
         }
-        if moved {
+        if moved.is_empty() {
+            return Ok(());
+        }
+        if moved.len() * PARTIAL_REFIT > self.fitted.len() {
+            for (tri, corners) in self.indices.iter().zip(self.corners.iter_mut()) {
+                *corners = tri.map(|i| positions[i as usize]);
+            }
             // Recomputes the boxes bottom-up without reordering nodes: the traversal order is kept.
             let corners = &self.corners;
             self.bvh.refit(|leaf| triangle_aabb(&corners[leaf as usize]));
-            self.bounds = bounds_of(&self.corners);
+        } else {
+            // The moved vertices' leaves and their ancestors, children before parents: the other
+            // boxes are already their triangles'.
+            let links = self
+                .links
+                .get_or_insert_with(|| Box::new(RefitLinks::new(&self.bvh, &self.indices, &self.fitted_vertices)));
+            let mut dirty: Vec<u32> = Vec::new();
+            for &k in &moved {
+                let k = k as usize;
+                for &leaf in &links.leaves[links.offsets[k] as usize..links.offsets[k + 1] as usize] {
+                    self.corners[leaf as usize] = self.indices[leaf as usize].map(|i| positions[i as usize]);
+                    let mut node = links.leaf_node[leaf as usize];
+                    while node != u32::MAX && !links.marked[node as usize] {
+                        links.marked[node as usize] = true;
+                        dirty.push(node);
+                        node = links.parent[node as usize];
+                    }
+                }
+            }
+            for &node in &dirty {
+                links.marked[node as usize] = false;
+            }
+            dirty.sort_unstable_by(|a, b| b.cmp(a));
+            let corners = &self.corners;
+            self.bvh.refit_nodes(&dirty, |leaf| triangle_aabb(&corners[leaf as usize]));
         }
+        self.bounds = self.bvh.nodes().first().map_or(Aabb3::EMPTY, |root| Aabb3 { min: root.min, max: root.max });
         Ok(())
     }
 
@@ -135,6 +208,7 @@ impl TriangleBvh {
             bounds: self.bounds,
             fitted_vertices: fitted.iter().map(|&(v, _)| v).collect(),
             fitted: fitted.iter().map(|&(_, p)| p).collect(),
+            links: None,
         })
     }
 
@@ -176,11 +250,6 @@ impl TriangleBvh {
     pub fn leaf_indices(&self, leaf: usize) -> Option<[u32; 3]> {
         self.indices.get(leaf).copied()
     }
-}
-
-/// True if the two triangles have bit-identical corners (so `-0.0` and `0.0` differ).
-fn same_bits(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    a.iter().zip(b).all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits))
 }
 
 fn check_finite(positions: &[DVec3]) -> Result<(), SpatialError> {
@@ -389,6 +458,37 @@ mod tests {
         elsewhere[used] += DVec3::splat(0.5);
         subset.refit(&elsewhere).unwrap();
         assert_eq!(subset.corners[0][0], elsewhere[used]);
+    }
+
+    #[test]
+    fn refitting_a_few_moved_vertices_gives_the_boxes_of_a_whole_refit() {
+        let mesh = shapes::icosphere(1.0, 4);
+        let faces: Vec<u32> = (0..mesh.num_triangles() as u32).filter(|&f| f % 5 != 0).collect();
+        for mut tree in [TriangleBvh::new(&mesh).unwrap(), TriangleBvh::with_faces(&mesh, faces).unwrap()] {
+            let mut rng = Lcg::new(7);
+            let mut positions = mesh.positions.clone();
+            for step in 0..40 {
+                // Mostly a few vertices, sometimes most of them (the whole refit), sometimes none.
+                let count = match step % 8 {
+                    0 => positions.len(),
+                    1 => 0,
+                    _ => 1 + step % 13,
+                };
+                for _ in 0..count {
+                    let v = rng.next_index(positions.len());
+                    positions[v] += 0.03 * DVec3::new(rng.next_signed(), rng.next_signed(), rng.next_signed());
+                }
+                tree.refit(&positions).unwrap();
+                let mut whole = tree.clone();
+                let corners = whole.corners.clone();
+                whole.bvh.refit(|leaf| triangle_aabb(&corners[leaf as usize]));
+                assert_eq!(tree.bvh.nodes(), whole.bvh.nodes(), "step {step}");
+                for (leaf, tri) in tree.indices.iter().enumerate() {
+                    assert_eq!(tree.corners[leaf], tri.map(|i| positions[i as usize]));
+                }
+                assert_eq!(tree.bounds(), bounds_of(&tree.corners));
+            }
+        }
     }
 
     #[test]

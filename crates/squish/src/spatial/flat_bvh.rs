@@ -15,8 +15,9 @@
 //! traversal stacks rely on it). Deterministic: the same boxes give the same tree.
 //!
 //! **Refit.** New item boxes, then every inner box as the union of its children's, children
-//! before parents (reverse storage order). The topology, and with it every traversal order, is
-//! kept.
+//! before parents (reverse storage order); or, when few items moved, the boxes of their leaves
+//! and of those leaves' ancestors only, in the same order. The topology, and with it every
+//! traversal order, is kept.
 
 use glam::DVec3;
 
@@ -165,15 +166,50 @@ impl FlatBvh {
     /// New boxes for the items (`item_box(i)` = (min, max)); inner boxes are recomputed.
     pub fn refit(&mut self, item_box: impl Fn(u32) -> (DVec3, DVec3)) {
         for i in (0..self.nodes.len()).rev() {
-            let (min, max) = match self.nodes[i].children(i) {
+            self.refit_node(i, &item_box);
+        }
+    }
+
+    /// Node `i`'s box from its children's (an inner node) or its item's (a leaf).
+    #[inline]
+    fn refit_node(&mut self, i: usize, item_box: &impl Fn(u32) -> (DVec3, DVec3)) {
+        let (min, max) = match self.nodes[i].children(i) {
+            Some([left, right]) => {
+                let (l, r) = (&self.nodes[left], &self.nodes[right]);
+                (l.min.min(r.min), l.max.max(r.max))
+            }
+            None => item_box(self.nodes[i].link),
+        };
+        self.nodes[i].min = min;
+        self.nodes[i].max = max;
+    }
+
+    /// Per node its parent (`u32::MAX` for the root), and per item its leaf node.
+    pub fn parents_and_leaves(&self, items: usize) -> (Vec<u32>, Vec<u32>) {
+        let mut parent = vec![u32::MAX; self.nodes.len()];
+        let mut leaf_of = vec![u32::MAX; items];
+        for (i, node) in self.nodes.iter().enumerate() {
+            match node.children(i) {
                 Some([left, right]) => {
-                    let (l, r) = (&self.nodes[left], &self.nodes[right]);
-                    (l.min.min(r.min), l.max.max(r.max))
+                    parent[left] = i as u32;
+                    parent[right] = i as u32;
                 }
-                None => item_box(self.nodes[i].link),
-            };
-            self.nodes[i].min = min;
-            self.nodes[i].max = max;
+                None => {
+                    if let Some(slot) = leaf_of.get_mut(node.link as usize) {
+                        *slot = i as u32;
+                    }
+                }
+            }
+        }
+        (parent, leaf_of)
+    }
+
+    /// [`Self::refit`] of the nodes `dirty` only (sorted by decreasing index, so children come
+    /// before their parents): the boxes of a full refit when every other node's box is already
+    /// its items' (the boxes are minima and maxima, exact in any order).
+    pub fn refit_nodes(&mut self, dirty: &[u32], item_box: impl Fn(u32) -> (DVec3, DVec3)) {
+        for &i in dirty {
+            self.refit_node(i as usize, &item_box);
         }
     }
 
@@ -259,6 +295,21 @@ impl FlatBvh {
     /// Every pair (item of `self`, item of `other`) whose boxes overlap, by one joint descent of
     /// the two trees.
     pub fn for_each_overlapping_pair(&self, other: &FlatBvh, mut f: impl FnMut(u32, u32)) {
+        self.descend_pairs(other, false, |i, j| {
+            f(i, j);
+            true
+        });
+    }
+
+    /// Every pair of distinct items whose boxes overlap, each once (`f(i, j)`, in no particular
+    /// order of `i` and `j`), by one descent of the tree against itself, until `f` returns false.
+    pub fn for_each_overlapping_pair_within(&self, f: impl FnMut(u32, u32) -> bool) {
+        self.descend_pairs(self, true, f);
+    }
+
+    /// The joint descent of [`Self::for_each_overlapping_pair`], until `f` returns false; `within`:
+    /// `other` is `self`, and a subtree against itself gives each pair of its items once.
+    fn descend_pairs(&self, other: &FlatBvh, within: bool, mut f: impl FnMut(u32, u32) -> bool) {
         if self.nodes.is_empty() || other.nodes.is_empty() {
             return;
         }
@@ -267,11 +318,24 @@ impl FlatBvh {
         while let Some((i, j)) = stack.pop() {
             let (i, j) = (i as usize, j as usize);
             let (a, b) = (&self.nodes[i], &other.nodes[j]);
+            if within && i == j {
+                // A subtree against itself: each child against itself, and the two against each other.
+                if let Some([l, r]) = a.children(i) {
+                    stack.push((l as u32, r as u32));
+                    stack.push((r as u32, r as u32));
+                    stack.push((l as u32, l as u32));
+                }
+                continue;
+            }
             if !a.overlaps(b) {
                 continue;
             }
             match (a.children(i), b.children(j)) {
-                (None, None) => f(a.link, b.link),
+                (None, None) => {
+                    if !f(a.link, b.link) {
+                        return;
+                    }
+                }
                 (Some([l, r]), None) => {
                     stack.push((r as u32, j as u32));
                     stack.push((l as u32, j as u32));

@@ -31,6 +31,16 @@
 //! Every test is the exact [`triangles_intersect_away_from_shared`]; the trees and angles only
 //! choose candidates, conservatively. Small stars and edges (≤ [`SMALL`] faces) test all their
 //! pairs. The result is sorted and does not depend on the thread count.
+//!
+//! **Every intersecting pair, for many counts of one mesh** ([`self_intersecting_pairs`],
+//! [`IntersectingPairs`]). The test of a pair depends on its two triangles only, so the faces the
+//! search finds among any subset of faces, for any relation, are the faces of the intersecting
+//! pairs within that subset that the relation admits. Where one mesh is counted many ways (each
+//! articulation's faces, each part pair's parts, the faces beyond the rest pose's), the pairs are
+//! enumerated once — every pair of faces whose axis-aligned boxes overlap, tested exactly — and
+//! every count filters them; after some vertices move, only the pairs of a face with a moved
+//! corner are tested again. Past a budget of overlapping boxes per face (a fan: quadratic), the
+//! enumeration gives up and the callers fall back on the face search.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -83,6 +93,163 @@ pub fn self_intersecting_faces(
     related: impl Fn(u32, u32) -> bool + Sync,
 ) -> Result<Vec<u32>, SpatialError> {
     search(mesh, faces, &related, false)
+}
+
+/// Every pair `[f, g]` (`f < g`, sorted) of faces among `faces` (duplicates ignored) that
+/// intersect away from what they share: the pairs whose faces [`self_intersecting_faces`] finds,
+/// so that the faces it finds among any subset, for any relation, are those of the pairs within
+/// it (the test of a pair depends on its two triangles only). `None` when more than `budget`
+/// pairs of faces have overlapping boxes (a fan, a soup): the face search, which stops at a
+/// face's first partner, is then the way that stays near-linear. Errors as
+/// [`self_intersecting_faces`].
+pub fn self_intersecting_pairs(
+    mesh: &TriMesh,
+    faces: &[u32],
+    budget: usize,
+) -> Result<Option<Vec<[u32; 2]>>, SpatialError> {
+    let mut faces = faces.to_vec();
+    faces.sort_unstable();
+    faces.dedup();
+    let tree = TriangleBvh::with_faces(mesh, faces.iter().copied())?;
+    Ok(pairs_within(&tree, budget))
+}
+
+/// The intersecting pairs of a tree's faces (see [`self_intersecting_pairs`]), or `None` past
+/// `budget` pairs of overlapping boxes.
+fn pairs_within(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
+    let mut candidates: Vec<[u32; 2]> = Vec::new();
+    let mut within_budget = true;
+    tree.bvh.for_each_overlapping_pair_within(|i, j| {
+        within_budget = candidates.len() < budget;
+        if within_budget {
+            candidates.push([i, j]);
+        }
+        within_budget
+    });
+    if !within_budget {
+        return None;
+    }
+    Work::count_queries(tree.len() as u64);
+    Some(intersecting_leaf_pairs(tree, &candidates))
+}
+
+/// The candidate leaf pairs of `tree` that intersect away from what they share, as sorted face
+/// pairs `[f, g]`, f < g. Their exact tests run in parallel, their work counted on the caller.
+fn intersecting_leaf_pairs(tree: &TriangleBvh, candidates: &[[u32; 2]]) -> Vec<[u32; 2]> {
+    let work = SharedWork::default();
+    let mut pairs: Vec<[u32; 2]> = candidates
+        .par_iter()
+        .with_min_len(256)
+        .filter(|&&[i, j]| {
+            work.measure(|| intersect_away_from_shared(&tree.corners[i as usize], &tree.corners[j as usize]))
+        })
+        .map(|&[i, j]| {
+            let (f, g) = (tree.faces[i as usize], tree.faces[j as usize]);
+            [f.min(g), f.max(g)]
+        })
+        .collect();
+    work.record();
+    pairs.par_sort_unstable();
+    pairs
+}
+
+/// Every intersecting pair of faces of a mesh ([`self_intersecting_pairs`] of all its faces),
+/// with the tree and positions they were found at, to enumerate them again after vertices move:
+/// the pairs of two unmoved faces are kept, those of a face with a moved corner tested again
+/// against the faces its box overlaps, the same pairs as a whole enumeration.
+#[derive(Clone, Debug)]
+pub struct IntersectingPairs {
+    tree: TriangleBvh,
+    positions: Vec<DVec3>,
+    pairs: Vec<[u32; 2]>,
+}
+
+impl IntersectingPairs {
+    /// The pairs of `mesh`, or `None` past `budget` pairs of faces with overlapping boxes (see
+    /// [`self_intersecting_pairs`]).
+    pub fn new(mesh: &TriMesh, budget: usize) -> Result<Option<Self>, SpatialError> {
+        let tree = TriangleBvh::new(mesh)?;
+        Ok(pairs_within(&tree, budget).map(|pairs| Self { tree, positions: mesh.positions.clone(), pairs }))
+    }
+
+    /// The pairs, sorted `[f, g]` with f < g.
+    pub fn pairs(&self) -> &[[u32; 2]] {
+        &self.pairs
+    }
+
+    /// The pairs of `mesh` (the connectivity these were found on, other positions); false past
+    /// `budget` candidate pairs to test (the pairs are then still those of the last positions
+    /// counted; enumerate some other way).
+    /// Errors: another vertex count, a non-finite coordinate.
+    pub fn update(&mut self, mesh: &TriMesh, budget: usize) -> Result<bool, SpatialError> {
+        if mesh.positions.len() != self.positions.len() {
+            return Err(SpatialError::PositionCount { expected: self.positions.len(), got: mesh.positions.len() });
+        }
+        let moved: Vec<bool> = mesh.positions.iter().zip(&self.positions).map(|(p, q)| p != q).collect();
+        let moved_faces: Vec<u32> = (0..self.tree.len() as u32)
+            .filter(|&leaf| self.tree.indices[leaf as usize].iter().any(|&v| moved[v as usize]))
+            .collect();
+        if moved_faces.is_empty() {
+            return Ok(true);
+        }
+        // The tree follows every call (its boxes are its triangles' at any positions); the pairs
+        // and positions only a call within the budget.
+        self.tree.refit(&mesh.positions)?;
+        let tree = &self.tree;
+        // Leaf of each face (the tree holds every face once).
+        let mut leaf_of = vec![u32::MAX; mesh.triangles.len()];
+        for (leaf, &f) in tree.faces.iter().enumerate() {
+            leaf_of[f as usize] = leaf as u32;
+        }
+        let face_moved = |leaf: u32| tree.indices[leaf as usize].iter().any(|&v| moved[v as usize]);
+        let candidates: Option<Vec<[u32; 2]>> = if 2 * moved_faces.len() > tree.len() {
+            let mut all = Vec::new();
+            let mut within_budget = true;
+            tree.bvh.for_each_overlapping_pair_within(|i, j| {
+                within_budget = all.len() < budget;
+                if within_budget {
+                    all.push([i, j]);
+                }
+                within_budget
+            });
+            within_budget.then_some(all)
+        } else {
+            let mut all = Vec::new();
+            let mut within_budget = true;
+            for &m in &moved_faces {
+                let (min, max) = super::bvh::triangle_aabb(&tree.corners[m as usize]);
+                tree.bvh.for_each_in_box(min, max, |other| {
+                    // A pair of two moved faces is found from its smaller leaf only.
+                    if other != m && (!face_moved(other) || m < other) {
+                        all.push([m, other]);
+                    }
+                });
+                if all.len() > budget {
+                    within_budget = false;
+                    break;
+                }
+            }
+            within_budget.then_some(all)
+        };
+        let Some(candidates) = candidates else { return Ok(false) };
+        Work::count_queries(moved_faces.len() as u64);
+        let found = intersecting_leaf_pairs(tree, &candidates);
+        let whole = 2 * moved_faces.len() > tree.len();
+        let mut pairs: Vec<[u32; 2]> = if whole {
+            found
+        } else {
+            let unmoved = |f: u32| !face_moved(leaf_of[f as usize]);
+            let mut kept: Vec<[u32; 2]> =
+                self.pairs.iter().copied().filter(|&[f, g]| unmoved(f) && unmoved(g)).collect();
+            kept.extend(found);
+            kept
+        };
+        pairs.par_sort_unstable();
+        pairs.dedup();
+        self.positions.clone_from(&mesh.positions);
+        self.pairs = pairs;
+        Ok(true)
+    }
 }
 
 /// [`self_intersecting_faces`] of `mesh` among `faces`, given `found`: what the same search
@@ -532,6 +699,16 @@ mod tests {
     use crate::spatial::test_meshes::bunny;
     use glam::DVec3;
 
+    /// A seeded generator of numbers in [0, 1).
+    fn xorshift(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The faces in some intersecting pair, by testing every pair.
     fn brute_force(mesh: &TriMesh) -> Vec<u32> {
         let n = mesh.num_triangles();
@@ -654,13 +831,7 @@ mod tests {
     /// found are exactly the brute force's.
     #[test]
     fn random_soups_match_the_brute_force() {
-        let mut state = 0x5EED_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = xorshift(0x5EED);
         for round in 0..12 {
             let mut positions: Vec<DVec3> = (0..40)
                 .map(|_| DVec3::new((next() * 4.0).round(), (next() * 4.0).round(), (next() * 2.0).round()) * 0.5)
@@ -686,6 +857,103 @@ mod tests {
             let found = self_intersections(&mesh).unwrap();
             assert_eq!(found.faces, brute_force(&mesh), "round {round}");
         }
+    }
+
+    /// The enumerated pairs are the brute force's, and the faces of the pairs within any subset,
+    /// for any relation, are those the face search finds; too many overlapping boxes give None.
+    #[test]
+    fn enumerated_pairs_give_the_faces_of_every_search() {
+        let mut next = xorshift(0xC0FFEE);
+        let mut two_spheres = shapes::icosphere(1.0, 2);
+        let mut other = shapes::icosphere(0.8, 2);
+        other.map_positions(|p| p + DVec3::new(1.2, 0.1, 0.0));
+        two_spheres.append(&other);
+        for round in 0..8 {
+            let mesh = if round == 0 {
+                two_spheres.clone()
+            } else {
+                let positions: Vec<DVec3> = (0..30)
+                    .map(|_| DVec3::new((next() * 4.0).round(), (next() * 4.0).round(), (next() * 2.0).round()) * 0.5)
+                    .collect();
+                let mut pick = || (next() * 30.0) as u32 % 30;
+                let mut triangles: Vec<[u32; 3]> = (0..80).map(|_| [pick(), pick(), pick()]).collect();
+                triangles.retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+                TriMesh::new(positions, triangles).unwrap()
+            };
+            let n = mesh.num_triangles() as u32;
+            let all: Vec<u32> = (0..n).collect();
+            let pairs = self_intersecting_pairs(&mesh, &all, usize::MAX).unwrap().unwrap();
+            let brute: Vec<[u32; 2]> = (0..n)
+                .flat_map(|f| (f + 1..n).map(move |g| [f, g]))
+                .filter(|&[f, g]| {
+                    triangles_intersect_away_from_shared(&mesh.corners(f as usize), &mesh.corners(g as usize))
+                })
+                .collect();
+            assert_eq!(pairs, brute, "round {round}");
+            assert!(!pairs.is_empty(), "round {round}");
+            for k in 0..6u32 {
+                let subset: Vec<u32> = (0..n).filter(|f| (f * 7 + k) % 5 != 0 || k == 0).collect();
+                let related = |f: u32, g: u32| k.is_multiple_of(2) || f.is_multiple_of(3) != g.is_multiple_of(3);
+                let searched = self_intersecting_faces(&mesh, subset.iter().copied(), related).unwrap();
+                let member = |f: u32| subset.binary_search(&f).is_ok();
+                let mut from_pairs: Vec<u32> = pairs
+                    .iter()
+                    .filter(|&&[f, g]| member(f) && member(g) && related(f, g))
+                    .flat_map(|&[f, g]| [f, g])
+                    .collect();
+                from_pairs.sort_unstable();
+                from_pairs.dedup();
+                assert_eq!(from_pairs, searched, "round {round}, subset {k}");
+            }
+        }
+        // A fan: every face's box overlaps every other's near the apex; a budget of 10 per face is
+        // exceeded.
+        let count = 400u32;
+        let mut fan = TriMesh { positions: vec![DVec3::ZERO], triangles: Vec::new() };
+        fan.positions.extend((0..count).map(|i| {
+            let a = std::f64::consts::TAU * f64::from(i) / f64::from(count);
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        }));
+        fan.triangles.extend((0..count).map(|i| [0, 1 + i, 1 + (i + 1) % count]));
+        let faces: Vec<u32> = (0..count).collect();
+        assert!(self_intersecting_pairs(&fan, &faces, 10 * faces.len()).unwrap().is_none());
+        assert_eq!(self_intersecting_pairs(&fan, &faces, usize::MAX).unwrap(), Some(Vec::new()));
+    }
+
+    #[test]
+    fn pairs_enumerated_again_after_a_move_are_those_of_a_whole_enumeration() {
+        // Two spheres of one mesh, the second moved a few vertices at a time through the first
+        // and back, and now and then as a whole.
+        let mut mesh = shapes::icosphere(1.0, 2);
+        let mut other = shapes::icosphere(0.8, 2);
+        other.map_positions(|p| p + DVec3::new(1.9, 0.0, 0.0));
+        mesh.append(&other);
+        let mut pairs = IntersectingPairs::new(&mesh, usize::MAX).unwrap().unwrap();
+        let first = mesh.positions.len() / 2;
+        let mut seen = false;
+        for step in 0..30usize {
+            if step % 10 == 9 {
+                for p in &mut mesh.positions[first..] {
+                    p.y += 0.05;
+                }
+            } else {
+                let start = first + (step * 29) % (mesh.positions.len() - first - 10);
+                for p in &mut mesh.positions[start..start + 10] {
+                    p.x -= if step % 6 == 5 { -0.5 } else { 0.35 };
+                }
+            }
+            assert!(pairs.update(&mesh, usize::MAX).unwrap());
+            let whole = IntersectingPairs::new(&mesh, usize::MAX).unwrap().unwrap();
+            assert_eq!(pairs.pairs(), whole.pairs(), "step {step}");
+            seen |= !whole.pairs().is_empty();
+        }
+        assert!(seen);
+        // Past the budget: false, and the next update within it is still exact.
+        mesh.positions[first] += DVec3::new(-0.3, 0.0, 0.0);
+        assert!(!pairs.update(&mesh, 0).unwrap());
+        mesh.positions[first + 1] += DVec3::new(-0.3, 0.0, 0.0);
+        assert!(pairs.update(&mesh, usize::MAX).unwrap());
+        assert_eq!(pairs.pairs(), IntersectingPairs::new(&mesh, usize::MAX).unwrap().unwrap().pairs());
     }
 
     /// Issue 28: shapes that made the analysis quadratic give the right answer: a flat fan, an
