@@ -274,6 +274,11 @@ fn inside_itself(mesh: &TriMesh) -> Result<Vec<bool>, crate::spatial::SpatialErr
     Ok(winding.winding_numbers(&mesh.positions).iter().map(|w| w.abs() > 1.0).collect())
 }
 
+/// True if the two position lists are equal bit for bit.
+fn same_bits(a: &[DVec3], b: &[DVec3]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits))
+}
+
 /// The faces crossing beyond the rest pose's ([`RestIntersections::faces_beyond`]) of each mesh
 /// the stage makes, each counted from the last one counted: from every intersecting face pair,
 /// enumerated again where vertices moved ([`IntersectingPairs`]), or where their boxes overlap too
@@ -505,6 +510,8 @@ pub(super) fn resolve_part_contacts(
     let neighbours = if touching.is_empty() { Vec::new() } else { vertex_neighbours(mesh) };
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
     let mut pair_stages = Vec::with_capacity(touching.len());
+    // The interior flags of the positions they were computed at.
+    let mut interior_of: Option<(Vec<DVec3>, Vec<bool>)> = None;
     for pair in &touching {
         let start = Instant::now();
         // The pair's contact stages, traced apart from what the pair does around them.
@@ -527,7 +534,12 @@ pub(super) fn resolve_part_contacts(
         s.faces_before = crossing_faces(&mut crossings, &current, parts, setup, pair.parts).map_err(spatial)?;
         // Regions from the parts only for two parts apart: a parent and child share their
         // articulation's seam, a fold has one part.
-        let interior = inside_itself(&current).map_err(spatial)?;
+        // The interior of the positions the last pair left, unless they changed since (a pair
+        // undone or without contact leaves them bit for bit).
+        let interior = match interior_of.take() {
+            Some((at, flags)) if same_bits(&at, &current.positions) => flags,
+            _ => inside_itself(&current).map_err(spatial)?,
+        };
         let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
         let tries = margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
         for (grown, rings) in tries {
@@ -620,6 +632,7 @@ pub(super) fn resolve_part_contacts(
                 Err(e) => s.error = Some(e),
             }
         }
+        interior_of = Some((current.positions, interior));
         let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         s.faces_after = crossing_faces(&mut crossings, &after, parts, setup, pair.parts).map_err(spatial)?;
         s.time = start.elapsed();

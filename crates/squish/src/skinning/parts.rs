@@ -219,14 +219,7 @@ impl PartContactSetup {
     /// Intersecting face pairs of the tree's current positions, not adjacent; sorted `[f, g]`,
     /// f < g.
     fn candidate_pairs(&self) -> Vec<[u32; 2]> {
-        let mut pairs: Vec<[u32; 2]> = self
-            .tree
-            .intersections_with(&self.tree)
-            .into_iter()
-            .filter(|&[f, g]| f < g && !self.adjacent(f, g))
-            .collect();
-        pairs.sort_unstable();
-        pairs
+        self.tree.intersections_within(|f, g| !self.adjacent(f, g))
     }
 
     /// The part pairs and folds touching in `mesh` (this connectivity, any pose), beyond the

@@ -130,19 +130,22 @@ fn pairs_within(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
         return None;
     }
     Work::count_queries(tree.len() as u64);
-    Some(intersecting_leaf_pairs(tree, &candidates))
+    Some(intersecting_leaf_pairs(tree, &candidates, intersect_away_from_shared))
 }
 
-/// The candidate leaf pairs of `tree` that intersect away from what they share, as sorted face
-/// pairs `[f, g]`, f < g. Their exact tests run in parallel, their work counted on the caller.
-fn intersecting_leaf_pairs(tree: &TriangleBvh, candidates: &[[u32; 2]]) -> Vec<[u32; 2]> {
+/// The candidate leaf pairs of `tree` that pass `test` (intersect away from what they share, or
+/// touch), as sorted face pairs `[f, g]`, f < g. Their exact tests run in parallel, their work
+/// counted on the caller.
+fn intersecting_leaf_pairs(
+    tree: &TriangleBvh,
+    candidates: &[[u32; 2]],
+    test: fn(&[DVec3; 3], &[DVec3; 3]) -> bool,
+) -> Vec<[u32; 2]> {
     let work = SharedWork::default();
     let mut pairs: Vec<[u32; 2]> = candidates
         .par_iter()
         .with_min_len(256)
-        .filter(|&&[i, j]| {
-            work.measure(|| intersect_away_from_shared(&tree.corners[i as usize], &tree.corners[j as usize]))
-        })
+        .filter(|&&[i, j]| work.measure(|| test(&tree.corners[i as usize], &tree.corners[j as usize])))
         .map(|&[i, j]| {
             let (f, g) = (tree.faces[i as usize], tree.faces[j as usize]);
             [f.min(g), f.max(g)]
@@ -233,7 +236,7 @@ impl IntersectingPairs {
         };
         let Some(candidates) = candidates else { return Ok(false) };
         Work::count_queries(moved_faces.len() as u64);
-        let found = intersecting_leaf_pairs(tree, &candidates);
+        let found = intersecting_leaf_pairs(tree, &candidates, intersect_away_from_shared);
         let whole = 2 * moved_faces.len() > tree.len();
         let mut pairs: Vec<[u32; 2]> = if whole {
             found
@@ -686,6 +689,27 @@ impl TriangleBvh {
         Work::count_queries(1);
         work.record();
         pairs.par_sort_unstable();
+        pairs.dedup();
+        pairs
+    }
+}
+
+impl TriangleBvh {
+    /// Intersecting pairs `[f, g]` (f < g, closed triangles: touching counts) of the tree's own
+    /// faces that `keep(f, g)` admits, sorted: the pairs of [`Self::intersections_with`] the tree
+    /// itself with f < g that `keep` admits, testing only those (adjacent faces always touch, and
+    /// their exact tests are the slow ones).
+    pub fn intersections_within(&self, keep: impl Fn(u32, u32) -> bool) -> Vec<[u32; 2]> {
+        let mut candidates: Vec<[u32; 2]> = Vec::new();
+        self.bvh.for_each_overlapping_pair_within(|i, j| {
+            let (f, g) = (self.faces[i as usize], self.faces[j as usize]);
+            if f != g && keep(f.min(g), f.max(g)) {
+                candidates.push([i, j]);
+            }
+            true
+        });
+        let mut pairs = intersecting_leaf_pairs(self, &candidates, triangles_intersect);
+        Work::count_queries(1);
         pairs.dedup();
         pairs
     }
