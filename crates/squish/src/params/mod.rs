@@ -36,7 +36,7 @@ mod value;
 pub use articulation::Articulation;
 pub use articulation::ArticulationParams;
 pub use articulation::SkinParts;
-pub use object::{MIN_PROFILE_ABSCISSA, ObjectParams, RegionChoice};
+pub use object::{MIN_PROFILE_ABSCISSA, ObjectParams, RegionChoice, VertexFlags};
 pub use pair::{ContactMethod, MappingMethod, PairParams};
 pub use squish_derive::Params;
 pub use suggest::did_you_mean;

@@ -35,6 +35,38 @@ impl RegionChoice {
     }
 }
 
+/// Per-vertex flags computed for the vertices asked for (a field that is costly to evaluate
+/// everywhere, of which a stage needs a few vertices): `of(vertices)` gives their flags, false for
+/// an id out of range. Equal when they share their function.
+#[derive(Clone)]
+pub struct VertexFlags(std::sync::Arc<FlagsOf>);
+
+/// The function behind [`VertexFlags`].
+type FlagsOf = dyn Fn(&[u32]) -> Vec<bool> + Send + Sync;
+
+impl VertexFlags {
+    pub fn new(flags: impl Fn(&[u32]) -> Vec<bool> + Send + Sync + 'static) -> Self {
+        Self(std::sync::Arc::new(flags))
+    }
+
+    /// The flags of `vertices`, in their order.
+    pub fn of(&self, vertices: &[u32]) -> Vec<bool> {
+        (self.0)(vertices)
+    }
+}
+
+impl std::fmt::Debug for VertexFlags {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("VertexFlags(..)")
+    }
+}
+
+impl PartialEq for VertexFlags {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
 /// Parameters of one object. Public fields, `Default` = the thesis' defaults; the schema, typed
 /// access by key and serde come from `#[derive(Params)]` (see [`super`]).
 #[derive(Clone, Debug, PartialEq, super::Params)]
@@ -211,11 +243,12 @@ pub struct ObjectParams {
     #[param(skip)]
     pub contact_open_border: Option<Vec<bool>>,
     /// Per object vertex: true where the vertex lies inside the other side of its cut region's
-    /// contact (given to the contact stage instead of its flood fill, [`crate::contact::ContactSide::interior`]).
+    /// contact (given to the contact stage instead of its flood fill, [`crate::contact::ContactSide::interior`]),
+    /// asked for the vertices of the cut regions only.
     /// Set by the part contacts (a vertex inside the object's own volume: the flood fill cannot
     /// tell inside from outside across an open seam), not a user key. `None`: the contact stage decides.
     #[param(skip)]
-    pub contact_interior: Option<Vec<bool>>,
+    pub contact_interior: Option<VertexFlags>,
     /// The rest (bind) pose, one position per vertex, on which the articulations' partition of
     /// unity β is computed (§6.1.1). `None`: the frame's own mesh.
     #[param(skip)]

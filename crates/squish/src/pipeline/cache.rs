@@ -264,10 +264,8 @@ impl SubRegion {
     }
 
     /// The interior flags of the contact stage from per-parent-vertex flags `interior`.
-    pub fn set_contact_interior(&mut self, interior: Option<&[bool]>) {
-        self.contact_interior = interior.map(|interior| {
-            self.sub.parent_vertex.iter().map(|&v| interior.get(v as usize).copied().unwrap_or(false)).collect()
-        });
+    pub fn set_contact_interior(&mut self, interior: Option<&crate::params::VertexFlags>) {
+        self.contact_interior = interior.map(|interior| interior.of(&self.sub.parent_vertex));
     }
 
     /// Removes the vertices `open` (per parent vertex) from the contact stage's border.

@@ -68,7 +68,7 @@ use super::deformations::object_results;
 use super::plan::Trace;
 use super::{Frame, FrameObject, FramePair, ObjectContacts, PipelineError};
 use crate::mesh::TriMesh;
-use crate::params::{ObjectParams, PairParams, SkinParts};
+use crate::params::{ObjectParams, PairParams, SkinParts, VertexFlags};
 use crate::skinning::{FacesBeyond, PartContactSetup, RestIntersections, TouchingKind, TouchingPair};
 use crate::spatial::IntersectingPairs;
 use crate::stage::{Stage, StageTimes, StageWork, Work};
@@ -262,16 +262,20 @@ fn seam_between(mesh: &TriMesh, labels: &[f64]) -> Vec<bool> {
     open
 }
 
-/// Per vertex: inside the object's own volume beyond its own sheet — the generalized winding
+/// Per vertex asked for (those of the cut regions): inside the object's own volume beyond its own sheet — the generalized winding
 /// number of the whole mesh (fast, [`crate::spatial::FastWinding`]) above 1 in magnitude: ½ on
 /// the surface, one more for each sheet of the object around the vertex. This is the contact
 /// stage's interior of a part contact: across the open seam between the two regions an
 /// intersection curve does not close, so a flood fill from the crossings cannot tell inside from
 /// outside (the same reason as ch. 6's crease cut).
-fn inside_itself(mesh: &TriMesh) -> Result<Vec<bool>, crate::spatial::SpatialError> {
-    let tree = crate::spatial::TriangleBvh::new(mesh)?;
-    let winding = crate::spatial::FastWinding::new(&tree, 2.0);
-    Ok(winding.winding_numbers(&mesh.positions).iter().map(|w| w.abs() > 1.0).collect())
+fn inside_itself(mesh: &TriMesh) -> Result<VertexFlags, crate::spatial::SpatialError> {
+    let field = crate::spatial::OwnedFastWinding::new(crate::spatial::TriangleBvh::new(mesh)?, 2.0);
+    let positions = mesh.positions.clone();
+    Ok(VertexFlags::new(move |vertices| {
+        let points: Vec<DVec3> = vertices.iter().filter_map(|&v| positions.get(v as usize).copied()).collect();
+        let mut inside = field.winding().winding_numbers(&points).into_iter().map(|w| w.abs() > 1.0);
+        vertices.iter().map(|&v| (v as usize) < positions.len() && inside.next().unwrap_or(false)).collect()
+    }))
 }
 
 /// True if the two position lists are equal bit for bit.
@@ -511,7 +515,7 @@ pub(super) fn resolve_part_contacts(
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
     let mut pair_stages = Vec::with_capacity(touching.len());
     // The interior flags of the positions they were computed at.
-    let mut interior_of: Option<(Vec<DVec3>, Vec<bool>)> = None;
+    let mut interior_of: Option<(Vec<DVec3>, VertexFlags)> = None;
     for pair in &touching {
         let start = Instant::now();
         // The pair's contact stages, traced apart from what the pair does around them.

@@ -855,7 +855,7 @@ pub struct SelfIntersectionCounts {
 }
 
 /// The faces behind [`SelfIntersectionCounts`], with the positions they were found at: what
-/// [`self_intersection_counts_after`] counts again from.
+/// [`articulation_crossings`] counts again from.
 #[derive(Clone, Debug, Default)]
 pub struct ArticulationCrossings {
     pub all: Vec<u32>,

@@ -52,7 +52,9 @@ pub use self_intersection::{
     self_intersecting_pairs, self_intersections,
 };
 pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
-pub use winding::{FastWinding, WindingClusters, generalized_winding_number, penetration_depths, solid_angle};
+pub use winding::{
+    FastWinding, OwnedFastWinding, WindingClusters, generalized_winding_number, penetration_depths, solid_angle,
+};
 
 use crate::mesh::MeshError;
 

@@ -327,6 +327,27 @@ impl<'a> FastWinding<'a> {
     }
 }
 
+/// A [`FastWinding`] that owns its tree and clusters, to keep or share between threads.
+#[derive(Clone, Debug)]
+pub struct OwnedFastWinding {
+    tree: TriangleBvh,
+    clusters: Vec<Cluster>,
+    accuracy: f64,
+}
+
+impl OwnedFastWinding {
+    /// [`FastWinding::new`] over `tree`, kept with it: the same clusters, the same numbers.
+    pub fn new(tree: TriangleBvh, accuracy: f64) -> Self {
+        let clusters = FastWinding::new(&tree, accuracy).clusters.into_owned();
+        Self { tree, clusters, accuracy: accuracy.max(1.0) }
+    }
+
+    /// The field to evaluate.
+    pub fn winding(&self) -> FastWinding<'_> {
+        FastWinding { tree: &self.tree, clusters: Cow::Borrowed(&self.clusters), accuracy: self.accuracy }
+    }
+}
+
 /// The sums [`cluster_of`] takes over triangles, for [`FastWinding::from_children`].
 #[derive(Clone, Copy, Debug, Default)]
 struct Moments {
