@@ -297,10 +297,6 @@ struct Crossings<'r> {
     pairs: Result<Option<IntersectingPairs>, ()>,
 }
 
-/// Pairs of faces with overlapping boxes, per face of the mesh, beyond which [`Crossings`]
-/// searches for faces instead of enumerating pairs.
-const PAIRS_PER_FACE: usize = 64;
-
 impl<'r> Crossings<'r> {
     fn new(rest: Option<&'r RestIntersections>) -> Self {
         Self { rest, last: None, pairs: Ok(None) }
@@ -308,7 +304,7 @@ impl<'r> Crossings<'r> {
 
     /// Every intersecting face pair of `mesh`, unless their enumeration is past its budget.
     fn pairs(&mut self, mesh: &TriMesh) -> Result<Option<&[[u32; 2]]>, crate::spatial::SpatialError> {
-        let budget = PAIRS_PER_FACE * mesh.num_triangles();
+        let budget = crate::spatial::PAIRS_PER_FACE * mesh.num_triangles();
         let within = match &mut self.pairs {
             Err(()) => false,
             Ok(Some(pairs)) => pairs.update(mesh, budget)?,
@@ -407,14 +403,8 @@ fn crossing_faces(
             && !setup.adjacent(f, g)
     };
     if let Some(pairs) = crossings.pairs(mesh)? {
-        let mut faces: Vec<u32> = pairs
-            .iter()
-            .filter(|&&[f, g]| of_pair(f) && of_pair(g) && related(f, g))
-            .flat_map(|&[f, g]| [f, g])
-            .collect();
-        faces.sort_unstable();
-        faces.dedup();
-        return Ok(faces.len());
+        let admitted = pairs.iter().copied().filter(|&[f, g]| of_pair(f) && of_pair(g) && related(f, g));
+        return Ok(crate::spatial::faces_of_pairs(admitted).len());
     }
     let faces = (0..mesh.num_triangles() as u32).filter(|&f| of_pair(f));
     Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())

@@ -31,11 +31,6 @@ use crate::skinning::{
 use crate::spatial::TriangleBvh;
 use crate::stage::{SharedWork, Stage, StageTimes, StageWork, Work};
 
-/// Pairs of faces with overlapping boxes, per face counted, beyond which the articulations'
-/// crossing faces are searched articulation by articulation rather than from one enumeration of
-/// the intersecting pairs (see [`crate::spatial::self_intersecting_pairs`]).
-const PAIRS_PER_FACE: usize = 64;
-
 /// What the deformer keeps about an object's self-contacts between frames.
 #[derive(Debug, Default)]
 pub(super) struct SelfContactCache {
@@ -441,11 +436,10 @@ fn finish_object(
     let timer = Instant::now();
     let (counted, quality_work) = Work::measure(|| -> Result<_, PipelineError> {
         let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
-        // Each articulation's faces crossing before and after, articulations in parallel (each
-        // task counts its work in a span of its own).
-        // The intersecting face pairs of the input and of the result over the articulations'
+        // Each articulation's faces crossing before and after. The intersecting face pairs of the input and of the result over the articulations'
         // faces, enumerated once each, give every articulation's counts; where the faces' boxes
-        // overlap too often for that (a fan), each articulation searches its own faces.
+        // overlap too often for that (a fan), each articulation searches its own faces, in
+        // parallel, each task counting its work in a span of its own.
         let counted: Vec<bool> = plans
             .iter()
             .zip(&cache.setups)
@@ -461,7 +455,7 @@ fn finish_object(
             .collect();
         faces.sort_unstable();
         faces.dedup();
-        let budget = PAIRS_PER_FACE * faces.len();
+        let budget = crate::spatial::PAIRS_PER_FACE * faces.len();
         let work = SharedWork::default();
         let (pairs_before, pairs_after) = rayon::join(
             || work.measure(|| crate::spatial::self_intersecting_pairs(mesh, &faces, budget)),

@@ -358,11 +358,7 @@ impl RestIntersections {
     /// rest pose's connectivity ([`crate::spatial::IntersectingPairs`]): the faces of those that
     /// do not intersect in the rest pose, sorted; the same faces.
     pub fn faces_beyond_in(&self, pairs: &[[u32; 2]]) -> Vec<u32> {
-        let mut faces: Vec<u32> =
-            pairs.iter().filter(|p| self.pairs.binary_search(p).is_err()).flat_map(|&[f, g]| [f, g]).collect();
-        faces.sort_unstable();
-        faces.dedup();
-        faces
+        crate::spatial::faces_of_pairs(pairs.iter().copied().filter(|p| self.pairs.binary_search(p).is_err()))
     }
 
     /// [`Self::faces_beyond`] of a whole mesh, kept to count again after some of its vertices

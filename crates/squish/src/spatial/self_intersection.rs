@@ -117,6 +117,13 @@ pub fn self_intersecting_pairs(
 /// The intersecting pairs of a tree's faces (see [`self_intersecting_pairs`]), or `None` past
 /// `budget` pairs of overlapping boxes.
 fn pairs_within(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
+    let candidates = overlapping_leaf_pairs(tree, budget)?;
+    Work::count_queries(tree.len() as u64);
+    Some(intersecting_leaf_pairs(tree, &candidates, intersect_away_from_shared))
+}
+
+/// Every pair of leaves of `tree` whose boxes overlap, or `None` past `budget` of them.
+fn overlapping_leaf_pairs(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
     let mut candidates: Vec<[u32; 2]> = Vec::new();
     let mut within_budget = true;
     tree.bvh.for_each_overlapping_pair_within(|i, j| {
@@ -126,11 +133,20 @@ fn pairs_within(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
         }
         within_budget
     });
-    if !within_budget {
-        return None;
-    }
-    Work::count_queries(tree.len() as u64);
-    Some(intersecting_leaf_pairs(tree, &candidates, intersect_away_from_shared))
+    within_budget.then_some(candidates)
+}
+
+/// Pairs of faces with overlapping boxes, per face enumerated, past which self-contact's counts
+/// search face by face rather than enumerate the intersecting pairs (a fan, a soup): the budget
+/// its callers give [`self_intersecting_pairs`] and [`IntersectingPairs`].
+pub const PAIRS_PER_FACE: usize = 64;
+
+/// The distinct faces of `pairs`, sorted.
+pub fn faces_of_pairs(pairs: impl IntoIterator<Item = [u32; 2]>) -> Vec<u32> {
+    let mut faces: Vec<u32> = pairs.into_iter().flatten().collect();
+    faces.sort_unstable();
+    faces.dedup();
+    faces
 }
 
 /// The candidate leaf pairs of `tree` that pass `test` (intersect away from what they share, or
@@ -206,16 +222,7 @@ impl IntersectingPairs {
         }
         let face_moved = |leaf: u32| tree.indices[leaf as usize].iter().any(|&v| moved[v as usize]);
         let candidates: Option<Vec<[u32; 2]>> = if 2 * moved_faces.len() > tree.len() {
-            let mut all = Vec::new();
-            let mut within_budget = true;
-            tree.bvh.for_each_overlapping_pair_within(|i, j| {
-                within_budget = all.len() < budget;
-                if within_budget {
-                    all.push([i, j]);
-                }
-                within_budget
-            });
-            within_budget.then_some(all)
+            overlapping_leaf_pairs(tree, budget)
         } else {
             let mut all = Vec::new();
             let mut within_budget = true;
@@ -920,13 +927,8 @@ mod tests {
                 let related = |f: u32, g: u32| k.is_multiple_of(2) || f.is_multiple_of(3) != g.is_multiple_of(3);
                 let searched = self_intersecting_faces(&mesh, subset.iter().copied(), related).unwrap();
                 let member = |f: u32| subset.binary_search(&f).is_ok();
-                let mut from_pairs: Vec<u32> = pairs
-                    .iter()
-                    .filter(|&&[f, g]| member(f) && member(g) && related(f, g))
-                    .flat_map(|&[f, g]| [f, g])
-                    .collect();
-                from_pairs.sort_unstable();
-                from_pairs.dedup();
+                let from_pairs =
+                    faces_of_pairs(pairs.iter().copied().filter(|&[f, g]| member(f) && member(g) && related(f, g)));
                 assert_eq!(from_pairs, searched, "round {round}, subset {k}");
             }
         }
