@@ -13,16 +13,23 @@
 //! the crossing faces found again after each round, until none is left; a fold that outlasts
 //! [`RELAX_ROUNDS`] rounds at one width is given the next, wider one. Copies of a vertex at one
 //! rest position (unwelded seams) take the mean of their moves: no crack. The caller restores
-//! the object's volume exactly on the vertices farther than [`VOLUME_RINGS`] edges from the
-//! smoothed ones (App. C's cubic, their normals: a crumpled fold's own normals would crumple it
-//! again) and keeps the result only if fewer faces cross.
+//! the object's volume exactly (App. C's cubic) on a band around the smoothed vertices
+//! ([`volume_carriers`]): the vertices [`VOLUME_RINGS`] + 1 to [`VOLUME_RINGS`] +
+//! [`VOLUME_BAND`] edges from them, each offset along its normal by the height times a bump
+//! that is zero at both edges of the band (not the smoothed vertices themselves: a crumpled
+//! fold's own normals would crumple it again). Where the restored result still crosses (the
+//! band's bulge pressing a fold's sheets together again), it is smoothed and restored again
+//! from there, up to [`PASSES`] passes, the band around every vertex smoothed so far; the
+//! result with the fewest crossing faces is kept if fewer cross than before.
 //!
-//! Untangling changes the signed volume a lot where the input crossed itself (the overlap of two
-//! sheets counts twice, as in ch. 6's input), so the offset of the rest of the object is that
-//! change spread over its whole area: a slight inflation of the whole character
-//! (docs/self-contact.md gives its size). Deterministic (vertex order, no parallel reduction).
-//! Discrete where it stops (a round more or less when a crossing appears or vanishes). It
-//! extends the thesis (not in it).
+//! **Local.** The rest of the object keeps its positions bit for bit: the volume the smoothing
+//! takes goes into a bulge around the fold, as a contact's goes into its own (ch. 5), rather
+//! than into an inflation of the whole character. Untangling changes the signed volume a lot
+//! where the input crossed itself (the overlap of two sheets counts twice, as in ch. 6's
+//! input); restoring it is this module's decision (docs/decisions.md, "Untangling what is
+//! left"). Deterministic (vertex order, no parallel reduction). Discrete where it stops (a
+//! round or a pass more or less when a crossing appears or vanishes). It extends the thesis
+//! (not in it).
 
 use glam::DVec3;
 
@@ -35,6 +42,12 @@ pub const RELAX_ROUNDS: usize = 12;
 pub const RELAX_RINGS: [usize; 3] = [2, 4, 8];
 /// Rings of vertices around the smoothed ones that do not carry the volume restoration.
 pub const VOLUME_RINGS: usize = 3;
+/// Rings of vertices past [`VOLUME_RINGS`] that carry it; the rest of the object keeps its
+/// positions.
+pub const VOLUME_BAND: usize = 6;
+/// Passes of smoothing then restoring the volume: a pass whose restored result still crosses
+/// is smoothed again from there.
+pub const PASSES: usize = 3;
 /// The fraction of the umbrella step taken per round.
 const STEP: f64 = 0.5;
 
@@ -85,25 +98,43 @@ pub(super) fn relax(
     Ok(relaxed)
 }
 
-/// Per vertex: farther than `rings` edges from every vertex of `inner` (and not in it).
-pub(super) fn away_from(neighbours: &[Vec<u32>], inner: &[bool], rings: usize) -> Vec<bool> {
+/// Per vertex, the share of the volume restoration it carries around the vertices `inner`:
+/// zero within [`VOLUME_RINGS`] edges of them and beyond [`VOLUME_RINGS`] + [`VOLUME_BAND`];
+/// between, sin(π k / ([`VOLUME_BAND`] + 1)) at k rings past the gap, a bump with no step at
+/// either edge of the band.
+pub(super) fn volume_carriers(neighbours: &[Vec<u32>], inner: &[bool]) -> Vec<f64> {
     let seeds: Vec<u32> = (0..inner.len() as u32).filter(|&v| inner[v as usize]).collect();
-    grow(neighbours, &seeds, rings).iter().map(|&near| !near).collect()
+    let rings = rings_from(neighbours, &seeds, VOLUME_RINGS + VOLUME_BAND);
+    rings
+        .iter()
+        .map(|&r| match r {
+            Some(r) if r > VOLUME_RINGS => {
+                let k = (r - VOLUME_RINGS) as f64;
+                (std::f64::consts::PI * k / (VOLUME_BAND + 1) as f64).sin()
+            }
+            _ => 0.0,
+        })
+        .collect()
 }
 
 /// Per vertex: within `rings` edges of a vertex of `seeds`.
 fn grow(neighbours: &[Vec<u32>], seeds: &[u32], rings: usize) -> Vec<bool> {
-    let mut reached = vec![false; neighbours.len()];
+    rings_from(neighbours, seeds, rings).iter().map(Option::is_some).collect()
+}
+
+/// Per vertex: its distance in edges from the nearest vertex of `seeds`, `None` beyond `rings`.
+fn rings_from(neighbours: &[Vec<u32>], seeds: &[u32], rings: usize) -> Vec<Option<usize>> {
+    let mut reached = vec![None; neighbours.len()];
     let mut layer: Vec<u32> = seeds.to_vec();
     for &v in &layer {
-        reached[v as usize] = true;
+        reached[v as usize] = Some(0);
     }
-    for _ in 0..rings {
+    for ring in 1..=rings {
         let mut next = Vec::new();
         for &v in &layer {
             for &w in &neighbours[v as usize] {
-                if !reached[w as usize] {
-                    reached[w as usize] = true;
+                if reached[w as usize].is_none() {
+                    reached[w as usize] = Some(ring);
                     next.push(w);
                 }
             }
@@ -174,11 +205,31 @@ mod tests {
         assert_eq!(moves[1], DVec3::Y);
     }
 
+    /// On a path of vertices, the carriers are the band's vertices on both sides of the inner
+    /// one, symmetric, zero at the gap and past the band, largest mid-band.
     #[test]
-    fn away_from_excludes_the_inner_vertices_and_their_rings() {
-        let neighbours: Vec<Vec<u32>> =
-            (0..6u32).map(|v| [v.checked_sub(1), (v < 5).then_some(v + 1)].into_iter().flatten().collect()).collect();
-        let inner = [false, false, true, false, false, false];
-        assert_eq!(away_from(&neighbours, &inner, 1), vec![true, false, false, false, true, true]);
+    fn volume_carriers_are_a_bump_over_the_band_past_the_gap() {
+        let n = 2 * (VOLUME_RINGS + VOLUME_BAND) + 5;
+        let neighbours: Vec<Vec<u32>> = (0..n as u32)
+            .map(|v| [v.checked_sub(1), (v + 1 < n as u32).then_some(v + 1)].into_iter().flatten().collect())
+            .collect();
+        let centre = n / 2;
+        let mut inner = vec![false; n];
+        inner[centre] = true;
+        let w = volume_carriers(&neighbours, &inner);
+        for (v, &weight) in w.iter().enumerate() {
+            let rings = v.abs_diff(centre);
+            if rings <= VOLUME_RINGS || rings > VOLUME_RINGS + VOLUME_BAND {
+                assert_eq!(weight, 0.0, "vertex {v}, {rings} rings");
+            } else {
+                assert!(weight > 0.0 && weight <= 1.0, "vertex {v}: {weight}");
+            }
+        }
+        for k in 1..=VOLUME_BAND {
+            assert_eq!(w[centre + VOLUME_RINGS + k], w[centre - VOLUME_RINGS - k], "symmetric");
+        }
+        let edge = w[centre + VOLUME_RINGS + 1];
+        let middle = w[centre + VOLUME_RINGS + VOLUME_BAND.div_ceil(2)];
+        assert!(edge < middle && edge < 0.5, "{edge} {middle}");
     }
 }

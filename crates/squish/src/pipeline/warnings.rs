@@ -38,7 +38,7 @@ pub enum WarningKind {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameWarning {
     pub kind: WarningKind,
-    /// Index in [`FrameStats::pairs`] of the region pair concerned, if any.
+    /// Index in [`crate::FrameStats::pairs`] of the region pair concerned, if any.
     pub pair: Option<usize>,
     /// Index of the object concerned, if any.
     pub object: Option<usize>,

@@ -513,9 +513,9 @@ impl ArticulationContact {
     }
 }
 
-/// Per object vertex: inside another part of the object, for the vertices of every articulation
-/// of `setups` (see [`interior_flags`]); `tree` is the whole object's triangle tree at `mesh`'s
-/// positions, shared by the object's articulations.
+/// Per object vertex: inside another part of the object (the winding number of a point just
+/// inside its own faces), for the vertices of every articulation of `setups`; `tree` is the
+/// whole object's triangle tree at `mesh`'s positions, shared by the object's articulations.
 pub fn articulation_interiors<'a>(
     mesh: &TriMesh,
     normals: &[DVec3],
