@@ -63,7 +63,7 @@ class ObjectParams(TypedDict, total=False):
     region_mask: Sequence[float] | npt.NDArray[np.float64] | Literal['none']
     """With `region = "mask"`: one value per vertex; a vertex whose value rounds to k ≥ 1 belongs to mask k (a painted 0–1 mask selects the values ≥ 0.5). Default: 'none'."""
     untangle: bool
-    """With self-contact parts (`self_contact = "auto"`): after the contacts, smooth out what still passes through the skin (folds crumpled by the skinning, chords of a coarse mesh), the volume restored exactly over the rest of the object; `false` keeps the method's own result (docs/decisions.md, "Untangling what is left"). Default: True."""
+    """With self-contact parts (`self_contact = "auto"`): after the contacts, smooth out what still passes through the skin (folds crumpled by the skinning, chords of a coarse mesh), the volume restored exactly by a band of vertices around each fold (the rest of the object keeps its positions); `false` keeps the method's own result (docs/decisions.md, "Untangling what is left"). Default: True."""
 
 class PairParams(TypedDict, total=False):
     """The pair parameters (squish.params_schema())."""

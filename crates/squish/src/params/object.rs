@@ -232,8 +232,9 @@ pub struct ObjectParams {
     pub self_contact_parts: Option<SkinParts>,
     /// With self-contact parts (`self_contact = "auto"`): after the contacts, smooth out what
     /// still passes through the skin (folds crumpled by the skinning, chords of a coarse mesh),
-    /// the volume restored exactly over the rest of the object; `false` keeps the method's own
-    /// result (docs/decisions.md, "Untangling what is left").
+    /// the volume restored exactly by a band of vertices around each fold (the rest of the object
+    /// keeps its positions); `false` keeps the method's own result (docs/decisions.md,
+    /// "Untangling what is left").
     #[param(section = "beyond the thesis (issue 27)")]
     pub untangle: bool,
     /// Per object vertex: true where a cut region's border is *not* a border for the contact
