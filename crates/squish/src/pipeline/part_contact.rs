@@ -125,6 +125,10 @@ pub(super) struct PartContactCache {
     setup: Option<PartContactSetup>,
     rest_intersections: Option<RestIntersections>,
     parts: Option<SkinParts>,
+    /// Per vertex of the rest pose's connectivity: its neighbours ([`vertex_neighbours`]).
+    neighbours: Vec<Vec<u32>>,
+    /// The field behind the pairs' interior ([`inside_itself`]), built at the rest pose.
+    interior: Option<std::sync::Arc<InteriorField>>,
     regions: BTreeMap<([u32; 2], TouchingKind, bool, usize), PairRegions>,
 }
 
@@ -180,10 +184,10 @@ fn pair_labels(mesh: &TriMesh, parts: &SkinParts, [a, b]: [u32; 2], rings: usize
 /// (1 and 2, 0 elsewhere): side 1 starts from the vertices of the faces of `faces[·][0]`, side 2
 /// from those of `faces[·][1]`; a breadth-first search over the mesh's edges gives each vertex
 /// the side of the nearer start, up to `rings` edges away. Vertices as near to both (or starts
-/// of both) get 0 and stop the search: the seam between the sides.
-fn intersection_labels(mesh: &TriMesh, faces: &[[u32; 2]], rings: usize) -> Vec<f64> {
+/// of both) get 0 and stop the search: the seam between the sides. `neighbours`: the mesh's
+/// [`vertex_neighbours`].
+fn intersection_labels(mesh: &TriMesh, neighbours: &[Vec<u32>], faces: &[[u32; 2]], rings: usize) -> Vec<f64> {
     let n = mesh.num_vertices();
-    let neighbours = vertex_neighbours(mesh);
     // Per vertex: which sides reach it first (bit 0: side 1, bit 1: side 2); 0 = not reached.
     let mut reached = vec![0u8; n];
     let mut layer: BTreeMap<u32, u8> = BTreeMap::new();
@@ -262,18 +266,39 @@ fn seam_between(mesh: &TriMesh, labels: &[f64]) -> Vec<bool> {
     open
 }
 
-/// Per vertex asked for (those of the cut regions): inside the object's own volume beyond its own sheet — the generalized winding
-/// number of the whole mesh (fast, [`crate::spatial::FastWinding`]) above 1 in magnitude: ½ on
+/// The whole mesh's tree and winding clusters behind [`inside_itself`]: built once at the rest
+/// pose, refitted to each mesh asked about (the same tree shape at every frame, so the far-field
+/// approximation does not change with a rebuilt tree's clusters from one frame to the next).
+#[derive(Clone)]
+struct InteriorField {
+    tree: crate::spatial::TriangleBvh,
+    clusters: crate::spatial::WindingClusters,
+}
+
+/// Accuracy (β) of the fast winding number behind [`inside_itself`].
+const INTERIOR_ACCURACY: f64 = 2.0;
+
+/// Per vertex asked for (those of the cut regions): inside the object's own volume beyond its
+/// own sheet — the generalized winding number of the whole mesh (fast,
+/// [`crate::spatial::FastWinding`], over `field` refitted to `mesh`) above 1 in magnitude: ½ on
 /// the surface, one more for each sheet of the object around the vertex. This is the contact
 /// stage's interior of a part contact: across the open seam between the two regions an
 /// intersection curve does not close, so a flood fill from the crossings cannot tell inside from
 /// outside (the same reason as ch. 6's crease cut).
-fn inside_itself(mesh: &TriMesh) -> Result<VertexFlags, crate::spatial::SpatialError> {
-    let field = crate::spatial::OwnedFastWinding::new(crate::spatial::TriangleBvh::new(mesh)?, 2.0);
+fn inside_itself(
+    field: &mut std::sync::Arc<InteriorField>,
+    mesh: &TriMesh,
+) -> Result<VertexFlags, crate::spatial::SpatialError> {
+    // The flags of an earlier mesh are dropped by now, so the field is refitted in place.
+    let fitted = std::sync::Arc::make_mut(field);
+    fitted.tree.refit(&mesh.positions)?;
+    fitted.clusters.refresh(&fitted.tree);
+    let field = std::sync::Arc::clone(field);
     let positions = mesh.positions.clone();
     Ok(VertexFlags::new(move |vertices| {
+        let winding = crate::spatial::FastWinding::with_clusters(&field.tree, &field.clusters, INTERIOR_ACCURACY);
         let points: Vec<DVec3> = vertices.iter().filter_map(|&v| positions.get(v as usize).copied()).collect();
-        let mut inside = field.winding().winding_numbers(&points).into_iter().map(|w| w.abs() > 1.0);
+        let mut inside = winding.winding_numbers(&points).into_iter().map(|w| w.abs() > 1.0);
         vertices.iter().map(|&v| (v as usize) < positions.len() && inside.next().unwrap_or(false)).collect()
     }))
 }
@@ -490,6 +515,8 @@ pub(super) fn resolve_part_contacts(
             setup: Some(PartContactSetup::new(rest).map_err(spatial)?),
             rest_intersections: Some(RestIntersections::new(rest).map_err(spatial)?),
             parts: Some(parts.clone()),
+            neighbours: vertex_neighbours(rest),
+            interior: None,
             regions: BTreeMap::new(),
         };
     }
@@ -502,6 +529,7 @@ pub(super) fn resolve_part_contacts(
     let search_start = Instant::now();
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
+    let neighbours = &cache.neighbours;
     let mut crossings = Crossings::new(rest_intersections.as_ref());
     let mut faces_now = if touching.is_empty() { 0 } else { crossings.faces(mesh).map_err(spatial)?.len() };
     // The count of the stage's input starts from this one (the articulations moved few vertices).
@@ -509,7 +537,6 @@ pub(super) fn resolve_part_contacts(
     let mut positions = mesh.positions.clone();
     let mut moved = vec![false; n];
     let mut stats = Vec::with_capacity(touching.len());
-    let neighbours = if touching.is_empty() { Vec::new() } else { vertex_neighbours(mesh) };
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
     let mut pair_stages = Vec::with_capacity(touching.len());
     // The interior flags of the positions they were computed at.
@@ -538,15 +565,25 @@ pub(super) fn resolve_part_contacts(
         // articulation's seam, a fold has one part.
         // The interior of the positions the last pair left, unless they changed since (a pair
         // undone or without contact leaves them bit for bit).
-        let interior = match interior_of.take() {
-            Some((at, flags)) if same_bits(&at, &current.positions) => flags,
-            _ => inside_itself(&current).map_err(spatial)?,
+        let kept = interior_of.take().filter(|(at, _)| same_bits(at, &current.positions));
+        let interior = match kept {
+            Some((_, flags)) => flags,
+            None => {
+                let field = match cache.interior.as_mut() {
+                    Some(field) => field,
+                    None => cache.interior.insert(std::sync::Arc::new(InteriorField {
+                        tree: crate::spatial::TriangleBvh::new(rest).map_err(spatial)?,
+                        clusters: crate::spatial::WindingClusters::default(),
+                    })),
+                };
+                inside_itself(field, &current).map_err(spatial)?
+            }
         };
         let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
         let tries = margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
         for (grown, rings) in tries {
             let labels = if grown {
-                intersection_labels(mesh, &pair.faces, rings)
+                intersection_labels(mesh, neighbours, &pair.faces, rings)
             } else {
                 pair_labels(mesh, parts, pair.parts, rings)
             };
@@ -664,7 +701,7 @@ pub(super) fn resolve_part_contacts(
             let crossing =
                 |p: &[DVec3]| crossings.faces(&TriMesh { positions: p.to_vec(), triangles: mesh.triangles.clone() });
             let outcome =
-                super::untangle::relax(&mesh.triangles, &mut candidate, &neighbours, setup.position_ids(), crossing)
+                super::untangle::relax(&mesh.triangles, &mut candidate, neighbours, setup.position_ids(), crossing)
                     .map_err(spatial)?;
             if outcome.rounds == 0 {
                 break;
@@ -675,7 +712,7 @@ pub(super) fn resolve_part_contacts(
             for (r, (p, q)) in relaxed_vertices.iter_mut().zip(start.iter().zip(&candidate)) {
                 *r |= p != q;
             }
-            let carriers = super::untangle::volume_carriers(&neighbours, &relaxed_vertices);
+            let carriers = super::untangle::volume_carriers(neighbours, &relaxed_vertices);
             let Some(restored) = restore_volume_with(&before, candidate, &carriers) else { break };
             let restored_mesh = TriMesh { positions: restored, triangles: mesh.triangles.clone() };
             let faces = crossings.faces(&restored_mesh).map_err(spatial)?.len();
@@ -872,7 +909,7 @@ mod tests {
         let posed = s.pose(0.8, std::f64::consts::FRAC_PI_2);
         let mut setup = PartContactSetup::new(&s.rest).unwrap();
         let touching = setup.touching(&posed, &s.parts).unwrap();
-        let labels = intersection_labels(&posed, &touching[0].faces, 4);
+        let labels = intersection_labels(&posed, &vertex_neighbours(&posed), &touching[0].faces, 4);
         // Every seed face of a side lies wholly in its region.
         for [f, g] in &touching[0].faces {
             assert!(posed.triangles[*f as usize].iter().all(|&v| labels[v as usize] == 1.0));

@@ -135,22 +135,30 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
 }
 
 impl SideTrees {
-    /// The trees of region `region` of an object at `positions`; `whole`: also the whole
-    /// object's tree, for a cut region of a closed object.
-    fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh) -> Option<Self> {
+    /// The trees of region `region` of an object at `positions`; `closed_inside`: the region's
+    /// inside is its closed object's (some pair of it with another object), so a cut region
+    /// also gets the whole object's tree.
+    fn new(
+        cache: &ObjectCache,
+        region: usize,
+        positions: &[DVec3],
+        mesh: &TriMesh,
+        closed_inside: bool,
+    ) -> Option<Self> {
         let region_cache = cache.regions.get(region)?;
+        let whole = || (cache.closed && closed_inside).then(|| cache.bvh.clone());
         let (mut bvh, vertices, mut whole) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
             (None, _) => (cache.bvh.clone(), (0..positions.len() as u32).collect(), None),
             (Some(_), Some(sub)) => {
                 let bvh = sub.bvh.relabeled(&sub.sub.parent_face, &sub.sub.parent_vertex, positions.len())?;
-                (bvh, sub.sub.parent_vertex.clone(), cache.closed.then(|| cache.bvh.clone()))
+                (bvh, sub.sub.parent_vertex.clone(), whole())
             }
             (Some(faces), None) => {
                 let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
                 vertices.sort_unstable();
                 vertices.dedup();
                 let bvh = TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?;
-                (bvh, vertices, cache.closed.then(|| cache.bvh.clone()))
+                (bvh, vertices, whole())
             }
         };
         bvh.refit(positions).ok()?;
@@ -457,6 +465,21 @@ fn separate_with(
     let mut positions: Vec<Vec<DVec3>> = (0..count).map(|i| positions_at(i, outcomes)).collect();
     // The trees of every side of an active pair: the region's kept trees or new ones, refitted
     // to this frame's outputs and after each round.
+    // A side whose inside is its closed object's (paired with another object, see `surface`)
+    // needs the whole object's tree; one paired with its own object only does not, and is not
+    // given one to refit at every round.
+    let mut closed_inside: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
+    for &k in active {
+        let Some(regions) = region_pairs[k].regions else { continue };
+        let objects = frame.pairs[region_pairs[k].pair].objects;
+        for l in 0..2 {
+            if objects[0] != objects[1]
+                && let Some(flag) = closed_inside[objects[l]].get_mut(regions[l])
+            {
+                *flag = true;
+            }
+        }
+    }
     let mut fitted: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
     for &k in active {
         let Some(regions) = region_pairs[k].regions else { continue };
@@ -465,10 +488,19 @@ fn separate_with(
             let (i, r) = (objects[l], regions[l]);
             let (Some(cache), Some(false)) = (caches[i].as_ref(), fitted[i].get(r).copied()) else { continue };
             fitted[i][r] = true;
+            // (A whole region's own tree is the whole object's.)
+            let cut = cache.regions.get(r).is_some_and(|region| region.faces.is_some());
+            let needs_whole = cache.closed && closed_inside[i][r] && cut;
             let side = &mut trees[i][r];
-            let refitted = side.as_mut().is_some_and(|t| t.refit(&positions[i]).is_ok());
+            if let Some(kept) = side.as_mut()
+                && !needs_whole
+            {
+                kept.whole = None;
+            }
+            let refitted =
+                side.as_mut().is_some_and(|t| (t.whole.is_some() || !needs_whole) && t.refit(&positions[i]).is_ok());
             if !refitted {
-                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
+                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh, closed_inside[i][r]);
             }
         }
     }
