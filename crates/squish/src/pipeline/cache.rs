@@ -53,6 +53,21 @@ impl ObjectCache {
         })
     }
 
+    /// A cache of the same object with what depends on its connectivity only (topology, tree,
+    /// components) and no working region yet: what [`Self::new`] would build, without building
+    /// it again (each touching part pair of one mesh starts from its object's).
+    pub fn connectivity(&self) -> Self {
+        Self {
+            triangles: self.triangles.clone(),
+            topology: self.topology.clone(),
+            closed: self.closed,
+            bvh: self.bvh.clone(),
+            components: self.components.clone(),
+            regions: Vec::new(),
+            figures: None,
+        }
+    }
+
     /// The figures of the object's components at `mesh`'s positions.
     pub fn figures(&mut self, mesh: &TriMesh) -> ComponentFigures {
         let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
@@ -125,7 +140,7 @@ impl ObjectCache {
 }
 
 /// The connected components of an object (connectivity only).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Components {
     /// Component of each face.
     pub face: Vec<u32>,
@@ -376,7 +391,9 @@ impl RegionCache {
 pub(super) struct SideTrees {
     /// The region's faces (object face ids) at the current positions.
     pub bvh: TriangleBvh,
-    /// The whole object's tree when the region is cut out of a closed object (its inside).
+    /// The whole object's tree when the region is cut out of a closed object and paired with
+    /// another object (its inside is the object's); `None` for a side paired with its own
+    /// object only, whose inside is the region's own.
     pub whole: Option<TriangleBvh>,
     /// Vertices of the side (sorted, object ids).
     pub vertices: Vec<u32>,

@@ -231,6 +231,14 @@ pub(super) struct ObjectContacts {
     skip_separation: bool,
 }
 
+impl ObjectContacts {
+    /// Stages for one object whose connectivity caches are `object`'s (see
+    /// [`ObjectCache::connectivity`]).
+    fn with_object(object: ObjectCache) -> Self {
+        Self { caches: vec![Some(object)], ..Self::default() }
+    }
+}
+
 impl Deformer {
     /// A deformer with empty caches.
     pub fn new() -> Self {

@@ -64,6 +64,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+use super::cache::ObjectCache;
 use super::deformations::object_results;
 use super::plan::Trace;
 use super::{Frame, FrameObject, FramePair, ObjectContacts, PipelineError};
@@ -129,6 +130,9 @@ pub(super) struct PartContactCache {
     neighbours: Vec<Vec<u32>>,
     /// The field behind the pairs' interior ([`inside_itself`]), built at the rest pose.
     interior: Option<std::sync::Arc<InteriorField>>,
+    /// The object's connectivity caches, built at the rest pose, that every pair's contact
+    /// stages start from.
+    object: Option<ObjectCache>,
     regions: BTreeMap<([u32; 2], TouchingKind, bool, usize), PairRegions>,
 }
 
@@ -517,6 +521,7 @@ pub(super) fn resolve_part_contacts(
             parts: Some(parts.clone()),
             neighbours: vertex_neighbours(rest),
             interior: None,
+            object: None,
             regions: BTreeMap::new(),
         };
     }
@@ -604,7 +609,12 @@ pub(super) fn resolve_part_contacts(
                 }
                 std::collections::btree_map::Entry::Vacant(entry) => {
                     let region_faces = [faces_of(1.0), faces_of(2.0)];
-                    entry.insert(PairRegions { contacts: ObjectContacts::default(), labels, region_faces })
+                    let object = match cache.object.as_ref() {
+                        Some(object) => object,
+                        None => cache.object.insert(ObjectCache::new(name, rest)?),
+                    };
+                    let contacts = ObjectContacts::with_object(object.connectivity());
+                    entry.insert(PairRegions { contacts, labels, region_faces })
                 }
             };
             s.region_faces = entry.region_faces;
