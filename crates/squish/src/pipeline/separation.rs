@@ -135,18 +135,11 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
 }
 
 impl SideTrees {
-    /// The trees of region `region` of an object at `positions`; `closed_inside`: the region's
-    /// inside is its closed object's (some pair of it with another object), so a cut region
-    /// also gets the whole object's tree.
-    fn new(
-        cache: &ObjectCache,
-        region: usize,
-        positions: &[DVec3],
-        mesh: &TriMesh,
-        closed_inside: bool,
-    ) -> Option<Self> {
+    /// The trees of region `region` of an object at `positions`; `with_whole`: a cut region
+    /// also gets the whole object's tree (its inside is its closed object's).
+    fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh, with_whole: bool) -> Option<Self> {
         let region_cache = cache.regions.get(region)?;
-        let whole = || (cache.closed && closed_inside).then(|| cache.bvh.clone());
+        let whole = || with_whole.then(|| cache.bvh.clone());
         let (mut bvh, vertices, mut whole) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
             (None, _) => (cache.bvh.clone(), (0..positions.len() as u32).collect(), None),
             (Some(_), Some(sub)) => {
@@ -463,8 +456,6 @@ fn separate_with(
         }
     };
     let mut positions: Vec<Vec<DVec3>> = (0..count).map(|i| positions_at(i, outcomes)).collect();
-    // The trees of every side of an active pair: the region's kept trees or new ones, refitted
-    // to this frame's outputs and after each round.
     // A side whose inside is its closed object's (paired with another object, see `surface`)
     // needs the whole object's tree; one paired with its own object only does not, and is not
     // given one to refit at every round.
@@ -480,6 +471,8 @@ fn separate_with(
             }
         }
     }
+    // The trees of every side of an active pair: the region's kept trees or new ones, refitted
+    // to this frame's outputs and after each round.
     let mut fitted: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
     for &k in active {
         let Some(regions) = region_pairs[k].regions else { continue };
@@ -500,7 +493,7 @@ fn separate_with(
             let refitted =
                 side.as_mut().is_some_and(|t| (t.whole.is_some() || !needs_whole) && t.refit(&positions[i]).is_ok());
             if !refitted {
-                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh, closed_inside[i][r]);
+                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh, needs_whole);
             }
         }
     }
