@@ -364,6 +364,34 @@ impl<'r> Crossings<'r> {
         self.last = Some(counted);
         Ok(faces)
     }
+
+    /// [`Self::faces`] with, per face, the summed length of the segments along which it crosses
+    /// the faces it crosses ([`crate::spatial::intersection_length`]); `f64::INFINITY` when the
+    /// pairs are past their budget (the faces are then searched, not their pairs).
+    fn faces_with_lengths(&mut self, mesh: &TriMesh) -> Result<Vec<(u32, f64)>, crate::spatial::SpatialError> {
+        let Some(rest) = self.rest else { return Ok(Vec::new()) };
+        let Some(pairs) = self.pairs(mesh)? else {
+            return Ok(self.faces(mesh)?.into_iter().map(|f| (f, f64::INFINITY)).collect());
+        };
+        let mut lengths: BTreeMap<u32, f64> = BTreeMap::new();
+        for &[f, g] in pairs.iter().filter(|&&p| !rest.is_rest_pair(p)) {
+            let length = crate::spatial::intersection_length(&mesh.corners(f as usize), &mesh.corners(g as usize));
+            *lengths.entry(f).or_default() += length;
+            *lengths.entry(g).or_default() += length;
+        }
+        Ok(lengths.into_iter().collect())
+    }
+}
+
+/// The mean length of the edges of `mesh`'s triangles (an edge shared by two counted twice).
+fn mean_edge(mesh: &TriMesh) -> f64 {
+    let sum: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| mesh.positions[v as usize]))
+        .map(|[a, b, c]| a.distance(b) + b.distance(c) + c.distance(a))
+        .sum();
+    sum / (3 * mesh.triangles.len().max(1)) as f64
 }
 
 /// `new` (the pair's result on `current`) with the object's volume brought back to `current`'s
@@ -704,42 +732,56 @@ pub(super) fn resolve_part_contacts(
     {
         let before = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         let mut candidate = positions.clone();
-        let mut relaxed_vertices = vec![false; n];
+        // The length the untangling's ramp is measured in.
+        let edge = mean_edge(mesh);
+        let mut weights = vec![0.0_f64; n];
         let mut rounds = 0;
+        let mut result: Option<(Vec<DVec3>, usize)> = None;
         for _ in 0..super::untangle::PASSES {
-            let start = candidate.clone();
-            let crossing =
-                |p: &[DVec3]| crossings.faces(&TriMesh { positions: p.to_vec(), triangles: mesh.triangles.clone() });
-            let outcome =
-                super::untangle::relax(&mesh.triangles, &mut candidate, neighbours, setup.position_ids(), crossing)
-                    .map_err(spatial)?;
+            let crossing = |p: &[DVec3]| {
+                crossings.faces_with_lengths(&TriMesh { positions: p.to_vec(), triangles: mesh.triangles.clone() })
+            };
+            let outcome = super::untangle::relax(
+                &mesh.triangles,
+                &mut candidate,
+                neighbours,
+                setup.position_ids(),
+                edge,
+                crossing,
+            )
+            .map_err(spatial)?;
             if outcome.rounds == 0 {
                 break;
             }
             rounds += outcome.rounds;
             // The volume is restored away from the smoothed vertices (their own normals are
-            // those of a crumpled fold: offsetting them would crumple it again).
-            for (r, (p, q)) in relaxed_vertices.iter_mut().zip(start.iter().zip(&candidate)) {
-                *r |= p != q;
+            // those of a crumpled fold: offsetting them would crumple it again), by every vertex
+            // smoothed so far, each as much as it was.
+            for (w, o) in weights.iter_mut().zip(&outcome.weights) {
+                *w = w.max(*o);
             }
-            let carriers = super::untangle::volume_carriers(neighbours, &relaxed_vertices);
+            let carriers = super::untangle::volume_carriers(neighbours, &weights);
             let Some(restored) = restore_volume_with(&before, candidate, &carriers) else { break };
             let restored_mesh = TriMesh { positions: restored, triangles: mesh.triangles.clone() };
             let faces = crossings.faces(&restored_mesh).map_err(spatial)?.len();
-            if faces < faces_now {
-                untangled.rounds = rounds;
-                faces_now = faces;
-                for (v, (p, q)) in positions.iter_mut().zip(&restored_mesh.positions).enumerate() {
-                    if p != q {
-                        moved[v] = true;
-                        *p = *q;
-                    }
-                }
-            }
+            candidate = restored_mesh.positions;
+            result = Some((candidate.clone(), faces));
             if faces == 0 {
                 break;
             }
-            candidate = restored_mesh.positions;
+        }
+        // The last pass is kept unless it leaves more faces crossing than the contacts did.
+        if let Some((restored, faces)) = result
+            && faces <= faces_now
+        {
+            untangled.rounds = rounds;
+            faces_now = faces;
+            for (v, (p, q)) in positions.iter_mut().zip(&restored).enumerate() {
+                if p != q {
+                    moved[v] = true;
+                    *p = *q;
+                }
+            }
         }
     }
     untangled.faces_after = faces_now;
@@ -998,6 +1040,45 @@ mod tests {
         let frame = Frame { objects: vec![FrameObject { name: "ball", mesh: &posed, params: &params }], pairs: vec![] };
         let result = Deformer::new().deform(&frame).unwrap();
         (posed, top, result)
+    }
+
+    /// The untangling is continuous in the pose: one vertex of a ball pulled down through the
+    /// ball's far side in steps of 10⁻³, from before its faces cross that side to well past it.
+    /// No output step is more than a bounded multiple of the input step, where smoothing by a
+    /// full step once the first face crosses jumped at the onset.
+    #[test]
+    fn untangling_a_fold_is_continuous_as_it_starts_to_cross() {
+        let rest = shapes::icosphere(1.0, 3);
+        let top =
+            (0..rest.num_vertices()).max_by(|&a, &b| rest.positions[a].z.total_cmp(&rest.positions[b].z)).unwrap();
+        let parts = SkinParts::from_face_labels(vec![0; rest.num_triangles()]);
+        let params = ObjectParams {
+            self_contact_parts: Some(parts),
+            rest_positions: Some(rest.positions.clone()),
+            ..ObjectParams::default()
+        };
+        let mut deformer = Deformer::new();
+        let mut last: Option<(f64, Vec<DVec3>)> = None;
+        let (mut largest, mut crossed) = (0.0_f64, false);
+        for k in 0..=60 {
+            let z = -0.97 - 1e-3 * k as f64;
+            let mut posed = rest.clone();
+            posed.positions[top] = DVec3::new(0.031, 0.017, z);
+            let frame =
+                Frame { objects: vec![FrameObject { name: "ball", mesh: &posed, params: &params }], pairs: vec![] };
+            let result = deformer.deform(&frame).unwrap();
+            let stats = &result.stats.objects[0];
+            crossed |= stats.self_intersecting_faces.is_some_and(|[before, _]| before > 0);
+            assert_eq!(stats.self_intersecting_faces.map(|[_, after]| after), Some(0), "at z = {z}");
+            let out = result.positions[0].clone();
+            if let Some((z0, previous)) = &last {
+                let step = out.iter().zip(previous).map(|(p, q)| p.distance(*q)).fold(0.0, f64::max);
+                largest = largest.max(step / (z - z0).abs());
+            }
+            last = Some((z, out));
+        }
+        assert!(crossed, "the sweep never crossed the far side");
+        assert!(largest <= 10.0, "an output step of {largest} times the input step");
     }
 
     /// A skin crumpled by its skinning: one vertex of a ball (one part) pulled through the ball

@@ -361,6 +361,11 @@ impl RestIntersections {
         crate::spatial::faces_of_pairs(pairs.iter().copied().filter(|p| self.pairs.binary_search(p).is_err()))
     }
 
+    /// True if faces `f < g` intersect in the rest pose.
+    pub fn is_rest_pair(&self, pair: [u32; 2]) -> bool {
+        self.pairs.binary_search(&pair).is_ok()
+    }
+
     /// [`Self::faces_beyond`] of a whole mesh, kept to count again after some of its vertices
     /// move ([`Self::faces_beyond_after`]).
     pub fn counted(&self, mesh: &TriMesh) -> Result<FacesBeyond, SpatialError> {

@@ -51,7 +51,7 @@ pub use self_intersection::{
     IntersectingPairs, PAIRS_PER_FACE, SelfIntersections, faces_of_pairs, mesh_intersections, self_intersecting_faces,
     self_intersecting_faces_after, self_intersecting_pairs, self_intersections,
 };
-pub use tri_tri::{triangles_intersect, triangles_intersect_away_from_shared};
+pub use tri_tri::{intersection_length, triangles_intersect, triangles_intersect_away_from_shared};
 pub use winding::{
     FastWinding, OwnedFastWinding, WindingClusters, generalized_winding_number, penetration_depths, solid_angle,
 };

@@ -131,6 +131,45 @@ pub(super) fn intersect_away_from_shared(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> bo
 }
 
 #[inline]
+/// Length of the segment where two triangles meet, in floating point: the overlap, along the
+/// line where their planes meet, of the chords each triangle cuts from the other's plane; 0 for
+/// disjoint, coplanar or zero-area triangles. Not a predicate (see [`triangles_intersect`] for
+/// that) but a measure of a crossing's depth that starts from zero where two triangles start to
+/// cross and grows continuously as they move through each other.
+pub fn intersection_length(t1: &[DVec3; 3], t2: &[DVec3; 3]) -> f64 {
+    let n1 = (t1[1] - t1[0]).cross(t1[2] - t1[0]);
+    let n2 = (t2[1] - t2[0]).cross(t2[2] - t2[0]);
+    let line = n1.cross(n2);
+    let length = line.length();
+    // Parallel planes (or a zero-area triangle, or a NaN corner): no line to measure along.
+    if length.is_nan() || length <= 1e-12 * n1.length() * n2.length() {
+        return 0.0;
+    }
+    // The interval along `line` of the points of `t` on the plane through `origin` normal to `n`.
+    let chord = |t: &[DVec3; 3], n: DVec3, origin: DVec3| -> Option<(f64, f64)> {
+        let d = t.map(|p| n.dot(p - origin));
+        let mut interval: Option<(f64, f64)> = None;
+        let mut add = |p: DVec3| {
+            let x = line.dot(p);
+            interval = Some(interval.map_or((x, x), |(a, b)| (a.min(x), b.max(x))));
+        };
+        for k in 0..3 {
+            let (i, j) = (k, (k + 1) % 3);
+            if d[i] == 0.0 {
+                add(t[i]);
+            }
+            if (d[i] < 0.0 && d[j] > 0.0) || (d[i] > 0.0 && d[j] < 0.0) {
+                add(t[i] + d[i] / (d[i] - d[j]) * (t[j] - t[i]));
+            }
+        }
+        interval
+    };
+    match (chord(t1, n2, t2[0]), chord(t2, n1, t1[0])) {
+        (Some((a0, a1)), Some((b0, b1))) => (a1.min(b1) - a0.max(b0)).max(0.0) / length,
+        _ => 0.0,
+    }
+}
+
 fn same_strict_side(s: [f64; 3]) -> bool {
     (s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0) || (s[0] < 0.0 && s[1] < 0.0 && s[2] < 0.0)
 }
@@ -182,6 +221,24 @@ fn degenerate_case(t1: &[DVec3; 3], degenerate1: bool, t2: &[DVec3; 3], n2: [f64
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    #[test]
+    fn the_intersection_length_is_the_chord_both_triangles_share() {
+        let flat = [DVec3::new(-1.0, -1.0, 0.0), DVec3::new(3.0, -1.0, 0.0), DVec3::new(-1.0, 3.0, 0.0)];
+        // A vertical triangle through the plane z = 0 along x = 0, from y = -0.5 to y = 0.5.
+        let upright =
+            |z: f64| [DVec3::new(0.0, -0.5, z - 1.0), DVec3::new(0.0, 0.5, z - 1.0), DVec3::new(0.0, 0.0, z + 1.0)];
+        // At z = 0 it cuts the flat one along y in [-0.25, 0.25]; lowered by 1 its apex only
+        // touches it, and lowered further it is apart.
+        assert!((intersection_length(&flat, &upright(0.0)) - 0.5).abs() < 1e-12);
+        assert!((intersection_length(&upright(0.0), &flat) - 0.5).abs() < 1e-12);
+        assert!(intersection_length(&flat, &upright(-1.0)).abs() < 1e-12);
+        assert_eq!(intersection_length(&flat, &upright(-1.5)), 0.0);
+        // Continuous: it shrinks to zero as the triangle is lowered out of the plane.
+        let lengths: Vec<f64> = (0..=10).map(|k| intersection_length(&flat, &upright(-k as f64 / 10.0))).collect();
+        assert!(lengths.windows(2).all(|w| w[1] <= w[0] && w[0] - w[1] <= 0.0501), "{lengths:?}");
+        assert_eq!(intersection_length(&flat, &flat), 0.0, "coplanar");
+    }
+
     use super::*;
     use crate::linalg::test_support::Lcg;
 
