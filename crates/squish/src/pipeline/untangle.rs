@@ -90,7 +90,7 @@ pub(super) fn crossing_weights(
             weights[v as usize] += length;
         }
     }
-    for w in &mut weights {
+    for w in weights.iter_mut().filter(|w| **w > 0.0) {
         *w = (*w / (RAMP_EDGES * edge)).min(1.0);
     }
     spread_max(neighbours, &mut weights, rings);
@@ -172,8 +172,8 @@ pub(super) fn relax(
 pub(super) fn volume_carriers(neighbours: &[Vec<u32>], weights: &[f64]) -> Vec<f64> {
     let reach = VOLUME_RINGS + VOLUME_BAND;
     let mut carriers = vec![0.0_f64; weights.len()];
-    // Seeds by decreasing weight: a seed whose every ring is already at least its weight times
-    // the bump adds nothing, but the maximum does not depend on the order.
+    // Each seed's rings in turn, `stamp` marking the vertices its breadth-first search reached;
+    // the maximum does not depend on the order.
     let mut stamp = vec![u32::MAX; weights.len()];
     for (seed, &w) in weights.iter().enumerate() {
         if w <= 0.0 {
