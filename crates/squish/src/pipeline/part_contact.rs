@@ -1025,18 +1025,24 @@ mod tests {
     /// A ball of one part crumpled by its skinning: its top vertex pulled through it and out of
     /// its far side, its faces crossing the far side's. The posed ball, the pulled vertex and the
     /// deformer's result.
-    fn crumpled_ball(subdivisions: u32) -> (TriMesh, usize, crate::FrameResult) {
+    /// A ball of one part, its topmost vertex, and its parameters with self-contact parts.
+    fn ball_of_one_part(subdivisions: u32) -> (TriMesh, usize, ObjectParams) {
         let rest = shapes::icosphere(1.0, subdivisions);
         let top =
             (0..rest.num_vertices()).max_by(|&a, &b| rest.positions[a].z.total_cmp(&rest.positions[b].z)).unwrap();
-        let mut posed = rest.clone();
-        posed.positions[top] = DVec3::new(0.0, 0.0, -1.3);
         let parts = SkinParts::from_face_labels(vec![0; rest.num_triangles()]);
         let params = ObjectParams {
             self_contact_parts: Some(parts),
             rest_positions: Some(rest.positions.clone()),
             ..ObjectParams::default()
         };
+        (rest, top, params)
+    }
+
+    fn crumpled_ball(subdivisions: u32) -> (TriMesh, usize, crate::FrameResult) {
+        let (rest, top, params) = ball_of_one_part(subdivisions);
+        let mut posed = rest.clone();
+        posed.positions[top] = DVec3::new(0.0, 0.0, -1.3);
         let frame = Frame { objects: vec![FrameObject { name: "ball", mesh: &posed, params: &params }], pairs: vec![] };
         let result = Deformer::new().deform(&frame).unwrap();
         (posed, top, result)
@@ -1048,15 +1054,7 @@ mod tests {
     /// full step once the first face crosses jumped at the onset.
     #[test]
     fn untangling_a_fold_is_continuous_as_it_starts_to_cross() {
-        let rest = shapes::icosphere(1.0, 3);
-        let top =
-            (0..rest.num_vertices()).max_by(|&a, &b| rest.positions[a].z.total_cmp(&rest.positions[b].z)).unwrap();
-        let parts = SkinParts::from_face_labels(vec![0; rest.num_triangles()]);
-        let params = ObjectParams {
-            self_contact_parts: Some(parts),
-            rest_positions: Some(rest.positions.clone()),
-            ..ObjectParams::default()
-        };
+        let (rest, top, params) = ball_of_one_part(3);
         let mut deformer = Deformer::new();
         let mut last: Option<(f64, Vec<DVec3>)> = None;
         let (mut largest, mut crossed) = (0.0_f64, false);
