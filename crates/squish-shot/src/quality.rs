@@ -111,6 +111,10 @@ pub struct PartPairQuality {
     /// Why the pair was left unresolved, if it was.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// The batch of pairs it ran in (in parallel with the others of its batch, from 0), and how
+    /// many times it ran (more than once when it had to wait for an earlier pair's result).
+    pub batch: usize,
+    pub runs: usize,
     pub time_ms: f64,
 }
 
@@ -130,6 +134,8 @@ pub fn part_pair_figures(record: &FrameRecord) -> Vec<PartPairQuality> {
             in_contact: p.in_contact,
             contact_area: p.contact_area,
             error: p.error.clone(),
+            batch: p.batch,
+            runs: p.runs,
             time_ms: p.time.as_secs_f64() * 1e3,
         })
         .collect()

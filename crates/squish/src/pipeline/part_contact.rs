@@ -33,13 +33,24 @@
 //! **Acceptance.** A pair's result is rejected (the next margin is tried) when a region's bulge
 //! is taller than its extent (the extent clamped to a sliver by a border: the volume goes into a
 //! spike), and undone when it leaves the object more self-intersecting faces beyond the rest
-//! pose's than its input had: no pair makes a frame worse than its input.
+//! pose's than the object had before it: no pair makes a frame worse than its input.
 //!
-//! **Several pairs** are resolved one after the other in the order of their part ids, each on
-//! the result of the previous ones (each preserves the volume of its input, so the sequence
-//! does). *Decision:* this replaces the Gauss–Seidel over one height per contact that the
-//! articulations use: a pair's regions are cut regions whose own volume balance is exact, so
-//! there is no shared height to iterate on.
+//! **Several pairs** run in *batches*, in parallel within a batch. A pair's *footprint* is the
+//! vertices of its regions and their neighbours (what it reads and moves); the batches follow
+//! the order of the part ids as a wavefront: a pair joins the next batch unless its footprint
+//! (that of its first regions) meets the footprint of an earlier pair not yet applied. The pairs
+//! of a batch run in parallel (rayon), every one on the batch's input (the earlier batches'
+//! result, with one interior field for all of them); their results are then applied in order,
+//! each kept or undone (above) on top of those applied before it. A pair whose wider margins or
+//! grown regions reached vertices an earlier pair of its batch moved (its footprint, or its own
+//! moved vertices' neighbours) read positions that are no longer there: it is set aside and runs
+//! again in a later batch. So every pair sees what the pairs before it did wherever it looks, as
+//! when they ran one after the other, and the results applied in one batch share no face: their
+//! volume changes add up, each one's exact balance (below) holds for their sum. Which pairs form
+//! a batch depends on the touching pairs and their results only, never on the thread count, so
+//! the output is the same on any number of threads. *Decision:* a pair's regions are cut
+//! regions whose own volume balance is exact, so there is no shared height to iterate on (the
+//! Gauss–Seidel over one height per contact that the articulations use).
 //!
 //! **Continuity.** When a pair starts to touch its intersection is small and the method's
 //! displacement is proportional to the depth, so it starts from zero; a pair that stops
@@ -62,6 +73,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cache::ObjectCache;
@@ -110,6 +122,13 @@ pub struct PartPairStats {
     pub grown_from_intersection: bool,
     /// Why the pair was left unresolved, if it was.
     pub error: Option<String>,
+    /// The batch it was applied in (from 0; the pairs of a batch run in parallel on the same
+    /// input), and how many times it ran (more than once when it had to wait for a later batch:
+    /// its regions reached vertices an earlier pair of its batch moved).
+    #[serde(default)]
+    pub batch: usize,
+    #[serde(default)]
+    pub runs: usize,
     pub time: Duration,
 }
 
@@ -133,7 +152,7 @@ pub(super) struct PartContactCache {
     /// The object's connectivity caches, built at the rest pose, that every pair's contact
     /// stages start from.
     object: Option<ObjectCache>,
-    regions: BTreeMap<([u32; 2], TouchingKind, bool, usize), PairRegions>,
+    regions: RegionEntries,
 }
 
 impl std::fmt::Debug for PartContactCache {
@@ -515,6 +534,190 @@ pub struct Untangled {
     pub time: Duration,
 }
 
+/// The key of a pair's regions in [`PartContactCache::regions`]: its parts, what touches,
+/// whether the regions are grown from the intersection, their rings.
+type RegionKey = ([u32; 2], TouchingKind, bool, usize);
+
+/// One pair's regions, taken out of the cache while the pair runs.
+type RegionEntries = BTreeMap<RegionKey, PairRegions>;
+
+/// Takes `pair`'s regions out of `regions` (those of every margin it may try).
+fn take_entries(regions: &mut RegionEntries, pair: &TouchingPair) -> RegionEntries {
+    let first = (pair.parts, pair.kind, false, 0);
+    let keys: Vec<RegionKey> =
+        regions.range(first..).take_while(|(k, _)| (k.0, k.1) == (pair.parts, pair.kind)).map(|(k, _)| *k).collect();
+    keys.into_iter().filter_map(|k| regions.remove(&k).map(|r| (k, r))).collect()
+}
+
+/// The vertices whose labels are not 0 and their neighbours, in order: what a pair reads and
+/// writes on regions of these labels (its regions, and the strip between them).
+fn footprint(labels: &[f64], neighbours: &[Vec<u32>]) -> Vec<u32> {
+    let mut within = vec![false; labels.len()];
+    for (v, _) in labels.iter().enumerate().filter(|(_, l)| **l != 0.0) {
+        within[v] = true;
+        for &w in &neighbours[v] {
+            within[w as usize] = true;
+        }
+    }
+    (0..labels.len() as u32).filter(|&v| within[v as usize]).collect()
+}
+
+/// The footprint of the first regions `pair` tries (its parts' narrowest margin, or the
+/// narrowest grown regions).
+fn first_footprint(mesh: &TriMesh, parts: &SkinParts, neighbours: &[Vec<u32>], pair: &TouchingPair) -> Vec<u32> {
+    let labels = if pair.kind == TouchingKind::Parts {
+        pair_labels(mesh, parts, pair.parts, MARGIN_RINGS[0])
+    } else {
+        intersection_labels(mesh, neighbours, &pair.faces, GROWN_RINGS[0])
+    };
+    footprint(&labels, neighbours)
+}
+
+/// The next batch of `remaining` (indices of pairs, in order): each pair in turn whose first
+/// footprint meets none of the earlier remaining pairs' (in the batch or not), so that no pair
+/// runs before an earlier one it shares vertices with; and the pairs left for later batches.
+fn next_batch(footprints: &[Vec<u32>], remaining: &[usize], n: usize) -> (Vec<usize>, Vec<usize>) {
+    let mut blocked = vec![false; n];
+    let (mut batch, mut later) = (Vec::new(), Vec::new());
+    for &k in remaining {
+        if footprints[k].iter().any(|&v| blocked[v as usize]) {
+            later.push(k);
+        } else {
+            batch.push(k);
+        }
+        for &v in &footprints[k] {
+            blocked[v as usize] = true;
+        }
+    }
+    (batch, later)
+}
+
+/// What every pair of a batch reads.
+struct PairContext<'a> {
+    index: usize,
+    name: &'a str,
+    /// The object after its articulations (the connectivity the regions are labelled on).
+    mesh: &'a TriMesh,
+    /// The batch's input.
+    current: &'a TriMesh,
+    parts: &'a SkinParts,
+    params: &'a ObjectParams,
+    neighbours: &'a [Vec<u32>],
+    interior: &'a VertexFlags,
+    object: &'a ObjectCache,
+}
+
+/// One pair's run on its batch's input.
+struct PairRun {
+    /// Its figures, but for the faces crossing before and after (counted by the caller).
+    stats: PartPairStats,
+    /// Its result, the object's volume restored, when it has one.
+    candidate: Option<Vec<DVec3>>,
+    /// The footprint of the regions it ran last.
+    footprint: Vec<u32>,
+    /// The times and work of the contact stages it ran.
+    stages: Trace,
+}
+
+/// Runs one touching pair on `context.current`: its regions from the parts' margins in turn,
+/// then grown from the intersection, until one gives a result (see the module doc).
+fn run_pair(context: &PairContext, pair: &TouchingPair, entries: &mut RegionEntries) -> Result<PairRun, PipelineError> {
+    let PairContext { index, name, mesh, current, parts, params, neighbours, interior, object } = *context;
+    // The pair's contact stages, traced apart from what the pair does around them.
+    let mut stages = Trace::default();
+    let mut s = PartPairStats {
+        object: index,
+        part_ids: pair.parts,
+        parts: pair.parts.map(|k| parts.name(k).to_string()),
+        kind: match pair.kind {
+            TouchingKind::Parts => "parts",
+            TouchingKind::AfterArticulation => "after articulation",
+            TouchingKind::WithinPart(_) => "within part",
+        }
+        .to_string(),
+        touching_face_pairs: pair.faces.len(),
+        ..PartPairStats::default()
+    };
+    let mut candidate = None;
+    let mut read = Vec::new();
+    // Regions from the parts only for two parts apart: a parent and child share their
+    // articulation's seam, a fold has one part.
+    let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
+    let tries = margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
+    for (grown, rings) in tries {
+        let labels = if grown {
+            intersection_labels(mesh, neighbours, &pair.faces, rings)
+        } else {
+            pair_labels(mesh, parts, pair.parts, rings)
+        };
+        // Grown regions follow the intersection: when they change, the regions' caches are
+        // updated for their new faces (the object's are kept).
+        let faces_of =
+            |k: f64| -> usize { mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count() };
+        let entry = match entries.entry((pair.parts, pair.kind, grown, rings)) {
+            std::collections::btree_map::Entry::Occupied(entry) => {
+                let entry = entry.into_mut();
+                if entry.labels != labels {
+                    entry.region_faces = [faces_of(1.0), faces_of(2.0)];
+                    entry.labels = labels;
+                }
+                entry
+            }
+            std::collections::btree_map::Entry::Vacant(entry) => {
+                let region_faces = [faces_of(1.0), faces_of(2.0)];
+                let contacts = ObjectContacts::with_object(object.connectivity());
+                entry.insert(PairRegions { contacts, labels, region_faces })
+            }
+        };
+        s.region_faces = entry.region_faces;
+        read = footprint(&entry.labels, neighbours);
+        s.margin_rings = rings;
+        s.grown_from_intersection = grown;
+        let mut region_params = params.clone().with_region_mask(entry.labels.clone());
+        region_params.self_contact = Vec::new();
+        region_params.self_contact_parts = None;
+        region_params.contact_open_border = Some(seam_between(mesh, &entry.labels));
+        region_params.contact_interior = Some(interior.clone());
+        let frame = Frame {
+            objects: vec![FrameObject { name, mesh: current, params: &region_params }],
+            pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
+        };
+        let outcome = entry.contacts.contact(&frame, false, &mut stages).map_err(|e| e.automatic_wording()).and_then(
+            |(level, _)| {
+                let in_contact = level.contacts.iter().flatten().any(|c| !c.is_empty());
+                let contact_area: f64 = level.contacts.iter().flatten().map(|c| c.contact_area).sum();
+                let results = object_results(&frame, &entry.contacts.caches, &level.zones, level.outcomes);
+                // A bulge taller than its extent: the extent was clamped to a sliver of the
+                // region (its seam too close), so the volume went into a spike.
+                match results.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
+                    Some(r) => Err(format!(
+                        "region {}: a bulge of height {:.3e} over an extent of {:.3e}; a wider margin is needed",
+                        r.region, r.applied_bulge_height, r.extent
+                    )),
+                    None => Ok((in_contact, contact_area, results.positions)),
+                }
+            },
+        );
+        match outcome {
+            Ok((in_contact, contact_area, positions_out)) => {
+                s.error = None;
+                s.in_contact = in_contact;
+                s.contact_area = contact_area;
+                if let Some(new) = positions_out.into_iter().next() {
+                    match restore_volume(current, new) {
+                        Some(new) => candidate = Some(new),
+                        None => s.error = Some("the object's volume cannot be restored over the seam".into()),
+                    }
+                }
+                break;
+            }
+            // Too tight: the next, wider margin.
+            Err(e) => s.error = Some(e),
+        }
+    }
+    Ok(PairRun { stats: s, candidate, footprint: read, stages })
+}
+
 /// Resolves the touching part pairs of one object (see the module doc). `input` is the object
 /// at this frame, `mesh` the object after its articulations, `rest` its rest pose, `params` its
 /// parameters.
@@ -569,35 +772,30 @@ pub(super) fn resolve_part_contacts(
     let first = crossings.last.clone();
     let mut positions = mesh.positions.clone();
     let mut moved = vec![false; n];
-    let mut stats = Vec::with_capacity(touching.len());
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
-    let mut pair_stages = Vec::with_capacity(touching.len());
+    // The pairs run in batches of pairs whose footprints do not meet, in parallel, each on the
+    // batch's input; their results are applied in the order of the pairs (see the module doc).
+    let mut pair_stats: Vec<Option<PartPairStats>> = vec![None; touching.len()];
+    let mut pair_stages: Vec<(StageTimes, StageWork)> = vec![Default::default(); touching.len()];
+    // Per pair: its time over every run (a pair set aside runs again in a later batch).
+    let mut time_of = vec![Duration::ZERO; touching.len()];
     // The interior flags of the positions they were computed at.
     let mut interior_of: Option<(Vec<DVec3>, VertexFlags)> = None;
-    for pair in &touching {
-        let start = Instant::now();
-        // The pair's contact stages, traced apart from what the pair does around them.
-        let mut stages = Trace::default();
+    if !touching.is_empty() && cache.object.is_none() {
+        cache.object = Some(ObjectCache::new(name, rest)?);
+    }
+    let footprints: Vec<Vec<u32>> =
+        touching.iter().map(|pair| first_footprint(mesh, parts, neighbours, pair)).collect();
+    let mut remaining: Vec<usize> = (0..touching.len()).collect();
+    let mut runs_of = vec![0; touching.len()];
+    let mut batch_index = 0;
+    while !remaining.is_empty() {
+        let prepared = Instant::now();
+        let (batch, mut later) = next_batch(&footprints, &remaining, n);
         let current = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
-        let mut s = PartPairStats {
-            object: index,
-            part_ids: pair.parts,
-            parts: pair.parts.map(|k| parts.name(k).to_string()),
-            kind: match pair.kind {
-                TouchingKind::Parts => "parts",
-                TouchingKind::AfterArticulation => "after articulation",
-                TouchingKind::WithinPart(_) => "within part",
-            }
-            .to_string(),
-            touching_face_pairs: pair.faces.len(),
-            ..PartPairStats::default()
-        };
         let Some(setup) = cache.setup.as_ref() else { break };
-        s.faces_before = crossing_faces(&mut crossings, &current, parts, setup, pair.parts).map_err(spatial)?;
-        // Regions from the parts only for two parts apart: a parent and child share their
-        // articulation's seam, a fold has one part.
-        // The interior of the positions the last pair left, unless they changed since (a pair
-        // undone or without contact leaves them bit for bit).
+        // The interior of the positions the last batch left, unless they changed since (pairs
+        // undone or without contact leave them bit for bit).
         let kept = interior_of.take().filter(|(at, _)| same_bits(at, &current.positions));
         let interior = match kept {
             Some((_, flags)) => flags,
@@ -612,116 +810,133 @@ pub(super) fn resolve_part_contacts(
                 inside_itself(field, &current).map_err(spatial)?
             }
         };
-        let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
-        let tries = margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
-        for (grown, rings) in tries {
-            let labels = if grown {
-                intersection_labels(mesh, neighbours, &pair.faces, rings)
-            } else {
-                pair_labels(mesh, parts, pair.parts, rings)
+        let mut faces_before = Vec::with_capacity(batch.len());
+        for &k in &batch {
+            faces_before
+                .push(crossing_faces(&mut crossings, &current, parts, setup, touching[k].parts).map_err(spatial)?);
+        }
+        // What the batch shares goes to its first pair.
+        let shared = (prepared.elapsed(), Work::lap());
+        let mut taken: Vec<RegionEntries> =
+            batch.iter().map(|&k| take_entries(&mut cache.regions, &touching[k])).collect();
+        let Some(object) = cache.object.as_ref() else { break };
+        let context = PairContext {
+            index,
+            name,
+            mesh,
+            current: &current,
+            parts,
+            params,
+            neighbours,
+            interior: &interior,
+            object,
+        };
+        let runs: Vec<_> = batch
+            .par_iter()
+            .zip(taken.par_iter_mut())
+            .map(|(&k, entries)| {
+                let start = Instant::now();
+                let (run, work) = Work::measure(|| run_pair(&context, &touching[k], entries));
+                (run, start.elapsed(), work)
+            })
+            .collect();
+        for entries in taken {
+            cache.regions.extend(entries);
+        }
+        // Applied in order; a result next to what an earlier one of the batch moved waits for
+        // a later batch, on the positions this one leaves.
+        let (mut claimed, mut pending) = (vec![false; n], vec![false; n]);
+        let mut applied = Vec::with_capacity(batch.len());
+        for (position, ((&k, (run, time, work)), before)) in batch.iter().zip(runs).zip(faces_before).enumerate() {
+            let committing = Instant::now();
+            let PairRun { mut stats, candidate, footprint: read, stages } = run?;
+            let Trace { stages: mut times, work: mut stage_work, .. } = stages;
+            let staged: Duration = Stage::spans().map(|stage| times[stage]).sum();
+            times[Stage::PartContacts] += time.saturating_sub(staged);
+            stage_work[Stage::PartContacts] += work;
+            if position == 0 {
+                times[Stage::PartContacts] += shared.0;
+                stage_work[Stage::PartContacts] += shared.1;
+                time_of[k] += shared.0;
+            }
+            runs_of[k] += 1;
+            let spent = &mut pair_stages[k];
+            spent.0 += &times;
+            spent.1 += &stage_work;
+            time_of[k] += time;
+            // Its run read positions an earlier pair of the batch moved, or will move when it
+            // runs again, or it moved vertices next to theirs: it runs again in a later batch.
+            let changed: Vec<usize> = match &candidate {
+                Some(new) => (0..n).filter(|&v| current.positions[v] != new[v]).collect(),
+                None => Vec::new(),
             };
-            // Grown regions follow the intersection: when they change, the regions' caches are
-            // updated for their new faces (the object's are kept).
-            let faces_of = |k: f64| -> usize {
-                mesh.triangles.iter().filter(|t| t.iter().all(|&v| labels[v as usize] == k)).count()
-            };
-            let key = (pair.parts, pair.kind, grown, rings);
-            let entry = match cache.regions.entry(key) {
-                std::collections::btree_map::Entry::Occupied(entry) => {
-                    let entry = entry.into_mut();
-                    if entry.labels != labels {
-                        entry.region_faces = [faces_of(1.0), faces_of(2.0)];
-                        entry.labels = labels;
-                    }
-                    entry
+            let next_to_claimed = |v: usize| claimed[v] || neighbours[v].iter().any(|&w| claimed[w as usize]);
+            if read.iter().any(|&v| claimed[v as usize] || pending[v as usize])
+                || changed.iter().any(|&v| next_to_claimed(v))
+            {
+                later.push(k);
+                for &v in &read {
+                    pending[v as usize] = true;
                 }
-                std::collections::btree_map::Entry::Vacant(entry) => {
-                    let region_faces = [faces_of(1.0), faces_of(2.0)];
-                    let object = match cache.object.as_ref() {
-                        Some(object) => object,
-                        None => cache.object.insert(ObjectCache::new(name, rest)?),
-                    };
-                    let contacts = ObjectContacts::with_object(object.connectivity());
-                    entry.insert(PairRegions { contacts, labels, region_faces })
+                let lap = (committing.elapsed(), Work::lap());
+                pair_stages[k].0[Stage::PartContacts] += lap.0;
+                pair_stages[k].1[Stage::PartContacts] += lap.1;
+                time_of[k] += lap.0;
+                continue;
+            }
+            if let Some(new) = candidate {
+                // Never worse than the pair's input: a result that leaves the object more
+                // self-intersecting faces is undone.
+                let mut trial = positions.clone();
+                for &v in &changed {
+                    trial[v] = new[v];
                 }
-            };
-            s.region_faces = entry.region_faces;
-            s.margin_rings = rings;
-            s.grown_from_intersection = grown;
-            let mut region_params = params.clone().with_region_mask(entry.labels.clone());
-            region_params.self_contact = Vec::new();
-            region_params.self_contact_parts = None;
-            region_params.contact_open_border = Some(seam_between(mesh, &entry.labels));
-            region_params.contact_interior = Some(interior.clone());
-            let frame = Frame {
-                objects: vec![FrameObject { name, mesh: &current, params: &region_params }],
-                pairs: vec![FramePair { objects: [0, 0], params: PairParams::default() }],
-            };
-            let outcome = entry
-                .contacts
-                .contact(&frame, false, &mut stages)
-                .map_err(|e| e.automatic_wording())
-                .and_then(|(level, _)| {
-                    let in_contact = level.contacts.iter().flatten().any(|c| !c.is_empty());
-                    let contact_area: f64 = level.contacts.iter().flatten().map(|c| c.contact_area).sum();
-                    let results = object_results(&frame, &entry.contacts.caches, &level.zones, level.outcomes);
-                    // A bulge taller than its extent: the extent was clamped to a sliver of the
-                    // region (its seam too close), so the volume went into a spike.
-                    match results.regions.iter().find(|r| r.applied_bulge_height.abs() > r.extent) {
-                        Some(r) => Err(format!(
-                            "region {}: a bulge of height {:.3e} over an extent of {:.3e}; a wider margin is needed",
-                            r.region, r.applied_bulge_height, r.extent
-                        )),
-                        None => Ok((in_contact, contact_area, results.positions)),
+                let candidate = TriMesh { positions: trial, triangles: mesh.triangles.clone() };
+                let faces = crossings.faces(&candidate).map_err(spatial)?.len();
+                if faces > faces_now {
+                    stats.error = Some(format!(
+                        "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
+                    ));
+                } else {
+                    faces_now = faces;
+                    positions = candidate.positions;
+                    for &v in &changed {
+                        moved[v] = true;
+                        claimed[v] = true;
                     }
-                });
-            match outcome {
-                Ok((in_contact, contact_area, positions_out)) => {
-                    s.error = None;
-                    s.in_contact = in_contact;
-                    s.contact_area = contact_area;
-                    if let Some(new) = positions_out.into_iter().next() {
-                        let Some(new) = restore_volume(&current, new) else {
-                            s.error = Some("the object's volume cannot be restored over the seam".into());
-                            break;
-                        };
-                        // Never worse than this pair's input: a result that leaves the object
-                        // more self-intersecting faces is undone.
-                        let candidate = TriMesh { positions: new, triangles: mesh.triangles.clone() };
-                        let faces = crossings.faces(&candidate).map_err(spatial)?.len();
-                        if faces > faces_now {
-                            s.error = Some(format!(
-                                "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
-                            ));
-                            break;
-                        }
-                        faces_now = faces;
-                        for (v, (p, q)) in positions.iter_mut().zip(&candidate.positions).enumerate() {
-                            if p != q {
-                                moved[v] = true;
-                                *p = *q;
-                            }
-                        }
-                    }
-                    break;
                 }
-                // Too tight: the next, wider margin.
-                Err(e) => s.error = Some(e),
+            }
+            stats.faces_before = before;
+            stats.batch = batch_index;
+            stats.runs = runs_of[k];
+            let lap = (committing.elapsed(), Work::lap());
+            pair_stages[k].0[Stage::PartContacts] += lap.0;
+            pair_stages[k].1[Stage::PartContacts] += lap.1;
+            time_of[k] += lap.0;
+            pair_stats[k] = Some(stats);
+            applied.push(k);
+        }
+        let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
+        for &k in &applied {
+            let counting = Instant::now();
+            let faces = crossing_faces(&mut crossings, &after, parts, setup, touching[k].parts).map_err(spatial)?;
+            let lap = (counting.elapsed(), Work::lap());
+            pair_stages[k].0[Stage::PartContacts] += lap.0;
+            pair_stages[k].1[Stage::PartContacts] += lap.1;
+            time_of[k] += lap.0;
+            if let Some(s) = pair_stats[k].as_mut() {
+                s.faces_after = faces;
+                s.time = time_of[k];
             }
         }
         interior_of = Some((current.positions, interior));
-        let after = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
-        s.faces_after = crossing_faces(&mut crossings, &after, parts, setup, pair.parts).map_err(spatial)?;
-        s.time = start.elapsed();
-        // The pair's own share: its time beyond its contact stages', its work around them (they
-        // count theirs in spans of their own).
-        let Trace { stages: mut times, mut work, .. } = stages;
-        let staged: Duration = Stage::spans().map(|stage| times[stage]).sum();
-        times[Stage::PartContacts] += s.time.saturating_sub(staged);
-        work[Stage::PartContacts] += Work::lap();
-        stats.push(s);
-        pair_stages.push((times, work));
+        later.sort_unstable();
+        remaining = later;
+        batch_index += 1;
     }
+    // Every pair ran (the first of each batch is never set aside).
+    let (stats, pair_stages): (Vec<PartPairStats>, Vec<(StageTimes, StageWork)>) =
+        pair_stats.into_iter().zip(pair_stages).filter_map(|(s, t)| s.map(|s| (s, t))).unzip();
     // What the contacts leave crossing (or could not treat: folds of a crumpled skin, chords of
     // a coarse one) is untangled, then the volume restored; kept only if fewer faces cross.
     let untangle_start = Instant::now();
@@ -1140,6 +1355,99 @@ mod tests {
         let one = run(1);
         assert_ne!(one[0], posed.positions);
         assert_eq!(one, run(2));
+    }
+
+    /// Capsules of one mesh, each skinned to its own joint (siblings under a root joint with no
+    /// vertex), each along z turned by `turn` radians about x, then moved by `offset`; the rest
+    /// pose has them 3 apart along y, none touching.
+    fn capsules(placements: &[(DVec3, f64)]) -> (TriMesh, TriMesh, ObjectParams) {
+        let capsule = shapes::capsule(0.5, 3.0, 24, 8, 12);
+        let count = capsule.num_vertices();
+        let place = |placements: &[(DVec3, f64)]| {
+            let mut mesh = TriMesh { positions: Vec::new(), triangles: Vec::new() };
+            for &(offset, turn) in placements {
+                let first = mesh.num_vertices() as u32;
+                let r = glam::DMat3::from_rotation_x(turn);
+                mesh.positions.extend(capsule.positions.iter().map(|p| r * *p + offset));
+                mesh.triangles.extend(capsule.triangles.iter().map(|t| t.map(|v| v + first)));
+            }
+            mesh
+        };
+        let rest_placements: Vec<(DVec3, f64)> =
+            (0..placements.len()).map(|k| (DVec3::new(0.0, 3.0 * k as f64, 0.0), 0.0)).collect();
+        let rest = place(&rest_placements);
+        let joints = (0..rest.num_vertices()).map(|v| [(v / count + 1) as u32, 0, 0, 0]).collect();
+        let weights = SkinWeights::new(joints, vec![[1.0, 0.0, 0.0, 0.0]; rest.num_vertices()]).unwrap();
+        let names: Vec<String> = (0..=placements.len()).map(|j| format!("joint {j}")).collect();
+        let parents: Vec<Option<usize>> = (0..=placements.len()).map(|j| (j > 0).then_some(0)).collect();
+        let parts = parts_from_skin(&rest, &weights, &parents, &names, 10);
+        let params = ObjectParams {
+            self_contact_parts: Some(parts),
+            rest_positions: Some(rest.positions.clone()),
+            ..ObjectParams::default()
+        };
+        (place(placements), rest, params)
+    }
+
+    fn run_capsules(mesh: &TriMesh, params: &ObjectParams, threads: usize) -> crate::FrameResult {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let frame = Frame { objects: vec![FrameObject { name: "capsules", mesh, params }], pairs: vec![] };
+        pool.install(|| Deformer::new().deform(&frame).unwrap())
+    }
+
+    #[test]
+    fn pairs_apart_run_in_one_batch_each_as_if_alone() {
+        use std::f64::consts::FRAC_PI_2;
+        // Two crosses of two capsules each, 20 apart.
+        let cross = |x: f64| [(DVec3::new(x, 0.0, 0.0), 0.0), (DVec3::new(x + 0.8, 0.0, 0.0), FRAC_PI_2)];
+        let (posed, _, params) = capsules(&[cross(0.0), cross(20.0)].concat());
+        let one = run_capsules(&posed, &params, 1);
+        let pairs = &one.stats.part_pairs;
+        assert_eq!(pairs.len(), 2, "{pairs:?}");
+        for pair in pairs {
+            assert_eq!((pair.batch, pair.runs), (0, 1), "{pair:?}");
+            assert!(pair.error.is_none() && pair.faces_before > 0 && pair.faces_after == 0, "{pair:?}");
+        }
+        assert_eq!(one.positions, run_capsules(&posed, &params, 2).positions);
+        let after = TriMesh { positions: one.positions[0].clone(), triangles: posed.triangles.clone() };
+        let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
+        assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
+        // The first cross comes out as it does when the second does not touch (its capsules
+        // apart): the pairs of a batch do not see each other.
+        let apart = [cross(0.0), [(DVec3::new(20.0, 0.0, 0.0), 0.0), (DVec3::new(23.0, 0.0, 0.0), FRAC_PI_2)]].concat();
+        let (alone, _, _) = capsules(&apart);
+        let alone = run_capsules(&alone, &params, 1);
+        assert_eq!(alone.stats.part_pairs.len(), 1);
+        let half = posed.num_vertices() / 2;
+        let largest = one.positions[0][..half]
+            .iter()
+            .zip(&alone.positions[0][..half])
+            .map(|(p, q)| p.distance(*q))
+            .fold(0.0, f64::max);
+        let moved =
+            one.positions[0][..half].iter().zip(&posed.positions).map(|(p, q)| p.distance(*q)).fold(0.0, f64::max);
+        assert!(moved > 0.05 && largest <= 1e-9 * moved, "{largest:e} of {moved}");
+    }
+
+    #[test]
+    fn pairs_that_share_a_part_run_one_after_the_other() {
+        use std::f64::consts::FRAC_PI_2;
+        // A horizontal capsule through two upright ones: both pairs have the horizontal one.
+        let placements = [
+            (DVec3::new(-1.0, 0.0, 0.0), 0.0),
+            (DVec3::new(0.0, 0.0, 0.0), FRAC_PI_2),
+            (DVec3::new(1.0, 0.0, 0.0), 0.0),
+        ];
+        let (posed, _, params) = capsules(&placements);
+        let one = run_capsules(&posed, &params, 1);
+        let pairs = &one.stats.part_pairs;
+        assert_eq!(pairs.len(), 2, "{pairs:?}");
+        assert_eq!(pairs.iter().map(|p| p.part_ids).collect::<Vec<_>>(), [[0, 1], [1, 2]]);
+        assert_eq!(pairs.iter().map(|p| p.batch).collect::<Vec<_>>(), [0, 1]);
+        assert_eq!(one.positions, run_capsules(&posed, &params, 2).positions);
+        let after = TriMesh { positions: one.positions[0].clone(), triangles: posed.triangles.clone() };
+        let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
+        assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
     }
 
     #[test]
