@@ -19,7 +19,11 @@
 //! for a point of b the other way round. Checks: k̄_a = 1 gives ζ ∥ n_a (𝒮 is a); a flat contact
 //! (n_a = −d̂, n_b = d̂) gives ζ ∥ d̂. Orientation: n′ = −ζ/|ζ| for points of a (outward of a,
 //! n′·d̂ ≤ 0), n′ = +ζ/|ζ| for points of b; if |ζ| ≈ 0, n′ = ∓d̂. At sgn(0) the sign of a
-//! front-facing normal is taken (n_a·d̂ ≤ 0, n_b·d̂ ≥ 0), so ζ does not flip at grazing normals.
+//! front-facing normal is taken (n_a·d̂ ≤ 0, n_b·d̂ ≥ 0), so ζ does not flip at grazing normals;
+//! zero means |n·d̂| ≤ 10⁻¹² ([`GRAZING`]): the boundary points of a projected region lie on a
+//! silhouette, where n·d̂ = 0 comes out of the arithmetic as ±10⁻¹⁷, and a sign taken from that
+//! round-off flipped n′ — and the point's penetration c — from one frame to the next of a
+//! skinned walk whose input moved by 2·10⁻⁸ (docs/self-contact.md, "A silhouette's sign").
 //!
 //! Written per side with `toward` = +d̂ for a and −d̂ for b, the same expression with
 //! (own, other) in place of (a, b) and `toward` in place of d̂ gives n′ = −ζ/|ζ| on both sides.
@@ -59,14 +63,20 @@ impl SurfaceSample {
     }
 }
 
+/// |n·d̂| at or below which a unit normal counts as grazing (n·d̂ = 0) for the signs of ζ:
+/// many times the round-off of a dot product of unit vectors, far below any slope a mesh has.
+const GRAZING: f64 = 1e-12;
+
 /// The unit normal n′ of 𝒮 at a point of one side (module docs): `own` and `other` are the two
 /// meshes' normals there, `toward` is +d̂ for a point of a and −d̂ for a point of b, `k_own` and
 /// `k_other` the relative stiffnesses. Outward from the point's own mesh.
 pub fn surface_normal(own: DVec3, other: DVec3, toward: DVec3, k_own: f64, k_other: f64) -> DVec3 {
     let (g_own, g_other) = (own.dot(toward), other.dot(toward));
-    // Front-facing sides of the signs at zero (own faces −toward, other faces +toward).
-    let s_own = if g_own > 0.0 { 1.0 } else { -1.0 };
-    let s_other = if g_other < 0.0 { -1.0 } else { 1.0 };
+    // Front-facing sides of the signs at zero (own faces −toward, other faces +toward), zero
+    // taken within the round-off of a dot product of unit vectors: a boundary point on a
+    // silhouette has n·d̂ = 0 by construction, computed as ±1e-17.
+    let s_own = if g_own > GRAZING { 1.0 } else { -1.0 };
+    let s_other = if g_other < -GRAZING { -1.0 } else { 1.0 };
     let tangential = k_own * g_other.abs() * s_own * own + k_other * g_own.abs() * s_other * other;
     let zeta = tangential - toward * tangential.dot(toward) + toward * (g_own.abs() * g_other.abs());
     match (-zeta).try_normalize() {
@@ -210,5 +220,25 @@ mod tests {
             assert!((on_a + on_b).length() < 1e-12, "k = {k}: {on_a} {on_b}");
             assert!(on_a.dot(d) <= 0.0);
         }
+    }
+
+    /// A grazing normal (a boundary point on a silhouette: n·d̂ = 0, computed as ±10⁻¹⁷) takes
+    /// the front-facing sign whichever side of zero its round-off fell, so n′ and the penetration
+    /// do not flip; a normal that truly faces away still flips them.
+    #[test]
+    fn a_grazing_normal_takes_the_front_facing_sign_whatever_its_round_off() {
+        let d = DVec3::Z;
+        let other = unit(0.2, -0.4, 0.55);
+        let m = Match { point: DVec3::new(0.03, 0.01, 0.001), normal: other, ..Default::default() };
+        let sample = |z: f64| surface_sample(DVec3::ZERO, DVec3::new(1.0, 0.0, z), &m, d, 0.5, 0.5);
+        let (above, below, zero) = (sample(2.8e-17), sample(-4.2e-17), sample(0.0));
+        for s in [above, below] {
+            assert!((s.surface_normal - zero.surface_normal).length() < 1e-12, "{s:?}");
+            assert!((s.depth - zero.depth).abs() < 1e-12, "{} {}", s.depth, zero.depth);
+        }
+        assert!(zero.depth.abs() > 1e-3, "{}", zero.depth);
+        // Facing away by a slope of 10⁻⁶: the other sign, the penetration of the other sign.
+        let away = sample(1e-6);
+        assert!(away.depth * zero.depth < 0.0, "{} {}", away.depth, zero.depth);
     }
 }
