@@ -60,8 +60,8 @@ use super::partition::SharedRegion;
 use super::{ArticulationError, articulation_direction};
 use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, Stiffness, contact_pair};
 use crate::deform::{
-    AffineDisplacement, DeformError, DeformParams, RegionOverrides, RegionPlan, RegionSolver, VolumeCubic, plan_region,
-    solve_bulge_height,
+    AffineDisplacement, DeformError, DeformParams, HeightSolution, RegionOverrides, RegionPlan, RegionSolver,
+    VolumeCubic, plan_region, solve_bulge_height,
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
 use crate::params::{Articulation, PairParams, Params};
@@ -834,7 +834,7 @@ pub fn apply_articulations(
                     TriMesh { positions: positions_with(&heights, Some(j), 1.0), triangles: mesh.triangles.clone() };
                 let mut cubic = VolumeCubic::new(&base, &plans[j].displacement, reference)?;
                 cubic.coefficients[0] += signed_volume(&base) - target;
-                let solution = solve_bulge_height(&cubic, plans[j].extent);
+                let solution = bulge_or_dent_height(&cubic, plans[j].extent);
                 change = change.max((solution.height - heights[j].0).abs() / plans[j].extent);
                 heights[j] = (solution.height, solution.exact);
             }
@@ -844,6 +844,21 @@ pub fn apply_articulations(
         }
     }
     Ok(AppliedArticulations { positions: positions_with(&heights, None, bulge), heights, rounds })
+}
+
+/// The bulge height of an articulation: the smallest root h ≥ 0 of the volume cubic, else the
+/// root h < 0 nearest 0 (a dent: the articulation's displacement adds volume that no outward
+/// bulge takes back; docs/decisions.md, "An articulation that adds volume"), else the inexact
+/// fallback of [`solve_bulge_height`].
+fn bulge_or_dent_height(cubic: &VolumeCubic, extent: f64) -> HeightSolution {
+    let bulge = solve_bulge_height(cubic, extent);
+    if bulge.exact {
+        return bulge;
+    }
+    let [c0, c1, c2, c3] = cubic.coefficients;
+    let mirrored = VolumeCubic { coefficients: [c0, -c1, c2, -c3] };
+    let dent = solve_bulge_height(&mirrored, extent);
+    if dent.exact { HeightSolution { height: -dent.height, ..dent } } else { bulge }
 }
 
 /// Self-intersecting faces among the faces of an articulation's regions (exact triangle–triangle
