@@ -272,6 +272,20 @@ fn automatic_self_contact_is_continuous_in_the_pose() {
     assert!(worst <= 10.0, "largest step ratio {worst}");
 }
 
+/// The humanoid crouch (32 frames) at frame `k` (0-based) with `self_contact = "auto"`: its
+/// input object and its result on a fresh deformer.
+fn crouch_at(k: f64) -> (squish::OwnedObject, squish::FrameResult) {
+    let shot = characters::humanoid_shots(characters::HUMANOID_CELL, 32)
+        .into_iter()
+        .find(|s| s.name == "humanoid-crouch")
+        .unwrap();
+    let auto = shot.character.auto_self_contact();
+    let object = shot.character.object(&shot.world(k), Some(&auto)).unwrap();
+    let frame = squish::OwnedFrame { objects: vec![object.clone()], pairs: vec![] };
+    let result = squish::pipeline::Deformer::new().deform(&frame.frame()).unwrap();
+    (object, result)
+}
+
 /// The crouch's frame 29 (0-based, 32 frames): the hips/spine articulation finds no bulge of
 /// its region's size that gives the volume back (the smallest root of its volume cubic is 2.6
 /// model units over an extent of 0.14; the character is 1.7 tall). Under the rule of
@@ -281,14 +295,7 @@ fn automatic_self_contact_is_continuous_in_the_pose() {
 /// knee, 41 units; since articulations may take a dent, that knee needs no bulge at all.)
 #[test]
 fn an_articulation_whose_bulge_would_be_a_spike_is_left_without_effect() {
-    let shot = characters::humanoid_shots(characters::HUMANOID_CELL, 32)
-        .into_iter()
-        .find(|s| s.name == "humanoid-crouch")
-        .unwrap();
-    let auto = shot.character.auto_self_contact();
-    let object = shot.character.object(&shot.world(29.0), Some(&auto)).unwrap();
-    let frame = squish::OwnedFrame { objects: vec![object.clone()], pairs: vec![] };
-    let result = squish::pipeline::Deformer::new().deform(&frame.frame()).unwrap();
+    let (object, result) = crouch_at(29.0);
     let spine = result.stats.articulations.iter().find(|a| a.name == "hips / spine").unwrap();
     assert!(spine.error.as_deref().is_some_and(|e| e.contains("spike")), "{spine:?}");
     assert_eq!(spine.applied_bulge_height, 0.0);
@@ -309,14 +316,7 @@ fn an_articulation_whose_bulge_would_be_a_spike_is_left_without_effect() {
 /// a dent (h < 0, docs/decisions.md, "An articulation that adds volume") and the volume is kept.
 #[test]
 fn an_articulation_that_adds_volume_takes_a_dent_and_keeps_it() {
-    let shot = characters::humanoid_shots(characters::HUMANOID_CELL, 32)
-        .into_iter()
-        .find(|s| s.name == "humanoid-crouch")
-        .unwrap();
-    let auto = shot.character.auto_self_contact();
-    let object = shot.character.object(&shot.world(30.0), Some(&auto)).unwrap();
-    let frame = squish::OwnedFrame { objects: vec![object.clone()], pairs: vec![] };
-    let result = squish::pipeline::Deformer::new().deform(&frame.frame()).unwrap();
+    let (object, result) = crouch_at(30.0);
     let kept: Vec<_> =
         result.stats.articulations.iter().filter(|a| a.error.is_none() && a.applied_bulge_height != 0.0).collect();
     assert!(kept.iter().all(|a| a.volume_exact), "{kept:?}");
