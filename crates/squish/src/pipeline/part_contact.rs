@@ -850,12 +850,10 @@ pub(super) fn resolve_part_contacts(
         for (position, ((&k, (run, time, work)), before)) in batch.iter().zip(runs).zip(faces_before).enumerate() {
             let committing = Instant::now();
             let PairRun { mut stats, candidate, footprint: read, stages } = run?;
-            let Trace { stages: mut times, work: mut stage_work, .. } = stages;
-            let staged: Duration = Stage::spans().map(|stage| times[stage]).sum();
-            times[Stage::PartContacts] += time.saturating_sub(staged);
+            let Trace { stages: times, work: mut stage_work, .. } = stages;
+            // The pair's own share of its time (`part_contacts`) is set once its time is known.
             stage_work[Stage::PartContacts] += work;
             if position == 0 {
-                times[Stage::PartContacts] += shared.0;
                 stage_work[Stage::PartContacts] += shared.1;
                 time_of[k] += shared.0;
             }
@@ -879,7 +877,6 @@ pub(super) fn resolve_part_contacts(
                     pending[v as usize] = true;
                 }
                 let lap = (committing.elapsed(), Work::lap());
-                pair_stages[k].0[Stage::PartContacts] += lap.0;
                 pair_stages[k].1[Stage::PartContacts] += lap.1;
                 time_of[k] += lap.0;
                 continue;
@@ -910,7 +907,6 @@ pub(super) fn resolve_part_contacts(
             stats.batch = batch_index;
             stats.runs = runs_of[k];
             let lap = (committing.elapsed(), Work::lap());
-            pair_stages[k].0[Stage::PartContacts] += lap.0;
             pair_stages[k].1[Stage::PartContacts] += lap.1;
             time_of[k] += lap.0;
             pair_stats[k] = Some(stats);
@@ -921,9 +917,14 @@ pub(super) fn resolve_part_contacts(
             let counting = Instant::now();
             let faces = crossing_faces(&mut crossings, &after, parts, setup, touching[k].parts).map_err(spatial)?;
             let lap = (counting.elapsed(), Work::lap());
-            pair_stages[k].0[Stage::PartContacts] += lap.0;
             pair_stages[k].1[Stage::PartContacts] += lap.1;
             time_of[k] += lap.0;
+            // Its own share: its time beyond its contact stages' (which may overlap in time:
+            // the regions of a stage run in parallel).
+            let times = &mut pair_stages[k].0;
+            let staged: Duration =
+                Stage::spans().filter(|&stage| stage != Stage::PartContacts).map(|stage| times[stage]).sum();
+            times[Stage::PartContacts] = time_of[k].saturating_sub(staged);
             if let Some(s) = pair_stats[k].as_mut() {
                 s.faces_after = faces;
                 s.time = time_of[k];
@@ -1128,7 +1129,12 @@ mod tests {
             assert!(job.stages[stage] <= result.stats.stages[stage], "{stage}");
         }
         let staged: Duration = Stage::spans().map(|stage| job.stages[stage]).sum();
-        assert!(staged <= result.stats.part_pairs[0].time + Duration::from_micros(1), "{staged:?}");
+        assert!(
+            staged <= result.stats.part_pairs[0].time + Duration::from_micros(1),
+            "{staged:?} {:?} {:?}",
+            result.stats.part_pairs[0].time,
+            job.stages
+        );
     }
 
     #[test]
