@@ -562,15 +562,28 @@ fn footprint(labels: &[f64], neighbours: &[Vec<u32>]) -> Vec<u32> {
     (0..labels.len() as u32).filter(|&v| within[v as usize]).collect()
 }
 
-/// The footprint of the first regions `pair` tries (its parts' narrowest margin, or the
-/// narrowest grown regions).
-fn first_footprint(mesh: &TriMesh, parts: &SkinParts, neighbours: &[Vec<u32>], pair: &TouchingPair) -> Vec<u32> {
-    let labels = if pair.kind == TouchingKind::Parts {
-        pair_labels(mesh, parts, pair.parts, MARGIN_RINGS[0])
+/// The labels of `pair`'s regions for one try: grown from the intersection by `rings`, or its
+/// parts' faces grown by `rings`.
+fn region_labels(
+    mesh: &TriMesh,
+    parts: &SkinParts,
+    neighbours: &[Vec<u32>],
+    pair: &TouchingPair,
+    (grown, rings): (bool, usize),
+) -> Vec<f64> {
+    if grown {
+        intersection_labels(mesh, neighbours, &pair.faces, rings)
     } else {
-        intersection_labels(mesh, neighbours, &pair.faces, GROWN_RINGS[0])
-    };
-    footprint(&labels, neighbours)
+        pair_labels(mesh, parts, pair.parts, rings)
+    }
+}
+
+/// The regions `pair` tries, in order: its parts' margins (two parts apart only: a parent and
+/// child share their articulation's seam, a fold has one part), then grown from the
+/// intersection.
+fn tries(pair: &TouchingPair) -> impl Iterator<Item = (bool, usize)> {
+    let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
+    margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)))
 }
 
 /// The next batch of `remaining` (indices of pairs, in order): each pair in turn whose first
@@ -621,7 +634,12 @@ struct PairRun {
 
 /// Runs one touching pair on `context.current`: its regions from the parts' margins in turn,
 /// then grown from the intersection, until one gives a result (see the module doc).
-fn run_pair(context: &PairContext, pair: &TouchingPair, entries: &mut RegionEntries) -> Result<PairRun, PipelineError> {
+fn run_pair(
+    context: &PairContext,
+    pair: &TouchingPair,
+    first: &[f64],
+    entries: &mut RegionEntries,
+) -> Result<PairRun, PipelineError> {
     let PairContext { index, name, mesh, current, parts, params, neighbours, interior, object } = *context;
     // The pair's contact stages, traced apart from what the pair does around them.
     let mut stages = Trace::default();
@@ -640,16 +658,9 @@ fn run_pair(context: &PairContext, pair: &TouchingPair, entries: &mut RegionEntr
     };
     let mut candidate = None;
     let mut read = Vec::new();
-    // Regions from the parts only for two parts apart: a parent and child share their
-    // articulation's seam, a fold has one part.
-    let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
-    let tries = margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)));
-    for (grown, rings) in tries {
-        let labels = if grown {
-            intersection_labels(mesh, neighbours, &pair.faces, rings)
-        } else {
-            pair_labels(mesh, parts, pair.parts, rings)
-        };
+    for (k, (grown, rings)) in tries(pair).enumerate() {
+        // The first try's labels were computed for the batches.
+        let labels = if k == 0 { first.to_vec() } else { region_labels(mesh, parts, neighbours, pair, (grown, rings)) };
         // Grown regions follow the intersection: when they change, the regions' caches are
         // updated for their new faces (the object's are kept).
         let faces_of =
@@ -784,8 +795,13 @@ pub(super) fn resolve_part_contacts(
     if !touching.is_empty() && cache.object.is_none() {
         cache.object = Some(ObjectCache::new(name, rest)?);
     }
-    let footprints: Vec<Vec<u32>> =
-        touching.iter().map(|pair| first_footprint(mesh, parts, neighbours, pair)).collect();
+    let first_labels: Vec<Vec<f64>> = touching
+        .iter()
+        .map(|pair| {
+            tries(pair).next().map_or_else(Vec::new, |first| region_labels(mesh, parts, neighbours, pair, first))
+        })
+        .collect();
+    let footprints: Vec<Vec<u32>> = first_labels.iter().map(|labels| footprint(labels, neighbours)).collect();
     let mut remaining: Vec<usize> = (0..touching.len()).collect();
     let mut runs_of = vec![0; touching.len()];
     let mut batch_index = 0;
@@ -836,7 +852,7 @@ pub(super) fn resolve_part_contacts(
             .zip(taken.par_iter_mut())
             .map(|(&k, entries)| {
                 let start = Instant::now();
-                let (run, work) = Work::measure(|| run_pair(&context, &touching[k], entries));
+                let (run, work) = Work::measure(|| run_pair(&context, &touching[k], &first_labels[k], entries));
                 (run, start.elapsed(), work)
             })
             .collect();
