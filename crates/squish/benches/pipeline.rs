@@ -1,7 +1,8 @@
 //! The hot stages of a frame (thesis ch. 7 §5, table 7.2's columns), one benchmark each, so that
 //! a regression shows in the stage that caused it:
 //! - on a ~10k-vertex pair (the "small sphere – big sphere" bench scene, mid-animation):
-//!   intersection (§4.1), mapping (§4.2.2), the whole contact definition (ch. 4, up to the
+//!   intersection (§4.1), the build of the larger object's tree (every region and articulation
+//!   side builds one), mapping (§4.2.2), the whole contact definition (ch. 4, up to the
 //!   contact zones), the edge-path distances that bound the parametrization's domain (§5.1; by
 //!   Dijkstra, and by the breadth-first bounds used when the domain holds the whole sphere),
 //!   parametrization (§5.1, two factorizations and two solves), guide diffusion
@@ -74,6 +75,7 @@ fn contact_stages(c: &mut Criterion, group_name: &str, scene: &BenchScene) {
     let inter = intersect(&sa, &sb).expect("intersection");
     let mut group = group_settings(c, group_name);
     group.bench_function("intersection", |bench| bench.iter(|| black_box(intersect(&sa, &sb).expect("intersection"))));
+    group.bench_function("tree build", |bench| bench.iter(|| black_box(TriangleBvh::new(&b.mesh).expect("tree"))));
     group.bench_function("mapping", |bench| {
         bench.iter(|| black_box(map_regions([&sa, &sb], [&inter.regions[0], &inter.regions[1]], contact.direction)))
     });

@@ -346,8 +346,9 @@ struct Crossings<'r> {
 }
 
 impl<'r> Crossings<'r> {
-    fn new(rest: Option<&'r RestIntersections>) -> Self {
-        Self { rest, last: None, pairs: Ok(None) }
+    /// Counts from `rest`, starting from `pairs` when the caller enumerated them already.
+    fn new(rest: Option<&'r RestIntersections>, pairs: Option<IntersectingPairs>) -> Self {
+        Self { rest, last: None, pairs: Ok(pairs) }
     }
 
     /// Every intersecting face pair of `mesh`, unless their enumeration is past its budget.
@@ -492,6 +493,16 @@ fn crossing_faces(
     }
     let faces = (0..mesh.num_triangles() as u32).filter(|&f| of_pair(f));
     Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())
+}
+
+/// The intersecting face pairs of the whole object at the frame's input and at the stage's
+/// input (after the articulations), when the caller enumerated them for its own counts: the
+/// stage counts from them rather than enumerate them again.
+pub(super) struct FramePairs<'p> {
+    /// The pairs of the frame's input (sorted `[f, g]`, f < g).
+    pub input: &'p [[u32; 2]],
+    /// The pairs of the stage's input, to be enumerated again where vertices move.
+    pub mesh: IntersectingPairs,
 }
 
 /// What [`resolve_part_contacts`] gives back for one object.
@@ -742,6 +753,7 @@ pub(super) fn resolve_part_contacts(
     rest: &TriMesh,
     params: &ObjectParams,
     parts: &SkinParts,
+    frame_pairs: Option<FramePairs<'_>>,
 ) -> Result<PartContactResult, PipelineError> {
     let n = mesh.num_vertices();
     if parts.face_parts.len() != mesh.num_triangles() {
@@ -777,7 +789,11 @@ pub(super) fn resolve_part_contacts(
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
     let neighbours = &cache.neighbours;
-    let mut crossings = Crossings::new(rest_intersections.as_ref());
+    let (input_pairs, mesh_pairs) = match frame_pairs {
+        Some(FramePairs { input, mesh }) => (Some(input), Some(mesh)),
+        None => (None, None),
+    };
+    let mut crossings = Crossings::new(rest_intersections.as_ref(), mesh_pairs);
     let mut faces_now = if touching.is_empty() { 0 } else { crossings.faces(mesh).map_err(spatial)?.len() };
     // The count of the stage's input starts from this one (the articulations moved few vertices).
     let first = crossings.last.clone();
@@ -1022,10 +1038,17 @@ pub(super) fn resolve_part_contacts(
     let counts_start = Instant::now();
     let result = TriMesh { positions, triangles: mesh.triangles.clone() };
     let after = crossings.faces(&result).map_err(spatial)?.len();
-    if first.is_some() {
-        crossings.last = first;
-    }
-    let self_intersecting_faces = [crossings.faces(input).map_err(spatial)?.len(), after];
+    let before = match (input_pairs, rest_intersections) {
+        (Some(pairs), Some(rest)) => rest.faces_beyond_in(pairs).len(),
+        (Some(_), None) => 0,
+        (None, _) => {
+            if first.is_some() {
+                crossings.last = first;
+            }
+            crossings.faces(input).map_err(spatial)?.len()
+        }
+    };
+    let self_intersecting_faces = [before, after];
     let counts = Spent { time: counts_start.elapsed(), work: Work::lap() };
     outer.record();
     Ok(PartContactResult {
@@ -1155,15 +1178,30 @@ mod tests {
 
     #[test]
     fn caches_kept_from_frame_to_frame_give_the_bits_of_fresh_ones() {
+        // The counts too: the object's intersecting face pairs are kept from frame to frame and
+        // enumerated again where vertices moved; they must be a fresh search's.
         let s = Siblings::new();
+        let rest = RestIntersections::new(&s.rest).unwrap();
         let mut kept = Deformer::new();
-        for (x, turn) in [(0.9, 1.5), (0.8, 1.6), (0.6, 1.4), (0.85, 1.55)] {
+        for (x, turn) in [(0.9, 1.5), (0.8, 1.6), (0.6, 1.4), (0.85, 1.55), (3.0, 0.0), (0.7, 1.5)] {
             let posed = s.pose(x, turn);
             let params = s.params(&s.rest);
             let reused = s.run(&mut kept, &posed, &params);
             let fresh = s.run(&mut Deformer::new(), &posed, &params);
-            assert!(reused.stats.part_pairs.iter().any(|p| p.in_contact), "x = {x}");
             assert_eq!(reused.positions, fresh.positions, "x = {x}");
+            let untimed = |r: &super::super::FrameResult| -> Vec<PartPairStats> {
+                r.stats.part_pairs.iter().map(|p| PartPairStats { time: Duration::ZERO, ..p.clone() }).collect()
+            };
+            assert_eq!(untimed(&reused), untimed(&fresh), "x = {x}");
+            let counted = reused.stats.objects[0].self_intersecting_faces.unwrap();
+            assert_eq!(Some(counted), fresh.stats.objects[0].self_intersecting_faces, "x = {x}");
+            let result = TriMesh { positions: reused.positions[0].clone(), triangles: posed.triangles.clone() };
+            let searched = [rest.faces_beyond(&posed).unwrap().len(), rest.faces_beyond(&result).unwrap().len()];
+            assert_eq!(counted, searched, "x = {x}");
+            if x < 3.0 {
+                assert!(reused.stats.part_pairs.iter().any(|p| p.in_contact), "x = {x}");
+                assert!(counted[0] > 0, "x = {x}");
+            }
         }
     }
 

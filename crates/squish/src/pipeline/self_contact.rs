@@ -18,7 +18,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::part_contact::{PartContactCache, PartPairStats, resolve_part_contacts};
+use super::part_contact::{FramePairs, PartContactCache, PartPairStats, resolve_part_contacts};
 use super::plan::{JobKind, JobLevel, JobRecord, Trace};
 use super::{Frame, FrameObject, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
@@ -28,7 +28,7 @@ use crate::skinning::{
     articulation_crossings, articulation_interiors, contact_articulation, deform_articulation,
     self_intersection_counts_from_pairs,
 };
-use crate::spatial::TriangleBvh;
+use crate::spatial::{IntersectingPairs, SpatialError, TriangleBvh};
 use crate::stage::{SharedWork, Stage, StageTimes, StageWork, Work};
 
 /// What the deformer keeps about an object's self-contacts between frames.
@@ -41,6 +41,9 @@ pub(super) struct SelfContactCache {
     setups: Vec<Option<ArticulationSetup>>,
     /// The contacts between its parts (issue 27).
     parts: PartContactCache,
+    /// With parts: the intersecting face pairs of the whole object at the last frame's input,
+    /// their tree refitted to the next frame's rather than built again.
+    crossing_pairs: Option<IntersectingPairs>,
 }
 
 /// The self-contact result of one object at one frame.
@@ -332,6 +335,7 @@ fn refresh_object(cache: &mut SelfContactCache, object: &FrameObject) -> Result<
             tree: None,
             setups: Vec::new(),
             parts: PartContactCache::default(),
+            crossing_pairs: None,
         };
     }
     let count = object.params.self_contact.len();
@@ -382,6 +386,27 @@ fn prepare(
     };
     let closed = cache.topology.as_ref().is_some_and(Topology::is_closed);
     Ok(Prepared { rest, normals, interior, closed })
+}
+
+/// The intersecting face pairs of the whole object at the frame's input and after its
+/// articulations: `kept`'s (the last frame's input, its tree refitted) enumerated again where
+/// vertices moved, then again where the articulations moved them. `None` past the budget of
+/// overlapping boxes (a fan): the counts then search faces instead.
+fn whole_object_pairs(
+    kept: Option<IntersectingPairs>,
+    input: &TriMesh,
+    after: &TriMesh,
+) -> Result<Option<(IntersectingPairs, IntersectingPairs)>, SpatialError> {
+    let budget = crate::spatial::PAIRS_PER_FACE * input.num_triangles();
+    let at_input = match kept {
+        Some(mut pairs) if pairs.num_vertices() == input.num_vertices() => {
+            pairs.update(input, budget)?.then_some(pairs)
+        }
+        _ => IntersectingPairs::new(input, budget)?,
+    };
+    let Some(at_input) = at_input else { return Ok(None) };
+    let mut at_after = at_input.clone();
+    Ok(at_after.update(after, budget)?.then_some((at_input, at_after)))
 }
 
 /// An object's articulations applied (the blend and the bulge heights, §6 and App. C), their
@@ -455,13 +480,27 @@ fn finish_object(
             .collect();
         faces.sort_unstable();
         faces.dedup();
-        let budget = crate::spatial::PAIRS_PER_FACE * faces.len();
         let work = SharedWork::default();
-        let (pairs_before, pairs_after) = rayon::join(
-            || work.measure(|| crate::spatial::self_intersecting_pairs(mesh, &faces, budget)),
-            || work.measure(|| crate::spatial::self_intersecting_pairs(&after, &faces, budget)),
-        );
-        let counts: Vec<Option<_>> = match (pairs_before.map_err(spatial)?, pairs_after.map_err(spatial)?) {
+        // With parts, the pairs of the whole object, which the part contacts count from too;
+        // else those of the articulations' faces.
+        let frame_pairs = match params.self_contact_parts {
+            Some(_) => whole_object_pairs(cache.crossing_pairs.take(), mesh, &after).map_err(spatial)?,
+            None => None,
+        };
+        let articulation_pairs;
+        let (pairs_before, pairs_after) = match &frame_pairs {
+            Some((input, result)) => (Some(input.pairs()), Some(result.pairs())),
+            None => {
+                let budget = crate::spatial::PAIRS_PER_FACE * faces.len();
+                let (before, after_pairs) = rayon::join(
+                    || work.measure(|| crate::spatial::self_intersecting_pairs(mesh, &faces, budget)),
+                    || work.measure(|| crate::spatial::self_intersecting_pairs(&after, &faces, budget)),
+                );
+                articulation_pairs = (before.map_err(spatial)?, after_pairs.map_err(spatial)?);
+                (articulation_pairs.0.as_deref(), articulation_pairs.1.as_deref())
+            }
+        };
+        let counts: Vec<Option<_>> = match (pairs_before, pairs_after) {
             (Some(before), Some(after_pairs)) => plans
                 .iter()
                 .zip(&cache.setups)
@@ -469,8 +508,8 @@ fn finish_object(
                 .map(|((plan, setup), &counted)| {
                     setup.as_ref().filter(|_| counted).map(|setup| {
                         (
-                            self_intersection_counts_from_pairs(mesh, setup, &plan.labels, &before),
-                            self_intersection_counts_from_pairs(&after, setup, &plan.labels, &after_pairs),
+                            self_intersection_counts_from_pairs(mesh, setup, &plan.labels, before),
+                            self_intersection_counts_from_pairs(&after, setup, &plan.labels, after_pairs),
                         )
                     })
                 })
@@ -518,14 +557,28 @@ fn finish_object(
             }
             stats.push(s);
         }
-        Ok((contact, moved, cuts, stats))
+        Ok((contact, moved, cuts, stats, frame_pairs))
     });
-    let (contact, mut moved, cuts, stats) = counted?;
+    let (contact, mut moved, cuts, stats, frame_pairs) = counted?;
     trace.time(Stage::Quality, timer.elapsed());
     trace.work[Stage::Quality] += quality_work;
     let (positions, part_pairs, self_intersecting_faces, untangled) = match &params.self_contact_parts {
         Some(parts) => {
-            let r = resolve_part_contacts(&mut cache.parts, index, name, mesh, &after, &prepared.rest, params, parts)?;
+            let (input_pairs, after_pairs) = frame_pairs.unzip();
+            let given =
+                input_pairs.as_ref().zip(after_pairs).map(|(input, mesh)| FramePairs { input: input.pairs(), mesh });
+            let r = resolve_part_contacts(
+                &mut cache.parts,
+                index,
+                name,
+                mesh,
+                &after,
+                &prepared.rest,
+                params,
+                parts,
+                given,
+            )?;
+            cache.crossing_pairs = input_pairs;
             // Each touching part pair is a job of the plan's first level (its figures in
             // `part_pairs`), with the stages it ran.
             for (pair, (times, work)) in r.pairs.iter().zip(&r.pair_stages) {

@@ -139,7 +139,8 @@ impl FlatBvh {
             .collect();
         let mut nodes = Vec::with_capacity((2 * items.len()).saturating_sub(1));
         if !items.is_empty() {
-            build(&mut nodes, &mut items, 0);
+            let mut bins = vec![0u8; items.len()];
+            build(&mut nodes, &mut items, &mut bins, 0);
         }
         Self { nodes }
     }
@@ -360,35 +361,50 @@ impl FlatBvh {
     }
 }
 
+/// The smaller of each coordinate (of finite coordinates: the boxes are of finite triangles;
+/// one comparison each, where `DVec3::min` also orders NaNs).
+#[inline]
+fn lower(a: DVec3, b: DVec3) -> DVec3 {
+    DVec3::new(if b.x < a.x { b.x } else { a.x }, if b.y < a.y { b.y } else { a.y }, if b.z < a.z { b.z } else { a.z })
+}
+
+/// The larger of each coordinate (see [`lower`]).
+#[inline]
+fn upper(a: DVec3, b: DVec3) -> DVec3 {
+    DVec3::new(if b.x > a.x { b.x } else { a.x }, if b.y > a.y { b.y } else { a.y }, if b.z > a.z { b.z } else { a.z })
+}
+
 /// Appends the subtree over `items` to `nodes` in depth-first order; returns its root index.
-fn build(nodes: &mut Vec<Node>, items: &mut [Item], depth: usize) -> usize {
+/// `bins` is scratch of the same length (each item's bin during a split).
+fn build(nodes: &mut Vec<Node>, items: &mut [Item], bins: &mut [u8], depth: usize) -> usize {
     let index = nodes.len();
+    // The node's box and the bounds of the centroids, in one pass.
     let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     for item in items.iter() {
-        min = min.min(item.min);
-        max = max.max(item.max);
+        min = lower(min, item.min);
+        max = upper(max, item.max);
+        lo = lower(lo, item.centroid);
+        hi = upper(hi, item.centroid);
     }
     if let [item] = items {
         nodes.push(Node { min, max, link: item.index, leaf: true });
         return index;
     }
     nodes.push(Node { min, max, link: 0, leaf: false });
-    let middle = split(items, depth);
+    let middle = split(items, bins, [lo, hi], depth);
     let (left, right) = items.split_at_mut(middle);
-    build(nodes, left, depth + 1);
-    let right_index = build(nodes, right, depth + 1);
+    let (left_bins, right_bins) = bins.split_at_mut(middle);
+    build(nodes, left, left_bins, depth + 1);
+    let right_index = build(nodes, right, right_bins, depth + 1);
     nodes[index].link = right_index as u32;
     index
 }
 
-/// Reorders `items` and returns the size of the left part (≥ 1 and < `items.len()`).
-fn split(items: &mut [Item], depth: usize) -> usize {
+/// Reorders `items` (whose centroids lie within `[lo, hi]`) and returns the size of the left
+/// part (≥ 1 and < `items.len()`); `bins` is scratch of the same length.
+fn split(items: &mut [Item], bins: &mut [u8], [lo, hi]: [DVec3; 2], depth: usize) -> usize {
     let n = items.len();
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for item in items.iter() {
-        lo = lo.min(item.centroid);
-        hi = hi.max(item.centroid);
-    }
     let extent = hi - lo;
     let axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
@@ -405,15 +421,16 @@ fn split(items: &mut [Item], depth: usize) -> usize {
     if depth >= MEDIAN_DEPTH || !(width > 0.0 && width.is_finite()) {
         return median(items);
     }
-    let bin_of = |c: DVec3| (((c[axis] - lo[axis]) / width * BINS as f64) as usize).min(BINS - 1);
+    let (start, bins_per_width) = (lo[axis], BINS as f64);
     let mut count = [0usize; BINS];
     let mut bin_min = [DVec3::INFINITY; BINS];
     let mut bin_max = [DVec3::NEG_INFINITY; BINS];
-    for item in items.iter() {
-        let b = bin_of(item.centroid);
+    for (item, bin) in items.iter().zip(bins.iter_mut()) {
+        let b = (((item.centroid[axis] - start) / width * bins_per_width) as usize).min(BINS - 1);
+        *bin = b as u8;
         count[b] += 1;
-        bin_min[b] = bin_min[b].min(item.min);
-        bin_max[b] = bin_max[b].max(item.max);
+        bin_min[b] = lower(bin_min[b], item.min);
+        bin_max[b] = upper(bin_max[b], item.max);
     }
     let half_area = |min: DVec3, max: DVec3| {
         let d = (max - min).max(DVec3::ZERO);
@@ -424,8 +441,8 @@ fn split(items: &mut [Item], depth: usize) -> usize {
     let mut right_count = [0usize; BINS];
     let (mut rmin, mut rmax, mut rc) = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
     for s in (1..BINS).rev() {
-        rmin = rmin.min(bin_min[s]);
-        rmax = rmax.max(bin_max[s]);
+        rmin = lower(rmin, bin_min[s]);
+        rmax = upper(rmax, bin_max[s]);
         rc += count[s];
         right_area[s] = half_area(rmin, rmax);
         right_count[s] = rc;
@@ -433,8 +450,8 @@ fn split(items: &mut [Item], depth: usize) -> usize {
     let mut best: Option<(f64, usize)> = None;
     let (mut lmin, mut lmax, mut lc) = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
     for s in 1..BINS {
-        lmin = lmin.min(bin_min[s - 1]);
-        lmax = lmax.max(bin_max[s - 1]);
+        lmin = lower(lmin, bin_min[s - 1]);
+        lmax = upper(lmax, bin_max[s - 1]);
         lc += count[s - 1];
         if lc == 0 || right_count[s] == 0 {
             continue;
@@ -446,10 +463,12 @@ fn split(items: &mut [Item], depth: usize) -> usize {
     }
     let Some((_, s)) = best else { return median(items) };
     // In-place partition, items of bins < s first (deterministic: a fixed sequence of swaps).
+    let s = s as u8;
     let mut middle = 0;
     for i in 0..n {
-        if bin_of(items[i].centroid) < s {
+        if bins[i] < s {
             items.swap(i, middle);
+            bins.swap(i, middle);
             middle += 1;
         }
     }

@@ -196,6 +196,11 @@ impl IntersectingPairs {
         &self.pairs
     }
 
+    /// The vertex count of the mesh they were found on.
+    pub fn num_vertices(&self) -> usize {
+        self.positions.len()
+    }
+
     /// The pairs of `mesh` (the connectivity these were found on, other positions); false past
     /// `budget` candidate pairs to test (the pairs are then still those of the last positions
     /// counted; enumerate some other way).
