@@ -376,8 +376,10 @@ fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertice
         .with_min_len(256)
         .map(|v| {
             work.measure(|| {
+                // The outer point first: it is outside everything (0) for most vertices, which
+                // settles the minimum without the inner point's query.
                 let (p, offset) = (mesh.positions[v], epsilon * normals[v]);
-                vertices[v] && tree.winding_number(p - offset).min(tree.winding_number(p + offset)) >= 1
+                vertices[v] && tree.winding_number(p + offset) >= 1 && tree.winding_number(p - offset) >= 1
             })
         })
         .collect();
