@@ -72,7 +72,8 @@ pub use radial_brush::{BrushFields, LateralPoint, RadialBrushError, RadialSelect
 pub use solver::RegionSolver;
 pub use transport::{MAX_CORRECTION, TransportField, transport_field};
 pub use volume::{
-    AffineDisplacement, HeightSolution, SweptTerms, VolumeCubic, solve_bulge_height, swept_volume_change,
+    AffineDisplacement, HeightSolution, SweptTerms, VolumeCubic, solve_bulge_height, solve_dent_height,
+    swept_volume_change,
 };
 
 use crate::contact::ContactZone;

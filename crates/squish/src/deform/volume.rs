@@ -294,6 +294,14 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
     ([r1.min(r2), r1.max(r2)], 2)
 }
 
+/// The root of `ΔV(h)` nearest 0 among h ≤ 0 (a dent), searching `h ∈ [−10⁶·scale, 0]`:
+/// [`solve_bulge_height`] of the cubic mirrored by h → −h, its height negated.
+pub fn solve_dent_height(cubic: &VolumeCubic, scale: f64) -> HeightSolution {
+    let [c0, c1, c2, c3] = cubic.coefficients;
+    let mirrored = solve_bulge_height(&VolumeCubic { coefficients: [c0, -c1, c2, -c3] }, scale);
+    HeightSolution { height: -mirrored.height, ..mirrored }
+}
+
 /// The smallest non-negative root of `ΔV(h)` (see the module doc), searching `h ∈ [0, 10⁶·scale]`.
 /// `scale` (> 0) is the problem's length scale (the extent).
 pub fn solve_bulge_height(cubic: &VolumeCubic, scale: f64) -> HeightSolution {

@@ -427,7 +427,7 @@ fn restore_volume(current: &TriMesh, new: Vec<DVec3>) -> Option<Vec<DVec3>> {
 /// [`restore_volume`] with the offset carried by the vertices of nonzero `carriers` (which need
 /// not be those that moved), each offset by its carrier times the height along its normal.
 fn restore_volume_with(current: &TriMesh, new: Vec<DVec3>, carriers: &[f64]) -> Option<Vec<DVec3>> {
-    use crate::deform::{AffineDisplacement, VolumeCubic, solve_bulge_height};
+    use crate::deform::{AffineDisplacement, VolumeCubic, solve_bulge_height, solve_dent_height};
     if current.positions == new {
         return Some(new);
     }
@@ -442,15 +442,11 @@ fn restore_volume_with(current: &TriMesh, new: Vec<DVec3>, carriers: &[f64]) -> 
     let constant: Vec<DVec3> = current.positions.iter().zip(&new).map(|(p, q)| *q - *p).collect();
     let reference = crate::mesh::vertex_centroid(&current.positions);
     let scale = constant.iter().map(|d| d.length()).fold(0.0, f64::max);
-    let solve = |sign: f64| {
-        let linear =
-            normals.iter().zip(carriers).map(|(n, &c)| if c != 0.0 { sign * (c * *n) } else { DVec3::ZERO }).collect();
-        let displacement = AffineDisplacement { linear, constant: constant.clone(), moved: moved.clone() };
-        let cubic = VolumeCubic::new(current, &displacement, reference).ok()?;
-        let solution = solve_bulge_height(&cubic, scale);
-        solution.exact.then_some(sign * solution.height)
-    };
-    let height = match (solve(1.0), solve(-1.0)) {
+    let linear = normals.iter().zip(carriers).map(|(n, &c)| if c != 0.0 { c * *n } else { DVec3::ZERO }).collect();
+    let displacement = AffineDisplacement { linear, constant, moved };
+    let cubic = VolumeCubic::new(current, &displacement, reference).ok()?;
+    let exact = |solution: crate::deform::HeightSolution| solution.exact.then_some(solution.height);
+    let height = match (exact(solve_bulge_height(&cubic, scale)), exact(solve_dent_height(&cubic, scale))) {
         (Some(a), Some(b)) => {
             if a.abs() <= b.abs() {
                 a

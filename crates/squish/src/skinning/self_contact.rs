@@ -61,7 +61,7 @@ use super::{ArticulationError, articulation_direction};
 use crate::contact::{ContactError, ContactSide, ContactZone, EdgeRegion, Stiffness, contact_pair};
 use crate::deform::{
     AffineDisplacement, DeformError, DeformParams, HeightSolution, RegionOverrides, RegionPlan, RegionSolver,
-    VolumeCubic, plan_region, solve_bulge_height,
+    VolumeCubic, plan_region, solve_bulge_height, solve_dent_height,
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
 use crate::params::{Articulation, PairParams, Params};
@@ -857,10 +857,8 @@ fn bulge_or_dent_height(cubic: &VolumeCubic, extent: f64) -> HeightSolution {
     if bulge.exact {
         return bulge;
     }
-    let [c0, c1, c2, c3] = cubic.coefficients;
-    let mirrored = VolumeCubic { coefficients: [c0, -c1, c2, -c3] };
-    let dent = solve_bulge_height(&mirrored, extent);
-    if dent.exact { HeightSolution { height: -dent.height, ..dent } } else { bulge }
+    let dent = solve_dent_height(cubic, extent);
+    if dent.exact { dent } else { bulge }
 }
 
 /// Self-intersecting faces among the faces of an articulation's regions (exact triangle–triangle
