@@ -91,8 +91,9 @@ use crate::stage::{Stage, StageTimes, StageWork, Work};
 /// not closed inside the region).
 pub const MARGIN_RINGS: [usize; 3] = [2, 6, 18];
 
-/// Rings of the regions grown from the intersection, tried when the parts' regions fail.
-pub const GROWN_RINGS: [usize; 2] = [8, 24];
+/// Rings of the regions grown from the intersection, tried when the parts' regions fail. One
+/// width: a wider one is not tried (docs/decisions.md, "Regions grown from the intersection").
+pub const GROWN_RINGS: usize = 8;
 
 /// Figures of one touching part pair at one frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -590,7 +591,7 @@ fn region_labels(
 /// intersection.
 fn tries(pair: &TouchingPair) -> impl Iterator<Item = (bool, usize)> {
     let margins: &[usize] = if pair.kind == TouchingKind::Parts { &MARGIN_RINGS } else { &[] };
-    margins.iter().map(|&r| (false, r)).chain(GROWN_RINGS.iter().map(|&r| (true, r)))
+    margins.iter().map(|&r| (false, r)).chain(std::iter::once((true, GROWN_RINGS)))
 }
 
 /// The next batch of `remaining` (indices of pairs, in order): each pair in turn whose first
@@ -1260,6 +1261,20 @@ mod tests {
             if o {
                 assert!(halves[v] != 0.0 && (s.rest.positions[v].z - mid).abs() < 0.5, "{v}");
             }
+        }
+    }
+
+    /// docs/decisions.md, "Regions grown from the intersection": two parts apart try their
+    /// margins, then one width of grown regions; the other kinds the grown width only.
+    #[test]
+    fn a_pair_tries_its_margins_then_one_width_grown_from_the_intersection() {
+        let pair = |kind| TouchingPair { parts: [1, 2], kind, faces: vec![[0, 1]] };
+        let parts: Vec<_> = tries(&pair(TouchingKind::Parts)).collect();
+        let mut expected: Vec<_> = MARGIN_RINGS.iter().map(|&r| (false, r)).collect();
+        expected.push((true, GROWN_RINGS));
+        assert_eq!(parts, expected);
+        for kind in [TouchingKind::AfterArticulation, TouchingKind::WithinPart(0)] {
+            assert_eq!(tries(&pair(kind)).collect::<Vec<_>>(), [(true, GROWN_RINGS)], "{kind:?}");
         }
     }
 
