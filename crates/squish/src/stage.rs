@@ -32,7 +32,8 @@ pub enum Stage {
     Setup,
     /// Choosing the working regions and updating their caches.
     Regions,
-    /// Self-contact of skinned articulations: the crease cut of each shared region (§6.1.3).
+    /// Self-contact of skinned articulations: the crease cut of each shared region (§6.1.3) and
+    /// the truncated regions chapter 4 runs between (their sub-meshes, trees and normals).
     CreaseCut,
     /// Intersection regions.
     Intersection,

@@ -204,7 +204,8 @@ pub(super) fn resolve_self_contacts(
     for (state, &job) in states.iter().zip(&records) {
         if let Ok(ArticulationState::Contact(c, cut_work)) = state {
             let mut times = StageTimes::default();
-            times[Stage::CreaseCut] = c.stats.cut_time;
+            // Like its work, the step's time beyond chapter 4's own stages is the cut's.
+            times[Stage::CreaseCut] = c.time_beyond_contact();
             let mut work = **cut_work;
             if let Some(contact) = &c.contact {
                 times += &contact.stats.timings;

@@ -509,6 +509,15 @@ pub struct ArticulationContact {
 }
 
 impl ArticulationContact {
+    /// The time of this contact step beyond chapter 4's own stages (those in the contact's
+    /// [`crate::contact::ContactStats::timings`]): the crease cut, the truncated regions and their
+    /// positions.
+    pub fn time_beyond_contact(&self) -> Duration {
+        let contact: Duration =
+            self.contact.as_ref().map_or(Duration::ZERO, |c| c.stats.timings.iter().map(|(_, t)| *t).sum());
+        self.contact_step.saturating_sub(contact)
+    }
+
     /// True if the two sides are in contact (non-empty zones).
     pub fn in_contact(&self) -> bool {
         self.contact.as_ref().is_some_and(|c| !c.is_empty())
