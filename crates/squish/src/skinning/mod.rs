@@ -7,6 +7,7 @@
 
 mod articulation;
 mod lbs;
+mod min_cut;
 mod partition;
 mod parts;
 mod self_contact;

@@ -22,15 +22,14 @@
 //! - *Decision:* the seeds of β are hard constraints (infinite terminal links), so that 𝒲̄₁ always
 //!   contains 𝒲₁ \ ℛ's neighbours in ℛ and the two truncated regions never interleave.
 //!
-//! The minimum cut is found by max-flow (petgraph's Dinic) on integer capacities (the energies
+//! The minimum cut is found by max-flow ([`super::min_cut`], Dinic's) on integer capacities (the energies
 //! quantized to 2⁻²⁰, exact arithmetic, so the result does not depend on round-off); the labels are
 //! the source side of the residual graph (the smallest minimum cut), deterministic.
 
 use glam::DVec3;
-use petgraph::Graph;
-use petgraph::algo::dinics;
 
 use super::ArticulationError;
+use super::min_cut::Network;
 use crate::linalg::{EdgeConstraint, solve_harmonic};
 use crate::mesh::{SubMesh, Topology, TriMesh};
 
@@ -187,13 +186,10 @@ impl SharedRegion {
         let finite: u64 = boundary.iter().map(|&k| 2 * k).chain(regional.iter().map(|r| r[0] + r[1])).sum();
         let infinite = finite.saturating_add(1);
 
-        let mut graph = Graph::<(), u64>::with_capacity(m + 2, 2 * self.edges.len() + 2 * m);
-        let nodes: Vec<_> = (0..m).map(|_| graph.add_node(())).collect();
-        let source = graph.add_node(());
-        let sink = graph.add_node(());
+        let (source, sink) = (m, m + 1);
+        let mut network = Network::new(m + 2);
         for (&[i, j], &k) in self.edges.iter().zip(&boundary) {
-            graph.add_edge(nodes[i as usize], nodes[j as usize], k);
-            graph.add_edge(nodes[j as usize], nodes[i as usize], k);
+            network.add_pair(i as usize, j as usize, k, k);
         }
         for (k, seed) in self.seeds.iter().enumerate() {
             // Source side = 𝒲̄₁. Cutting source→i labels i 𝒲̄₂ and pays D_i(𝒲̄₂); cutting i→sink
@@ -205,38 +201,15 @@ impl SharedRegion {
                 Seed::Free => (cost_second, cost_first),
             };
             if to_source > 0 {
-                graph.add_edge(source, nodes[k], to_source);
+                network.add_pair(source, k, to_source, 0);
             }
             if to_sink > 0 {
-                graph.add_edge(nodes[k], sink, to_sink);
+                network.add_pair(k, sink, to_sink, 0);
             }
         }
-        let (_, flows) = dinics(&graph, source, sink);
-        // Source side of the residual graph.
-        let count = graph.node_count();
-        let mut adjacency: Vec<Vec<usize>> = vec![Vec::new(); count];
-        for edge in graph.raw_edges().iter().enumerate() {
-            let (e, raw) = edge;
-            let (u, v) = (raw.source().index(), raw.target().index());
-            if flows[e] < raw.weight {
-                adjacency[u].push(v);
-            }
-            if flows[e] > 0 {
-                adjacency[v].push(u);
-            }
-        }
-        let mut reached = vec![false; count];
-        let mut stack = vec![source.index()];
-        reached[source.index()] = true;
-        while let Some(u) = stack.pop() {
-            for &v in &adjacency[u] {
-                if !reached[v] {
-                    reached[v] = true;
-                    stack.push(v);
-                }
-            }
-        }
-        nodes.iter().map(|n| reached[n.index()]).collect()
+        let mut side = network.source_side(source, sink);
+        side.truncate(m);
+        side
     }
 }
 
