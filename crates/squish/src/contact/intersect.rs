@@ -50,6 +50,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{ContactError, ContactSide, EdgeRegion};
+use crate::params::VertexFlags;
 use crate::spatial::{BatchHits, EdgeCrossings, EdgeSource, Hit, mutual_edge_crossings};
 use crate::stage::SharedWork;
 
@@ -180,6 +181,46 @@ impl EdgeHits {
     }
 }
 
+/// The interior of a side decided by the caller ([`super::ContactSide::interior`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Interior<'a> {
+    /// One flag per vertex of the side.
+    Flags(&'a [bool]),
+    /// Flags of the object's vertices, asked for the side's vertices `v` (as `parent[v]`) that
+    /// the intersection stage reaches: those on a crossing edge and, through flagged vertices,
+    /// their neighbours. The answers are those of asking every vertex (the flags are a function
+    /// of the vertex), for the cost of the few near the intersection.
+    Asked { flags: &'a VertexFlags, parent: &'a [u32] },
+}
+
+impl Interior<'_> {
+    /// The number of vertices it answers for.
+    pub fn len(&self) -> usize {
+        match self {
+            Self::Flags(flags) => flags.len(),
+            Self::Asked { parent, .. } => parent.len(),
+        }
+    }
+
+    /// True if it answers for no vertex.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The flags of the side's vertices `vertices`, in their order.
+    pub fn of(&self, vertices: &[u32]) -> Vec<bool> {
+        match self {
+            Self::Flags(flags) => vertices.iter().map(|&v| flags.get(v as usize).copied().unwrap_or(false)).collect(),
+            Self::Asked { flags, parent } => {
+                let objects: Vec<u32> = vertices.iter().filter_map(|&v| parent.get(v as usize).copied()).collect();
+                let answers = flags.of(&objects);
+                let mut answers = answers.into_iter();
+                vertices.iter().map(|&v| parent.get(v as usize).is_some() && answers.next().unwrap_or(false)).collect()
+            }
+        }
+    }
+}
+
 /// ℐ on `side`, from the crossings of its edges with `other`'s faces.
 fn intersection_region(
     side: &ContactSide,
@@ -232,31 +273,44 @@ fn intersection_region(
 /// The given interior vertices that are connected (through interior vertices) to an edge that
 /// crosses the other side: a part of the given set that no crossing reaches lies inside
 /// something else than the other side (a thigh inside the other thigh, when the given flags are
-/// "inside another part of the same body"), and is dropped.
-fn touching_crossings(side: &ContactSide, hits: &EdgeHits, given: &[bool]) -> Vec<bool> {
+/// "inside another part of the same body"), and is dropped. The flags are asked for only the
+/// vertices this reaches, ring by ring: the crossing edges' ends, then the neighbours of the
+/// vertices found inside (a set that does not depend on the order they are asked in).
+fn touching_crossings(side: &ContactSide, hits: &EdgeHits, given: Interior) -> Vec<bool> {
     let nv = side.topology.num_vertices();
-    let flagged = |v: u32| given.get(v as usize).copied().unwrap_or(false);
     let edges = side.topology.edges();
     let mut inside = vec![false; nv];
-    let mut stack = Vec::new();
+    // Per vertex: its flag was asked for.
+    let mut asked = vec![false; nv];
+    let mut ring: Vec<u32> = Vec::new();
     for (&e, list) in hits.tested.iter().zip(hits.batch.iter()) {
         if list.is_empty() {
             continue;
         }
         for v in edges[e as usize] {
-            if flagged(v) && !inside[v as usize] {
-                inside[v as usize] = true;
-                stack.push(v);
+            if !asked[v as usize] {
+                asked[v as usize] = true;
+                ring.push(v);
             }
         }
     }
-    while let Some(v) = stack.pop() {
-        for w in side.topology.vertex_neighbors(v) {
-            if flagged(w) && !inside[w as usize] {
-                inside[w as usize] = true;
-                stack.push(w);
+    while !ring.is_empty() {
+        ring.sort_unstable();
+        let flags = given.of(&ring);
+        let mut next = Vec::new();
+        for (&v, flagged) in ring.iter().zip(flags) {
+            if !flagged {
+                continue;
+            }
+            inside[v as usize] = true;
+            for w in side.topology.vertex_neighbors(v) {
+                if !asked[w as usize] {
+                    asked[w as usize] = true;
+                    next.push(w);
+                }
             }
         }
+        ring = next;
     }
     inside
 }
@@ -368,6 +422,57 @@ mod tests {
             let q = ig.point_position(&grid.mesh, p);
             assert!(sphere.bvh.closest_point(q).unwrap().distance < 1e-12);
         }
+    }
+
+    /// Interior flags asked for the vertices the intersection reaches give the intersection of
+    /// flags given for every vertex, and are asked for few of them: two overlapping spheres, each
+    /// flagged inside the other and, as a decoy, inside "something else" on its far side (a
+    /// patch no crossing reaches, dropped either way).
+    #[test]
+    fn interior_flags_asked_where_needed_give_those_of_every_vertex() {
+        use std::sync::Arc;
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let centres = [DVec3::ZERO, DVec3::new(1.2, 0.0, 0.0)];
+        let spheres = centres.map(|c| Owned::new(crate::mesh::shapes::icosphere(1.0, 3), c));
+        let flags_of = |l: usize| -> Vec<bool> {
+            let (own, other) = (centres[l], centres[1 - l]);
+            spheres[l]
+                .mesh
+                .positions
+                .iter()
+                .map(|&p| (p - other).length() < 1.0 || (p - own).dot(own - other) > 0.8 * (own - other).length())
+                .collect()
+        };
+        let given = [flags_of(0), flags_of(1)];
+        let asked = Arc::new(AtomicUsize::new(0));
+        let lazy = [0, 1].map(|l| {
+            let (flags, asked) = (given[l].clone(), Arc::clone(&asked));
+            crate::params::VertexFlags::new(move |vertices| {
+                asked.fetch_add(vertices.len(), Ordering::Relaxed);
+                vertices.iter().map(|&v| flags[v as usize]).collect()
+            })
+        });
+        let identity: Vec<u32> = (0..spheres[0].mesh.num_vertices() as u32).collect();
+        let full = intersect(
+            &spheres[0].side().with_interior(Some(&given[0])),
+            &spheres[1].side().with_interior(Some(&given[1])),
+        )
+        .unwrap();
+        let by_asking = intersect(
+            &spheres[0].side().with_interior_asked(Some((&lazy[0], &identity))),
+            &spheres[1].side().with_interior_asked(Some((&lazy[1], &identity))),
+        )
+        .unwrap();
+        assert!(!full.points.is_empty() && full.regions.iter().all(|r| r.num_inside() > 0));
+        assert_eq!(full, by_asking);
+        // The decoys are flagged but never reached.
+        for (l, region) in full.regions.iter().enumerate() {
+            let flagged = given[l].iter().filter(|&&f| f).count();
+            assert!(region.num_inside() < flagged, "side {l}: {} of {flagged}", region.num_inside());
+        }
+        let total = 2 * spheres[0].mesh.num_vertices();
+        let asked = asked.load(Ordering::Relaxed);
+        assert!(asked < total / 2, "asked {asked} of {total}");
     }
 
     #[test]

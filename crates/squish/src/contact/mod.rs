@@ -74,7 +74,7 @@ pub use export::{
     BoundaryKind, DebugPoint, DebugSide, LABEL_CONTACT, LABEL_INTERSECTION, LABEL_MAPPING, LABEL_OUTSIDE, debug_export,
 };
 pub use gap::{PAIR_GAP_FRACTION, apply_gap, effective_gap, zone_edge_length};
-pub use intersect::{Intersection, IntersectionPoint, IntersectionStats, intersect};
+pub use intersect::{Interior, Intersection, IntersectionPoint, IntersectionStats, intersect};
 pub use mapping::{MappingStats, Match, MatchKind, NO_SLOT, SideMapping, map_regions};
 pub use pair::{ContactCounts, ContactFallbacks, ContactSide, ContactStats, PairContact, SideContact, contact_pair};
 pub use region::{EdgeRegion, Sample};

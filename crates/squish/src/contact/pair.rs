@@ -24,15 +24,15 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use super::direction::{DirectionSource, NormalStats, direction_from_points, direction_from_stats, normal_stats};
-use super::intersect::{IntersectionPoint, IntersectionStats, intersect};
+use super::intersect::{Interior, IntersectionPoint, IntersectionStats, intersect};
 use super::mapping::{MappingStats, SideMapping, map_regions};
 use super::stiffness::{Stiffness, relative_stiffness};
 use super::surface::{SideSurface, side_surface};
 use super::zone::{CriterionStats, ZoneSetup, criterion, extract_zone};
 use super::{ContactError, ContactZone, EdgeRegion};
 use crate::mesh::{Topology, TriMesh};
-use crate::params::Uvs;
 use crate::params::{MappingMethod, PairParams, Params};
+use crate::params::{Uvs, VertexFlags};
 use crate::spatial::TriangleBvh;
 use crate::stage::{Stage, StageTimes, StageWork, Work};
 
@@ -61,7 +61,7 @@ pub struct ContactSide<'a> {
     /// by the intersection stage (tags and flood fill, §4.1). Self-contact (ch. 6) gives it: its
     /// two sides are parts of one closed mesh whose intersection curves end at the crease cut,
     /// where a flood fill would leak (see [`super::intersect`]).
-    pub interior: Option<&'a [bool]>,
+    pub interior: Option<Interior<'a>>,
     /// Tree over the faces that the other side's lines along ±d̂ are matched on (§4.2.2), face
     /// ids = mesh face ids. `None`: all faces ([`Self::bvh`]). Self-contact (ch. 6) gives the
     /// faces that face the fold: its sides are open parts of one limb, and the farthest crossing
@@ -113,7 +113,15 @@ impl<'a> ContactSide<'a> {
 
     /// Sets the interior flags decided by the caller (one per vertex).
     pub fn with_interior(mut self, interior: Option<&'a [bool]>) -> Self {
-        self.interior = interior;
+        self.interior = interior.map(Interior::Flags);
+        self
+    }
+
+    /// Sets the interior decided by the caller as flags of the object's vertices, asked only for
+    /// the vertices the intersection stage needs: vertex `v` of this side is `parent[v]` of the
+    /// object `flags` answers for (see [`Interior::Asked`]).
+    pub fn with_interior_asked(mut self, interior: Option<(&'a VertexFlags, &'a [u32])>) -> Self {
+        self.interior = interior.map(|(flags, parent)| Interior::Asked { flags, parent });
         self
     }
 
@@ -144,7 +152,7 @@ impl<'a> ContactSide<'a> {
             ("the triangle tree", nf, self.bvh.len()),
             ("the border flags", nv, self.border.map_or(nv, <[bool]>::len)),
             ("the UVs", self.uvs.map_or(nv, |u| u.expected(nv, nf)), self.uvs.map_or(nv, |u| u.count().1)),
-            ("the interior flags", nv, self.interior.map_or(nv, <[bool]>::len)),
+            ("the interior flags", nv, self.interior.map_or(nv, |i| i.len())),
         ];
         for (what, expected, got) in checks {
             if expected != got {

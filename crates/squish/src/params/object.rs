@@ -245,7 +245,8 @@ pub struct ObjectParams {
     pub contact_open_border: Option<Vec<bool>>,
     /// Per object vertex: true where the vertex lies inside the other side of its cut region's
     /// contact (given to the contact stage instead of its flood fill, [`crate::contact::ContactSide::interior`]),
-    /// asked for the vertices of the cut regions only.
+    /// asked for the vertices of the cut regions that the intersection stage reaches only
+    /// ([`crate::contact::Interior::Asked`]).
     /// Set by the part contacts (a vertex inside the object's own volume: the flood fill cannot
     /// tell inside from outside across an open seam), not a user key. `None`: the contact stage decides.
     #[param(skip)]

@@ -104,7 +104,9 @@ impl ObjectCache {
             None => ContactSide::new(object.mesh, &self.topology, normals?, &self.bvh),
             Some(sub) => ContactSide::new(&sub.sub.mesh, &sub.topology, &sub.normals, &sub.bvh)
                 .with_border(sub.contact_border())
-                .with_interior(sub.contact_interior.as_deref()),
+                .with_interior_asked(
+                    object.params.contact_interior.as_ref().map(|f| (f, sub.sub.parent_vertex.as_slice())),
+                ),
         };
         Some(side.with_name(name).with_stiffness(crate::contact::Stiffness::of(object.params)).with_uvs(uvs))
     }
@@ -262,9 +264,6 @@ pub(super) struct SubRegion {
     /// Per region vertex: the border for the contact stage when it differs from `border` (see
     /// [`crate::params::ObjectParams::contact_open_border`]).
     pub contact_border: Option<Vec<bool>>,
-    /// Per region vertex: inside the other side, decided by the caller
-    /// ([`crate::params::ObjectParams::contact_interior`]); `None`: the contact stage decides.
-    pub contact_interior: Option<Vec<bool>>,
     /// Vertex normals of this frame, from all parent faces.
     pub normals: Vec<DVec3>,
 }
@@ -276,11 +275,6 @@ impl SubRegion {
             Some(border) => border.iter().any(|&b| b).then_some(border.as_slice()),
             None => (self.border_count > 0).then_some(self.border.as_slice()),
         }
-    }
-
-    /// The interior flags of the contact stage from per-parent-vertex flags `interior`.
-    pub fn set_contact_interior(&mut self, interior: Option<&crate::params::VertexFlags>) {
-        self.contact_interior = interior.map(|interior| interior.of(&self.sub.parent_vertex));
     }
 
     /// Removes the vertices `open` (per parent vertex) from the contact stage's border.
@@ -352,7 +346,6 @@ impl RegionCache {
                 border,
                 border_count,
                 contact_border: None,
-                contact_interior: None,
                 normals,
             })),
             solver: None,

@@ -388,10 +388,8 @@ pub(super) fn update_working_regions(
             update_regions(regions, selection, object.mesh, topology, components)
                 .map_err(|reason| PipelineError::invalid_region(object.name, reason))?;
             let open = object.params.contact_open_border.as_deref();
-            let interior = object.params.contact_interior.as_ref();
             for sub in regions.iter_mut().filter_map(|r| r.sub.as_deref_mut()) {
                 sub.open_contact_border(open);
-                sub.set_contact_interior(interior);
             }
             Ok(())
         },
