@@ -497,15 +497,13 @@ fn separate_with(
             }
         }
     }
-    // Per active region pair, side and half (its own vertices against the other side, the other
-    // side's vertices against it): a lower bound of each querying vertex's distance to the
-    // surface it queries (see `query_direction`).
-    let mut bounds: Vec<[[Vec<f64>; 2]; 2]> = active
+    // Per active region pair and direction l (side l's vertices against side 1 − l): a lower
+    // bound of each querying vertex's distance to the surface it queries (see `query_direction`).
+    let mut bounds: Vec<[Vec<f64>; 2]> = active
         .iter()
         .map(|&k| {
             let objects = frame.pairs[region_pairs[k].pair].objects;
-            let sized = |i: usize| vec![0.0; frame.objects[i].mesh.num_vertices()];
-            [[sized(objects[0]), sized(objects[1])], [sized(objects[1]), sized(objects[0])]]
+            objects.map(|i| vec![0.0; frame.objects[i].mesh.num_vertices()])
         })
         .collect();
     // Per object and region: the volume terms of its last correction.
@@ -562,27 +560,39 @@ fn separate_with(
             let shares = weights.map(|w| w / total);
             let depth = DEPTH_EDGES * edge_lengths[objects[0]].max(edge_lengths[objects[1]]);
             let reach = Reach { gap, depth };
+            // Direction l: side l's vertices against side 1 − l. It gives side l's own moves
+            // (its movable vertices) and side 1 − l's moves from the vertices poking into it, so
+            // each direction is asked once for both; it asks only the movable vertices when it
+            // is needed for the own moves alone.
             let pair_bounds = &mut bounds[a];
+            let answers: [Vec<(u32, Vec<Near>)>; 2] = std::array::from_fn(|l| {
+                let (own_moves, poking) = (shares[l] > 0.0, shares[1 - l] > 0.0);
+                if !own_moves && !poking {
+                    return Vec::new();
+                }
+                let object = objects[l];
+                let filter = |v: u32| poking || slots[object][v as usize].is_some();
+                let target_winding = windings[1 - l].as_ref();
+                query_direction(&surfaces[l], filter, &surfaces[1 - l], target_winding, reach, &mut pair_bounds[l])
+            });
             for l in 0..2 {
                 if shares[l] == 0.0 {
                     continue;
                 }
-                let (own, other) = (&surfaces[l], &surfaces[1 - l]);
-                let (own_winding, other_winding) = (windings[l].as_ref(), windings[1 - l].as_ref());
+                let own = &surfaces[l];
                 let object = objects[l];
                 let share = shares[l];
-                let [own_bounds, poking_bounds] = &mut pair_bounds[l];
                 // Own vertices near or inside the other side.
-                let movable = |v: u32| slots[object][v as usize].is_some();
-                let near = query_direction(own, movable, other, other_winding, reach, own_bounds);
-                for (v, near) in near {
+                for (v, near) in &answers[l] {
+                    if slots[object][*v as usize].is_none() {
+                        continue;
+                    }
                     for n in near.iter().filter(|n| n.distance < gap) {
-                        blends[object][v as usize].add(share * (gap - n.distance) * n.out);
+                        blends[object][*v as usize].add(share * (gap - n.distance) * n.out);
                     }
                 }
                 // The other side's vertices near or inside this side move this side's faces.
-                let poking = query_direction(other, |_| true, own, own_winding, reach, poking_bounds);
-                for (_, near) in poking {
+                for (_, near) in &answers[1 - l] {
                     for n in near.iter().filter(|n| n.distance < gap) {
                         let (corners, bary) = (own.triangles[n.face as usize], n.bary);
                         let m = -share * (gap - n.distance) * n.out;
@@ -648,15 +658,14 @@ fn separate_with(
         // A vertex's distance to a surface shrinks at most by how far both moved.
         for (&k, pair_bounds) in active.iter().zip(&mut bounds) {
             let objects = frame.pairs[region_pairs[k].pair].objects;
-            for l in 0..2 {
-                for (half, querying, target) in [(0, objects[l], objects[1 - l]), (1, objects[1 - l], objects[l])] {
-                    let surface_moved = moved[target].as_ref().map_or(0.0, |m| m.1);
-                    let vertex_moved = moved[querying].as_ref().map(|m| &m.0);
-                    for (v, bound) in pair_bounds[l][half].iter_mut().enumerate() {
-                        if *bound > 0.0 {
-                            let shift = surface_moved + vertex_moved.map_or(0.0, |m| m[v]);
-                            *bound -= shift * (1.0 + BOUND_SLACK);
-                        }
+            for (l, direction) in pair_bounds.iter_mut().enumerate() {
+                let (querying, target) = (objects[l], objects[1 - l]);
+                let surface_moved = moved[target].as_ref().map_or(0.0, |m| m.1);
+                let vertex_moved = moved[querying].as_ref().map(|m| &m.0);
+                for (v, bound) in direction.iter_mut().enumerate() {
+                    if *bound > 0.0 {
+                        let shift = surface_moved + vertex_moved.map_or(0.0, |m| m[v]);
+                        *bound -= shift * (1.0 + BOUND_SLACK);
                     }
                 }
             }
