@@ -681,7 +681,7 @@ pub fn print_table(report: &BenchReport) {
     }
     println!();
     println!(
-        "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions; s. = factorizations, part of p./di./g.; an. = submatrix analyses, part of s.)"
+        "single-thread breakdown of the median frame, % (the thesis' columns, and reg. = choosing and updating the working regions, new regions' analyses included; s. = factorizations, part of p./di./g.; an. = submatrix analyses, part of s.)"
     );
     // The stages that are spans, `other`, then the nested stages (shares of the spans).
     let breakdown_columns =

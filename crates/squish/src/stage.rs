@@ -30,7 +30,8 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 pub enum Stage {
     /// Topology checks, normals, triangle trees of the objects.
     Setup,
-    /// Choosing the working regions and updating their caches.
+    /// Choosing the working regions and updating their caches, a new region's symbolic analysis
+    /// included (run when chapter 5 first factorizes the region).
     Regions,
     /// Self-contact of skinned articulations: the crease cut of each shared region (§6.1.3) and
     /// the truncated regions chapter 4 runs between (their sub-meshes, trees and normals).

@@ -50,6 +50,9 @@ pub(super) struct RegionOutcome {
     pub time: Duration,
     /// Whether this frame built the region's solver (one symbolic analysis).
     pub new_solver: bool,
+    /// Wall-clock time of that analysis (zero without one): part of updating the working
+    /// region ([`Stage::Regions`]), though done when chapter 5 first needs it.
+    pub analysis_time: Duration,
     /// The region's fields of §5.1–5.3 and resolved scales, when the deformer keeps them for
     /// edits ([`KeptRegion`]).
     pub kept: Option<KeptRegion>,
@@ -120,6 +123,7 @@ pub(super) fn deform_regions(
 pub(super) fn record(outcomes: &[Vec<Option<RegionOutcome>>], trace: &mut Trace) {
     for outcome in outcomes.iter().flatten().flatten() {
         trace.add(&outcome.deformation.stats.timings, &outcome.deformation.stats.work);
+        trace.time(Stage::Regions, outcome.analysis_time);
     }
 }
 
@@ -164,11 +168,14 @@ fn deform_one(
     let overrides =
         RegionOverrides { normals: object_normals.filter(|_| region.sub.is_none()), ..RegionOverrides::default() };
     let new_solver = region.solver.is_none();
+    let mut analysis_time = Duration::ZERO;
     if new_solver {
         // An automatic region is cut again whenever its faces change: its analysis, then paid
         // every few frames, stays AMD's alone; the others are analyzed once per shot.
         let fill_order = if object.params.region.is_automatic() { FillOrder::Amd } else { FillOrder::FewerFlops };
+        let analysis = Instant::now();
         region.solver = Some(RegionSolver::with_fill_order(mesh, topology, fill_order).map_err(err)?);
+        analysis_time = analysis.elapsed();
     }
     let Some(solver) = region.solver.as_mut() else {
         return Err(err(DeformError::StaleFactorization { stage: "region solver" }));
@@ -205,7 +212,15 @@ fn deform_one(
             scales.extent = fitted;
             params.domain_radius = scales.domain_radius;
             params.extent = fitted;
+            let first = fields.stats;
             fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
+            // The first solves were work of this frame too.
+            fields.stats.timings += &first.timings;
+            fields.stats.work += &first.work;
+            fields.stats.numeric_factorizations += first.numeric_factorizations;
+            fields.stats.factorized_rows += first.factorized_rows;
+            fields.stats.recomputed_rows += first.recomputed_rows;
+            fields.stats.reduced_analyses += first.reduced_analyses;
             clamped = true;
             let moves = |v: usize| fields.deformable[v] || fields.contact.vertex_zone[v] != crate::deform::NO_ZONE;
             if let Some(v) = (0..border.len()).find(|&v| border[v] && moves(v)) {
@@ -227,6 +242,7 @@ fn deform_one(
         domain_reaches_cut,
         time: start.elapsed(),
         new_solver,
+        analysis_time,
         kept,
     })
 }
@@ -310,6 +326,7 @@ pub(super) fn finish_kept_regions(
                         domain_reaches_cut: kept.domain_reaches_cut,
                         time: start.elapsed(),
                         new_solver: false,
+                        analysis_time: Duration::ZERO,
                         kept: None,
                     }))
                 })
