@@ -281,6 +281,10 @@ fn a_region_too_small_for_the_extent_clamps_it() {
     println!("disk of radius 1.6: extent {automatic:.3} clamped to {:.3}", region.extent);
     assert!(region.extent_clamped && region.extent < automatic, "{region:?}");
     assert!(result.stats.objects[1].extent_clamped);
+    // Both solves of §5.1–5.3 (before and after the clamp) count in the region's figures.
+    let stats = &result.deformations[1].as_ref().unwrap().stats;
+    assert_eq!(stats.numeric_factorizations, 6, "heat, Poisson, guide, twice: {stats:?}");
+    assert!(stats.work[Stage::Parametrization].rows > 0 && stats.timings[Stage::Guide] > Duration::ZERO);
     // The cut border and everything outside the region stay put, the volume is preserved and the
     // contact stays clean.
     let ground = &scene.objects[1].mesh.clone();
