@@ -152,6 +152,19 @@ pub struct DeformStats {
     pub fallbacks: FallbackCounters,
 }
 
+impl DeformStats {
+    /// Adds the solving work of `other` (factorizations, their rows and analyses, the stages'
+    /// times and work) to these figures.
+    pub fn add_solve_counts(&mut self, other: &DeformStats) {
+        self.numeric_factorizations += other.numeric_factorizations;
+        self.factorized_rows += other.factorized_rows;
+        self.recomputed_rows += other.recomputed_rows;
+        self.reduced_analyses += other.reduced_analyses;
+        self.timings += &other.timings;
+        self.work += &other.work;
+    }
+}
+
 /// The deformed region.
 #[derive(Clone, Debug)]
 pub struct RegionDeformation {

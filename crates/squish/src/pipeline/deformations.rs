@@ -215,12 +215,7 @@ fn deform_one(
             let first = fields.stats;
             fields = region_fields(mesh, topology, solver, zones, &params, &overrides).map_err(err)?;
             // The first solves were work of this frame too.
-            fields.stats.timings += &first.timings;
-            fields.stats.work += &first.work;
-            fields.stats.numeric_factorizations += first.numeric_factorizations;
-            fields.stats.factorized_rows += first.factorized_rows;
-            fields.stats.recomputed_rows += first.recomputed_rows;
-            fields.stats.reduced_analyses += first.reduced_analyses;
+            fields.stats.add_solve_counts(&first);
             clamped = true;
             let moves = |v: usize| fields.deformable[v] || fields.contact.vertex_zone[v] != crate::deform::NO_ZONE;
             if let Some(v) = (0..border.len()).find(|&v| border[v] && moves(v)) {
@@ -396,12 +391,7 @@ pub(super) fn combine(
         t.num_contact += s.num_contact;
         t.num_boundary_points += s.num_boundary_points;
         t.outer_boundary_moved += s.outer_boundary_moved;
-        t.numeric_factorizations += s.numeric_factorizations;
-        t.factorized_rows += s.factorized_rows;
-        t.recomputed_rows += s.recomputed_rows;
-        t.reduced_analyses += s.reduced_analyses;
-        t.timings += &s.timings;
-        t.work += &s.work;
+        t.add_solve_counts(s);
         t.time += s.time;
         t.fallbacks.direction_blend += s.fallbacks.direction_blend;
         t.fallbacks.bulge_map += s.fallbacks.bulge_map;
