@@ -331,19 +331,7 @@ pub struct RestIntersections {
 
 impl RestIntersections {
     pub fn new(rest: &TriMesh) -> Result<Self, SpatialError> {
-        let tree = TriangleBvh::new(rest)?;
-        let pairs = tree
-            .intersections_with(&tree)
-            .into_iter()
-            .filter(|&[f, g]| {
-                f < g
-                    && crate::spatial::triangles_intersect_away_from_shared(
-                        &rest.corners(f as usize),
-                        &rest.corners(g as usize),
-                    )
-            })
-            .collect();
-        Ok(Self { pairs })
+        Ok(Self { pairs: crate::spatial::all_self_intersecting_pairs(rest)? })
     }
 
     /// Faces of `mesh` (the rest pose's connectivity) that intersect another face away from

@@ -48,8 +48,9 @@ pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, CrossingHint, Hit, Ray};
 pub use segment_slabs::SegmentSlabs;
 pub use self_intersection::{
-    IntersectingPairs, PAIRS_PER_FACE, SelfIntersections, faces_of_pairs, mesh_intersections, self_intersecting_faces,
-    self_intersecting_faces_after, self_intersecting_pairs, self_intersections,
+    IntersectingPairs, PAIRS_PER_FACE, SelfIntersections, all_self_intersecting_pairs, faces_of_pairs,
+    mesh_intersections, self_intersecting_faces, self_intersecting_faces_after, self_intersecting_pairs,
+    self_intersections,
 };
 pub use tri_tri::{intersection_length, triangles_intersect, triangles_intersect_away_from_shared};
 pub use winding::{

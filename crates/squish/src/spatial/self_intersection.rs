@@ -114,6 +114,17 @@ pub fn self_intersecting_pairs(
     Ok(pairs_within(&tree, budget))
 }
 
+/// Every pair `[f, g]` (`f < g`, sorted) of faces of `mesh` that intersect away from what they
+/// share: [`self_intersecting_pairs`] of all its faces, whatever the number of overlapping boxes
+/// (for a mesh searched once, such as a rest pose). Each pair of faces is tested once, and only
+/// with [`super::triangles_intersect_away_from_shared`]: adjacent faces always touch, and the
+/// closed test of the shared corners is the slow one of exact arithmetic.
+/// Errors: a non-finite coordinate.
+pub fn all_self_intersecting_pairs(mesh: &TriMesh) -> Result<Vec<[u32; 2]>, SpatialError> {
+    let tree = TriangleBvh::new(mesh)?;
+    Ok(pairs_within(&tree, usize::MAX).unwrap_or_default())
+}
+
 /// The intersecting pairs of a tree's faces (see [`self_intersecting_pairs`]), or `None` past
 /// `budget` pairs of overlapping boxes.
 fn pairs_within(tree: &TriangleBvh, budget: usize) -> Option<Vec<[u32; 2]>> {
@@ -927,6 +938,17 @@ mod tests {
                 .collect();
             assert_eq!(pairs, brute, "round {round}");
             assert!(!pairs.is_empty(), "round {round}");
+            // Without a budget, and tested away from the shared corners only: the same pairs as
+            // the closed test and then that one (touching at a shared corner is no intersection).
+            assert_eq!(all_self_intersecting_pairs(&mesh).unwrap(), brute, "round {round}");
+            let closed_then_away: Vec<[u32; 2]> = (0..n)
+                .flat_map(|f| (f + 1..n).map(move |g| [f, g]))
+                .filter(|&[f, g]| {
+                    let (a, b) = (mesh.corners(f as usize), mesh.corners(g as usize));
+                    triangles_intersect(&a, &b) && triangles_intersect_away_from_shared(&a, &b)
+                })
+                .collect();
+            assert_eq!(closed_then_away, brute, "round {round}");
             for k in 0..6u32 {
                 let subset: Vec<u32> = (0..n).filter(|f| (f * 7 + k) % 5 != 0 || k == 0).collect();
                 let related = |f: u32, g: u32| k.is_multiple_of(2) || f.is_multiple_of(3) != g.is_multiple_of(3);
