@@ -9,6 +9,8 @@
 //! except the component figures reused for an object that did not move, bit for bit, which are
 //! the same bits.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 use super::{FrameObject, PipelineError};
@@ -20,13 +22,16 @@ use crate::spatial::{TriangleBvh, WindingClusters};
 /// What the deformer keeps about an object between frames: everything that depends on the
 /// connectivity only.
 pub(super) struct ObjectCache {
-    triangles: Vec<[u32; 3]>,
-    pub topology: Topology,
+    /// The connectivity and what depends on it only, shared with the caches made from this one
+    /// ([`Self::connectivity`]: every touching part pair of a skinned mesh starts from its
+    /// object's).
+    triangles: Arc<Vec<[u32; 3]>>,
+    pub topology: Arc<Topology>,
     pub closed: bool,
     /// Tree over the whole object; refitted at the frames where it is used (`Whole` regions,
-    /// partners of automatic regions).
-    pub bvh: TriangleBvh,
-    pub components: Components,
+    /// partners of automatic regions), copied then if another cache shares it.
+    pub bvh: Arc<TriangleBvh>,
+    pub components: Arc<Components>,
     pub regions: Vec<RegionCache>,
     /// The last frame's component figures and the positions they were computed from: an object
     /// that has not moved since, bit for bit (a static ground, a prop at rest), reuses them, which
@@ -43,11 +48,11 @@ impl ObjectCache {
             TriangleBvh::new(mesh).map_err(|source| PipelineError::Spatial { object: name.to_string(), source })?;
         let components = Components::new(mesh, &topology);
         Ok(Self {
-            triangles: mesh.triangles.clone(),
+            triangles: Arc::new(mesh.triangles.clone()),
             closed: topology.is_closed(),
-            topology,
-            bvh,
-            components,
+            topology: Arc::new(topology),
+            bvh: Arc::new(bvh),
+            components: Arc::new(components),
             regions: Vec::new(),
             figures: None,
         })
@@ -58,11 +63,11 @@ impl ObjectCache {
     /// it again (each touching part pair of one mesh starts from its object's).
     pub fn connectivity(&self) -> Self {
         Self {
-            triangles: self.triangles.clone(),
-            topology: self.topology.clone(),
+            triangles: Arc::clone(&self.triangles),
+            topology: Arc::clone(&self.topology),
             closed: self.closed,
-            bvh: self.bvh.clone(),
-            components: self.components.clone(),
+            bvh: Arc::clone(&self.bvh),
+            components: Arc::clone(&self.components),
             regions: Vec::new(),
             figures: None,
         }
@@ -87,7 +92,7 @@ impl ObjectCache {
 
     /// True if `mesh` has the connectivity the cache was built for.
     pub fn matches(&self, mesh: &TriMesh) -> bool {
-        self.triangles == mesh.triangles && self.topology.num_vertices() == mesh.num_vertices()
+        *self.triangles == mesh.triangles && self.topology.num_vertices() == mesh.num_vertices()
     }
 
     /// The contact side of region `r`.

@@ -300,7 +300,7 @@ pub(super) fn finish_kept_regions(
                     let (mesh, topology) = region
                         .sub
                         .as_deref()
-                        .map_or((object.mesh, &cache.topology), |sub| (&sub.sub.mesh, &sub.topology));
+                        .map_or((object.mesh, &*cache.topology), |sub| (&sub.sub.mesh, &sub.topology));
                     let params = region_params(object, region.sub.as_deref(), kept.scales).map_err(err)?;
                     let mut deformation =
                         deform_with_fields(mesh, topology, zones, kept.fields.clone(), &params).map_err(err)?;

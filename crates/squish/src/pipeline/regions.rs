@@ -379,8 +379,7 @@ pub(super) fn update_working_regions(
             let Some(cache) = cache.as_mut() else { return Ok(()) };
             // A selection may be the whole object without `WorkingRegion::Whole`.
             if matches!(selection, Selection::Whole) && !refitted {
-                cache
-                    .bvh
+                std::sync::Arc::make_mut(&mut cache.bvh)
                     .refit(&object.mesh.positions)
                     .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
             }

@@ -139,9 +139,9 @@ impl SideTrees {
     /// also gets the whole object's tree (its inside is its closed object's).
     fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh, with_whole: bool) -> Option<Self> {
         let region_cache = cache.regions.get(region)?;
-        let whole = || with_whole.then(|| cache.bvh.clone());
+        let whole = || with_whole.then(|| TriangleBvh::clone(&cache.bvh));
         let (mut bvh, vertices, mut whole) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
-            (None, _) => (cache.bvh.clone(), (0..positions.len() as u32).collect(), None),
+            (None, _) => (TriangleBvh::clone(&cache.bvh), (0..positions.len() as u32).collect(), None),
             (Some(_), Some(sub)) => {
                 let bvh = sub.bvh.relabeled(&sub.sub.parent_face, &sub.sub.parent_vertex, positions.len())?;
                 (bvh, sub.sub.parent_vertex.clone(), whole())
@@ -854,7 +854,7 @@ fn correct_regions(
     for ((region, outcome), terms) in cache.regions.iter().zip(outcomes.iter_mut()).zip(terms) {
         let Some(outcome) = outcome.as_mut() else { continue };
         let (mesh, topology, local) = match region.sub.as_deref() {
-            None => (object.mesh, &cache.topology, correction.to_vec()),
+            None => (object.mesh, &*cache.topology, correction.to_vec()),
             Some(sub) => {
                 let mut local = sub.sub.gather(correction);
                 for (c, &border) in local.iter_mut().zip(&sub.border) {

@@ -99,7 +99,7 @@ pub(super) fn update_objects(
             let cache = match cache {
                 Some(c) if c.matches(object.mesh) => {
                     if needs_tree {
-                        c.bvh
+                        std::sync::Arc::make_mut(&mut c.bvh)
                             .refit(&object.mesh.positions)
                             .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
                     }
