@@ -28,10 +28,12 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 /// One stage of a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stage {
-    /// Topology checks, normals, triangle trees of the objects.
+    /// Topology checks, normals, triangle trees of the objects; self-contact's caches of the rest
+    /// pose (its own crossings, the articulations' shared regions), at its first frame.
     Setup,
     /// Choosing the working regions and updating their caches, a new region's symbolic analysis
-    /// included (run when chapter 5 first factorizes the region).
+    /// included (run when chapter 5 first factorizes the region, or an articulation's sides
+    /// first touch).
     Regions,
     /// Self-contact of skinned articulations: the crease cut of each shared region (§6.1.3) and
     /// the truncated regions chapter 4 runs between (their sub-meshes, trees and normals).

@@ -512,6 +512,9 @@ pub(super) struct PartContactResult {
     /// contacts.
     pub self_intersecting_faces: [usize; 2],
     pub untangled: Untangled,
+    /// The rest pose's caches (built at the first frame of a rest pose and its parts): their
+    /// time and work.
+    pub rest_caches: Spent,
     /// The search for the touching pairs (and the faces crossing before them): its time and work.
     pub search: Spent,
     /// Per pair (in the order of `pairs`): the time and work of the stages it ran, its own
@@ -764,6 +767,10 @@ pub(super) fn resolve_part_contacts(
         ));
     }
     let spatial = |source| PipelineError::Spatial { object: name.to_string(), source };
+    // The work of this call is counted in laps of the enclosing span (given back at the end):
+    // the rest pose's caches, the search, each pair, the untangling, the counts.
+    let outer = Work::lap();
+    let setup_start = Instant::now();
     let stale = cache.setup.as_ref().is_none_or(|s| !s.matches(rest)) || cache.parts.as_ref() != Some(parts);
     if stale {
         *cache = PartContactCache {
@@ -776,12 +783,10 @@ pub(super) fn resolve_part_contacts(
             regions: BTreeMap::new(),
         };
     }
+    let mut rest_caches = Spent { time: setup_start.elapsed(), work: Work::lap() };
     let Some(setup) = cache.setup.as_mut() else {
         return Err(PipelineError::invalid_region(name, "no part contact setup".into()));
     };
-    // The work of this call is counted in laps of the enclosing span (given back at the end):
-    // the search, each pair, the untangling, the counts.
-    let outer = Work::lap();
     let search_start = Instant::now();
     let touching: Vec<TouchingPair> = setup.touching(mesh, parts).map_err(spatial)?;
     let rest_intersections = &cache.rest_intersections;
@@ -797,6 +802,13 @@ pub(super) fn resolve_part_contacts(
     let mut positions = mesh.positions.clone();
     let mut moved = vec![false; n];
     let search = Spent { time: search_start.elapsed(), work: Work::lap() };
+    // The object's connectivity at the rest pose, for the pairs: a rest pose's cache too.
+    if !touching.is_empty() && cache.object.is_none() {
+        let start = Instant::now();
+        cache.object = Some(ObjectCache::new(name, rest)?);
+        rest_caches.time += start.elapsed();
+        rest_caches.work += Work::lap();
+    }
     // The pairs run in batches of pairs whose footprints do not meet, in parallel, each on the
     // batch's input; their results are applied in the order of the pairs (see the module doc).
     let mut pair_stats: Vec<Option<PartPairStats>> = vec![None; touching.len()];
@@ -805,9 +817,6 @@ pub(super) fn resolve_part_contacts(
     let mut time_of = vec![Duration::ZERO; touching.len()];
     // The interior flags of the positions they were computed at.
     let mut interior_of: Option<(Vec<DVec3>, VertexFlags)> = None;
-    if !touching.is_empty() && cache.object.is_none() {
-        cache.object = Some(ObjectCache::new(name, rest)?);
-    }
     let first_labels: Vec<Vec<f64>> = touching
         .iter()
         .map(|pair| {
@@ -1054,6 +1063,7 @@ pub(super) fn resolve_part_contacts(
         pairs: stats,
         self_intersecting_faces,
         untangled,
+        rest_caches,
         search,
         pair_stages,
         untangle_work,
@@ -1140,6 +1150,27 @@ mod tests {
         let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
         assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
         assert!(result.stats.objects[0].deformed);
+    }
+
+    /// The rest pose's caches (its own crossings, the touching search's tree, the object's
+    /// connectivity) are built at the first frame and counted in `setup`, not at the next.
+    #[test]
+    fn the_rest_pose_caches_are_setup_work_of_the_first_frame_only() {
+        let s = Siblings::new();
+        let posed = s.pose(0.8, std::f64::consts::FRAC_PI_2);
+        let mut deformer = Deformer::new();
+        let first = s.run(&mut deformer, &posed, &s.params(&s.rest));
+        let second = s.run(&mut deformer, &posed, &s.params(&s.rest));
+        let tests = |r: &crate::FrameResult| r.stats.work[Stage::Setup].triangle_tests;
+        // The rest pose's crossings test every pair of faces whose boxes overlap, adjacent
+        // ones included: at least one test per face.
+        assert!(
+            tests(&first) >= s.rest.num_triangles() as u64 + tests(&second),
+            "{} {}",
+            tests(&first),
+            tests(&second)
+        );
+        assert_eq!(first.positions, second.positions);
     }
 
     #[test]

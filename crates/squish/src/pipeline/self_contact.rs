@@ -264,9 +264,9 @@ pub(super) fn resolve_self_contacts(
                 Err(reason) => (inactive_plan(object.mesh.num_vertices(), articulation, reason), Work::ZERO),
             };
             plan.stats.object = o;
-            let deformation = plan.stats.deformation_time;
             let mut times = StageTimes::default();
-            times[Stage::Deformation] = deformation;
+            times[Stage::Deformation] = plan.stats.deformation_time;
+            times[Stage::Regions] = plan.stats.analysis_time;
             let mut stage_work = StageWork::default();
             stage_work[Stage::Deformation] = work;
             trace.add_to_job(job, &times, &stage_work);
@@ -594,6 +594,8 @@ fn finish_object(
             // crossing before and after.
             let mut times = StageTimes::default();
             let mut work = StageWork::default();
+            times[Stage::Setup] = r.rest_caches.time;
+            work[Stage::Setup] = r.rest_caches.work;
             times[Stage::PartContacts] = r.search.time;
             work[Stage::PartContacts] = r.search.work;
             times[Stage::Untangle] = r.untangled.time;

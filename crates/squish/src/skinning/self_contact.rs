@@ -3,7 +3,7 @@
 //! An [`Articulation`] names two overlapping working regions 𝒲₁ (parent side) and 𝒲₂ (child
 //! side) of one mesh. [`ArticulationSetup`] holds what depends on the connectivity and the rest
 //! pose only: ℛ = 𝒲₁ ∩ 𝒲₂ with its partition of unity β ([`SharedRegion`], §6.1.1), and each
-//! region as a sub-mesh with its solver cache. At each frame [`plan_articulation`]
+//! region as a sub-mesh with its solver cache (built at the first frame the sides touch). At each frame [`plan_articulation`]
 //! 1. takes d̂ from the joints or the user (§6.1.2, [`super::articulation_direction`]);
 //! 2. cuts ℛ along the crease by max-flow ([`SharedRegion::crease_cut`], §6.1.3), giving the
 //!    non-overlapping truncated regions 𝒲̄₁ = (𝒲₁ \ ℛ) ∪ ℛ₁ and 𝒲̄₂ = (𝒲₂ \ ℛ) ∪ ℛ₂;
@@ -138,6 +138,10 @@ pub struct ArticulationStats {
     /// the articulation's own steps (not the other jobs run between them).
     pub cut_time: Duration,
     pub contact_time: Duration,
+    /// The symbolic analyses of the regions' solvers, run at the first frame the sides touch
+    /// (zero at the others).
+    #[serde(default)]
+    pub analysis_time: Duration,
     pub deformation_time: Duration,
     pub total_time: Duration,
     /// Why an automatic articulation was left inactive at this frame (see
@@ -151,7 +155,9 @@ pub struct ArticulationStats {
 struct RegionSide {
     sub: SubMesh,
     topology: Topology,
-    solver: RegionSolver,
+    /// The region's solver, built (its symbolic analysis run) at the first frame the
+    /// articulation's sides touch: most articulations of a character never do in a shot.
+    solver: Option<RegionSolver>,
     /// Per local vertex: on the far border (cut from the rest of the mesh, not from the other
     /// region).
     far_border: Vec<bool>,
@@ -208,7 +214,6 @@ impl ArticulationSetup {
                 .into());
             }
             let sub_topology = Topology::new(&sub.mesh);
-            let solver = RegionSolver::new(&sub.mesh, &sub_topology)?;
             let far_border = sub
                 .parent_vertex
                 .iter()
@@ -216,7 +221,7 @@ impl ArticulationSetup {
                     topology.vertex_faces(v).iter().any(|&f| !face_sets[0][f as usize] && !face_sets[1][f as usize])
                 })
                 .collect();
-            sides.push(RegionSide { sub, topology: sub_topology, solver, far_border });
+            sides.push(RegionSide { sub, topology: sub_topology, solver: None, far_border });
         }
         let Ok(sides) = <[RegionSide; 2]>::try_from(sides) else {
             return Err(ArticulationError::EmptyRegion { what: "a region", fix: "give two regions" }.into());
@@ -695,14 +700,17 @@ pub fn deform_articulation(
                 region_params.bulge_map = Some(side.sub.gather(map));
             }
             let overrides = RegionOverrides { mapping_field: Some(&fields[l]), normals: None };
-            let region_plan = plan_region(
-                &side.sub.mesh,
-                &side.topology,
-                &mut side.solver,
-                &zone_refs[l],
-                &region_params,
-                &overrides,
-            )?;
+            let solver = match side.solver.as_mut() {
+                Some(solver) => solver,
+                None => {
+                    let analysis = Instant::now();
+                    let solver = RegionSolver::new(&side.sub.mesh, &side.topology)?;
+                    plan.stats.analysis_time += analysis.elapsed();
+                    side.solver.insert(solver)
+                }
+            };
+            let region_plan =
+                plan_region(&side.sub.mesh, &side.topology, solver, &zone_refs[l], &region_params, &overrides)?;
             for (v, &far) in side.far_border.iter().enumerate() {
                 if !far {
                     continue;
@@ -773,7 +781,7 @@ pub fn deform_articulation(
         }
     }
     debug_assert!(weight_sum.iter().all(|&w| w == 0.0 || (w - 1.0).abs() < 1e-12));
-    plan.stats.deformation_time = t.elapsed();
+    plan.stats.deformation_time = t.elapsed().saturating_sub(plan.stats.analysis_time);
     plan.stats.total_time = contact_step + start.elapsed();
     Ok(plan)
 }

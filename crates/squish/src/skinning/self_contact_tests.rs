@@ -261,6 +261,35 @@ fn an_articulation_without_contact_leaves_the_input_unchanged() {
     assert_eq!(applied.heights, vec![(0.0, true)]);
 }
 
+/// The regions' solvers are built (their symbolic analyses run) at the first frame the sides
+/// touch, once: not at setup nor at frames without contact; and a setup that met frames before
+/// gives the same bits as a fresh one (a frame's result does not depend on the frames before it).
+#[test]
+fn the_regions_are_analyzed_at_the_first_frame_in_contact_only() {
+    let capsule = BentCapsule::new(24, 30, 1.0);
+    let mut setup =
+        ArticulationSetup::new(&capsule.rest, &capsule.topology, &capsule.articulation(0.0), &capsule.rest).unwrap();
+    assert!(setup.sides.iter().all(|side| side.solver.is_none()));
+    let straight = capsule.posed(40f64.to_radians());
+    let (_, plan, _) = run(&capsule, &mut setup, &straight, &capsule.articulation(40f64.to_radians()));
+    assert!(!plan.stats.in_contact);
+    assert!(plan.stats.analysis_time.is_zero() && setup.sides.iter().all(|side| side.solver.is_none()));
+    let angle = 130f64.to_radians();
+    let bent = capsule.posed(angle);
+    let (first, plan, _) = run(&capsule, &mut setup, &bent, &capsule.articulation(angle));
+    assert!(plan.stats.in_contact);
+    assert!(!plan.stats.analysis_time.is_zero());
+    assert!(setup.sides.iter().all(|side| side.solver.as_ref().is_some_and(|s| s.symbolic_analyses() == 1)));
+    let (again, plan, _) = run(&capsule, &mut setup, &bent, &capsule.articulation(angle));
+    assert!(plan.stats.analysis_time.is_zero());
+    assert!(setup.sides.iter().all(|side| side.solver.as_ref().is_some_and(|s| s.symbolic_analyses() == 1)));
+    let mut fresh =
+        ArticulationSetup::new(&capsule.rest, &capsule.topology, &capsule.articulation(0.0), &capsule.rest).unwrap();
+    let (alone, _, _) = run(&capsule, &mut fresh, &bent, &capsule.articulation(angle));
+    assert_eq!(first, again);
+    assert_eq!(first, alone);
+}
+
 /// The automatic extent of a fold is 5/3 of max(1.2·r, 1.5·√(A/π)) (see the module doc for
 /// why), and it is what the plan used.
 #[test]
