@@ -3,7 +3,8 @@
 //! An [`Articulation`] names two overlapping working regions 𝒲₁ (parent side) and 𝒲₂ (child
 //! side) of one mesh. [`ArticulationSetup`] holds what depends on the connectivity and the rest
 //! pose only: ℛ = 𝒲₁ ∩ 𝒲₂ with its partition of unity β ([`SharedRegion`], §6.1.1), and each
-//! region as a sub-mesh with its solver cache (built at the first frame the sides touch). At each frame [`plan_articulation`]
+//! region as a sub-mesh with its solver cache (built at the first frame the sides touch). At
+//! each frame [`plan_articulation`]
 //! 1. takes d̂ from the joints or the user (§6.1.2, [`super::articulation_direction`]);
 //! 2. cuts ℛ along the crease by max-flow ([`SharedRegion::crease_cut`], §6.1.3), giving the
 //!    non-overlapping truncated regions 𝒲̄₁ = (𝒲₁ \ ℛ) ∪ ℛ₁ and 𝒲̄₂ = (𝒲₂ \ ℛ) ∪ ℛ₂;
@@ -156,7 +157,7 @@ struct RegionSide {
     sub: SubMesh,
     topology: Topology,
     /// The region's solver, built (its symbolic analysis run) at the first frame the
-    /// articulation's sides touch: most articulations of a character never do in a shot.
+    /// articulation's sides touch: many articulations of a character never do in a shot.
     solver: Option<RegionSolver>,
     /// Per local vertex: on the far border (cut from the rest of the mesh, not from the other
     /// region).
