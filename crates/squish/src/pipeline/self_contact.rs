@@ -42,7 +42,8 @@ pub(super) struct SelfContactCache {
     /// The contacts between its parts (issue 27).
     parts: PartContactCache,
     /// With parts: the intersecting face pairs of the whole object at the last frame's input,
-    /// their tree refitted to the next frame's rather than built again.
+    /// their tree refitted to the next frame's rather than built again (at this frame's input
+    /// once found, before its articulations).
     crossing_pairs: Option<IntersectingPairs>,
 }
 
@@ -179,6 +180,27 @@ pub(super) fn resolve_self_contacts(
     setup_times[Stage::Setup] = timer.elapsed();
     trace.add(&setup_times, &setup_work);
 
+    // With parts: the whole object's crossing pairs at the input, which the counts before and
+    // after start from (`finish_object`), found before the articulations so that one none of
+    // whose faces cross another skips its truncated regions and chapter 4.
+    let timer = Instant::now();
+    let (input_pairs, pairs_work) = Work::measure(|| {
+        caches
+            .iter_mut()
+            .zip(&frame.objects)
+            .map(|(cache, object)| match object.params.self_contact_parts {
+                Some(_) if has_self_contact(object.params) => {
+                    crossing_pairs_at_input(cache.crossing_pairs.take(), object.mesh)
+                        .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })
+                }
+                _ => Ok(None),
+            })
+            .collect::<Result<Vec<_>, _>>()
+    });
+    let mut input_pairs = input_pairs?;
+    trace.time(Stage::Quality, timer.elapsed());
+    trace.work[Stage::Quality] += pairs_work;
+
     // The crease cut and chapter 4 of every articulation, in parallel.
     let mut slots = setup_slots(caches, frame);
     states = slots
@@ -191,10 +213,19 @@ pub(super) fn resolve_self_contacts(
             else {
                 return Ok(state);
             };
+            let crossing = input_pairs[*i].as_ref().is_none_or(|pairs| faces_cross(pairs.pairs(), setup.faces()));
             // Its work beyond chapter 4's own stages (the crease cut, the truncated regions) is
             // the cut's.
             let (found, rest) = Work::measure(|| {
-                contact_articulation(object.mesh, topology, &prepared.normals, &prepared.interior, setup, articulation)
+                contact_articulation(
+                    object.mesh,
+                    topology,
+                    &prepared.normals,
+                    &prepared.interior,
+                    setup,
+                    articulation,
+                    crossing,
+                )
             });
             let mut work = StageWork::default();
             work[Stage::CreaseCut] = rest;
@@ -274,6 +305,7 @@ pub(super) fn resolve_self_contacts(
             plans.push(plan);
             plan_jobs.push(job);
         }
+        cache.crossing_pairs = input_pairs[i].take();
         let (result, stats, part_pairs) = finish_object(i, cache, object, prepared, plans, &plan_jobs, trace)?;
         trace.articulations.extend(stats);
         trace.part_pairs.extend(part_pairs);
@@ -389,25 +421,37 @@ fn prepare(
     Ok(Prepared { rest, normals, interior, closed })
 }
 
-/// The intersecting face pairs of the whole object at the frame's input and after its
-/// articulations: `kept`'s (the last frame's input, its tree refitted) enumerated again where
-/// vertices moved, then again where the articulations moved them. `None` past the budget of
-/// overlapping boxes (a fan): the counts then search faces instead.
-fn whole_object_pairs(
+/// The intersecting face pairs of the whole object at the frame's input: `kept`'s (the last
+/// frame's input, its tree refitted) enumerated again where vertices moved. `None` past the
+/// budget of overlapping boxes (a fan): the counts then search faces instead.
+fn crossing_pairs_at_input(
     kept: Option<IntersectingPairs>,
     input: &TriMesh,
+) -> Result<Option<IntersectingPairs>, SpatialError> {
+    let budget = crate::spatial::PAIRS_PER_FACE * input.num_triangles();
+    match kept {
+        Some(mut pairs) if pairs.num_vertices() == input.num_vertices() => {
+            Ok(pairs.update(input, budget)?.then_some(pairs))
+        }
+        _ => IntersectingPairs::new(input, budget),
+    }
+}
+
+/// The pairs of `at_input` ([`crossing_pairs_at_input`]) and those after the articulations,
+/// enumerated again where they moved vertices; `None` past the budget.
+fn whole_object_pairs(
+    at_input: Option<IntersectingPairs>,
     after: &TriMesh,
 ) -> Result<Option<(IntersectingPairs, IntersectingPairs)>, SpatialError> {
-    let budget = crate::spatial::PAIRS_PER_FACE * input.num_triangles();
-    let at_input = match kept {
-        Some(mut pairs) if pairs.num_vertices() == input.num_vertices() => {
-            pairs.update(input, budget)?.then_some(pairs)
-        }
-        _ => IntersectingPairs::new(input, budget)?,
-    };
     let Some(at_input) = at_input else { return Ok(None) };
+    let budget = crate::spatial::PAIRS_PER_FACE * after.num_triangles();
     let mut at_after = at_input.clone();
     Ok(at_after.update(after, budget)?.then_some((at_input, at_after)))
+}
+
+/// True if some pair of `pairs` has both faces among `faces` (sorted).
+fn faces_cross(pairs: &[[u32; 2]], faces: &[u32]) -> bool {
+    pairs.iter().any(|&[f, g]| faces.binary_search(&f).is_ok() && faces.binary_search(&g).is_ok())
 }
 
 /// An object's articulations applied (the blend and the bulge heights, §6 and App. C), their
@@ -485,7 +529,7 @@ fn finish_object(
         // With parts, the pairs of the whole object, which the part contacts count from too;
         // else those of the articulations' faces.
         let frame_pairs = match params.self_contact_parts {
-            Some(_) => whole_object_pairs(cache.crossing_pairs.take(), mesh, &after).map_err(spatial)?,
+            Some(_) => whole_object_pairs(cache.crossing_pairs.take(), &after).map_err(spatial)?,
             None => None,
         };
         let articulation_pairs;

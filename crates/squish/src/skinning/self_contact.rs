@@ -493,7 +493,7 @@ pub fn plan_articulation(
 ) -> Result<ArticulationPlan, SelfContactError> {
     let tree = TriangleBvh::new(mesh)?;
     let interior = articulation_interiors(mesh, normals, &tree, [&*setup]);
-    let found = contact_articulation(mesh, topology, normals, &interior, setup, articulation)?;
+    let found = contact_articulation(mesh, topology, normals, &interior, setup, articulation, true)?;
     deform_articulation(found, mesh, setup, articulation, params)
 }
 
@@ -556,7 +556,11 @@ pub fn articulation_interiors<'a>(
 /// Steps 1–3 of the module doc for one articulation at one frame: d̂, the crease cut and the
 /// contact of chapter 4 between the truncated regions. `mesh` is the object at this frame (the
 /// skinned input), `topology` its connectivity, `normals` its unit vertex normals and
-/// `interior` its [`articulation_interiors`].
+/// `interior` its [`articulation_interiors`]. `crossing`: false when the caller knows that no
+/// two faces of 𝒲₁ ∪ 𝒲₂ ([`ArticulationSetup::faces`]) intersect away from what they share; the
+/// truncated regions and chapter 4 are then skipped, with the same result: no edge of one side
+/// crosses the other (the sides share no vertex), so chapter 4 finds no intersection and no
+/// contact (docs/decisions.md, "Articulations whose faces do not cross").
 pub fn contact_articulation(
     mesh: &TriMesh,
     topology: &Topology,
@@ -564,6 +568,7 @@ pub fn contact_articulation(
     interior: &[bool],
     setup: &mut ArticulationSetup,
     articulation: &Articulation,
+    crossing: bool,
 ) -> Result<ArticulationContact, SelfContactError> {
     let start = Instant::now();
     articulation.params.validate().map_err(ArticulationError::from)?;
@@ -601,12 +606,16 @@ pub fn contact_articulation(
     for side in &mut setup.sides {
         side.sub.update_positions(&mesh.positions);
     }
-    let truncated = match (
-        Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d)?,
-        Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d)?,
-    ) {
-        (Some(first), Some(second)) => Some([first, second]),
-        _ => None,
+    let truncated = if crossing {
+        match (
+            Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d)?,
+            Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d)?,
+        ) {
+            (Some(first), Some(second)) => Some([first, second]),
+            _ => None,
+        }
+    } else {
+        None
     };
     let pair_params = PairParams {
         contact_tau: articulation.params.contact_tau,

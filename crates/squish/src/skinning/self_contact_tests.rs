@@ -261,6 +261,60 @@ fn an_articulation_without_contact_leaves_the_input_unchanged() {
     assert_eq!(applied.heights, vec![(0.0, true)]);
 }
 
+/// The pipeline's gate ("Articulations whose faces do not cross"): at every angle of a bend
+/// where no two faces of 𝒲₁ ∪ 𝒲₂ cross away from what they share, chapter 4 finds no contact,
+/// and the articulation told so (`crossing = false`) gives the same labels, figures and plan
+/// without its truncated regions; the sweep reaches angles with crossings too.
+#[test]
+fn an_articulation_whose_faces_do_not_cross_finds_no_contact() {
+    let capsule = BentCapsule::new(24, 30, 0.8);
+    let mut setup =
+        ArticulationSetup::new(&capsule.rest, &capsule.topology, &capsule.articulation(0.0), &capsule.rest).unwrap();
+    let (mut crossing_frames, mut apart_frames) = (0, 0);
+    for step in 0..=30 {
+        let angle = (150.0 * step as f64 / 30.0).to_radians();
+        let mesh = capsule.posed(angle);
+        let articulation = capsule.articulation(angle);
+        let pairs = crate::spatial::self_intersecting_pairs(&mesh, setup.faces(), usize::MAX).unwrap().unwrap();
+        let normals = crate::mesh::vertex_normals(&mesh);
+        let tree = TriangleBvh::new(&mesh).unwrap();
+        let interior = articulation_interiors(&mesh, &normals, &tree, [&setup]);
+        let run = |setup: &mut ArticulationSetup, crossing: bool| {
+            let found =
+                contact_articulation(&mesh, &capsule.topology, &normals, &interior, setup, &articulation, crossing)
+                    .unwrap();
+            let in_contact = found.in_contact();
+            let plan = deform_articulation(found, &mesh, setup, &articulation, &DeformParams::new(1.0)).unwrap();
+            (in_contact, plan)
+        };
+        let (in_contact, plan) = run(&mut setup, true);
+        if !pairs.is_empty() {
+            crossing_frames += 1;
+            continue;
+        }
+        apart_frames += 1;
+        assert!(!in_contact, "{step}");
+        let (skipped_in_contact, skipped) = run(&mut setup, false);
+        assert!(!skipped_in_contact);
+        assert_eq!(plan.labels, skipped.labels, "{step}");
+        assert_eq!(plan.contact, skipped.contact);
+        assert!(!plan.displacement.moved.iter().any(|&m| m) && !skipped.displacement.moved.iter().any(|&m| m));
+        let figures = |p: &ArticulationPlan| {
+            let s = &p.stats;
+            (
+                s.in_contact,
+                s.intersection_points,
+                s.shared_first,
+                s.cut_edges,
+                s.contact_vertices,
+                s.deformable_vertices,
+            )
+        };
+        assert_eq!(figures(&plan), figures(&skipped), "{step}");
+    }
+    assert!(crossing_frames >= 5 && apart_frames >= 5, "{crossing_frames} {apart_frames}");
+}
+
 /// The regions' solvers are built (their symbolic analyses run) at the first frame the sides
 /// touch, once: not at setup nor at frames without contact; and a setup that met frames before
 /// gives the same bits as a fresh one (a frame's result does not depend on the frames before it).
