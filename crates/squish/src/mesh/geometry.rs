@@ -134,6 +134,11 @@ impl Aabb3 {
         0.5 * (self.min + self.max)
     }
 
+    /// Euclidean distance from `p` to the box: 0 inside it, +∞ to the empty box.
+    pub fn distance_to(&self, p: DVec3) -> f64 {
+        (self.min - p).max(p - self.max).max(DVec3::ZERO).length()
+    }
+
     /// True if the boxes overlap (touching counts).
     pub fn intersects(&self, other: &Self) -> bool {
         self.min.cmple(other.max).all() && other.min.cmple(self.max).all()
