@@ -52,9 +52,18 @@
 //! regions whose own volume balance is exact, so there is no shared height to iterate on (the
 //! Gauss–Seidel over one height per contact that the articulations use).
 //!
-//! **Continuity.** When a pair starts to touch its intersection is small and the method's
-//! displacement is proportional to the depth, so it starts from zero; a pair that stops
-//! touching is not run (zero displacement).
+//! **Onset (continuity).** A pair's result is applied in proportion to how far its parts
+//! cross ([`ONSET_EDGES`], `part_pairs[].onset`): the summed lengths of the segments along which
+//! its faces cross ([`crate::spatial::intersection_length`]; beyond the rest pose's, not
+//! adjacent), over [`ONSET_EDGES`] mean edges, at most 1. A partial share is the pair's input
+//! plus that share of the result's displacement, the object's volume then restored exactly
+//! again (as over the seam, below). Chapter 4's displacement starts from zero with the depth
+//! where two closed parts meet in a lens, but on a coarse skin folded into itself the mapping
+//! (a ray along the pair's direction) can reach a far sheet, and the result appears with an
+//! offset of a mean edge or more at the frame where the pair starts to touch; the crossing
+//! length starts from zero with the crossing and grows continuously, so the share does. What a
+//! share leaves crossing is the untangling's, whose steps ramp the same way. A pair that stops
+//! touching is not run (zero displacement). Decision: docs/decisions.md, "A part pair's onset".
 //!
 //! **A pair is a job of the frame plan.** Its two regions run the stages of the contacts between
 //! regions ([`ObjectContacts`]: chapter 4, chapter 5, the separation pass) as one object paired
@@ -95,6 +104,10 @@ pub const MARGIN_RINGS: [usize; 3] = [2, 6, 18];
 /// width: a wider one is not tried (docs/decisions.md, "Regions grown from the intersection").
 pub const GROWN_RINGS: usize = 8;
 
+/// A pair's result is applied in proportion to the length along which its parts cross, in mean
+/// edge lengths, up to this length (see the module doc, "Onset").
+pub const ONSET_EDGES: f64 = 12.0;
+
 /// Figures of one touching part pair at one frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PartPairStats {
@@ -130,6 +143,10 @@ pub struct PartPairStats {
     pub batch: usize,
     #[serde(default)]
     pub runs: usize,
+    /// The share of its result applied ([`ONSET_EDGES`]): the length along which its parts
+    /// cross, in mean edges, over [`ONSET_EDGES`], at most 1; `None` when it gave no result.
+    #[serde(default)]
+    pub onset: Option<f64>,
     pub time: Duration,
 }
 
@@ -475,21 +492,55 @@ fn crossing_faces(
     mesh: &TriMesh,
     parts: &SkinParts,
     setup: &PartContactSetup,
-    [a, b]: [u32; 2],
+    pair: [u32; 2],
 ) -> Result<usize, crate::spatial::SpatialError> {
-    let part = |f: u32| parts.face_parts[f as usize];
-    let of_pair = |f: u32| part(f) == a || part(f) == b;
-    let related = |f: u32, g: u32| {
-        (a == b || part(f) != part(g))
-            && setup.rest_pairs().binary_search(&[f.min(g), f.max(g)]).is_err()
-            && !setup.adjacent(f, g)
-    };
+    let (of_pair, related) = pair_face_filters(parts, setup, pair);
     if let Some(pairs) = crossings.pairs(mesh)? {
         let admitted = pairs.iter().copied().filter(|&[f, g]| of_pair(f) && of_pair(g) && related(f, g));
         return Ok(crate::spatial::faces_of_pairs(admitted).len());
     }
     let faces = (0..mesh.num_triangles() as u32).filter(|&f| of_pair(f));
     Ok(crate::spatial::self_intersecting_faces(mesh, faces, related)?.len())
+}
+
+/// What counts for part pair `[a, b]`: a face of one of its parts, and two such faces of
+/// different parts (of the same part for a fold within one), not adjacent, not crossing in the
+/// rest pose.
+fn pair_face_filters<'a>(
+    parts: &'a SkinParts,
+    setup: &'a PartContactSetup,
+    [a, b]: [u32; 2],
+) -> (impl Fn(u32) -> bool + Copy + 'a, impl Fn(u32, u32) -> bool + Copy + 'a) {
+    let part = move |f: u32| parts.face_parts[f as usize];
+    let of_pair = move |f: u32| part(f) == a || part(f) == b;
+    let related = move |f: u32, g: u32| {
+        (a == b || part(f) != part(g))
+            && setup.rest_pairs().binary_search(&[f.min(g), f.max(g)]).is_err()
+            && !setup.adjacent(f, g)
+    };
+    (of_pair, related)
+}
+
+/// The share of a part pair's result applied at `mesh` (its input): the summed lengths of the
+/// segments along which its faces cross ([`pair_face_filters`]), over [`ONSET_EDGES`] mean
+/// edges `edge`, at most 1; 1 when the object's crossing pairs are past their budget (not
+/// enumerated).
+fn onset_share(
+    crossings: &mut Crossings,
+    mesh: &TriMesh,
+    parts: &SkinParts,
+    setup: &PartContactSetup,
+    pair: [u32; 2],
+    edge: f64,
+) -> Result<f64, crate::spatial::SpatialError> {
+    let (of_pair, related) = pair_face_filters(parts, setup, pair);
+    let Some(pairs) = crossings.pairs(mesh)? else { return Ok(1.0) };
+    let length: f64 = pairs
+        .iter()
+        .filter(|&&[f, g]| of_pair(f) && of_pair(g) && related(f, g))
+        .map(|&[f, g]| crate::spatial::intersection_length(&mesh.corners(f as usize), &mesh.corners(g as usize)))
+        .sum();
+    Ok((length / (ONSET_EDGES * edge)).min(1.0))
 }
 
 /// The intersecting face pairs of the whole object at the frame's input and at the stage's
@@ -796,6 +847,8 @@ pub(super) fn resolve_part_contacts(
         None => (None, None),
     };
     let mut crossings = Crossings::new(rest_intersections.as_ref(), mesh_pairs);
+    // The length the pairs' onsets and the untangling's ramp are measured in.
+    let edge = mean_edge(mesh);
     let mut faces_now = if touching.is_empty() { 0 } else { crossings.faces(mesh).map_err(spatial)?.len() };
     // The count of the stage's input starts from this one (the articulations moved few vertices).
     let first = crossings.last.clone();
@@ -920,24 +973,41 @@ pub(super) fn resolve_part_contacts(
                 continue;
             }
             if let Some(new) = candidate {
-                // Never worse than the pair's input: a result that leaves the object more
-                // self-intersecting faces is undone.
+                // Its onset: the result in proportion to how far its parts cross, the volume
+                // restored again where that is a part of it.
+                let input = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
+                let share =
+                    onset_share(&mut crossings, &input, parts, setup, touching[k].parts, edge).map_err(spatial)?;
+                stats.onset = Some(share);
                 let mut trial = positions.clone();
                 for &v in &changed {
-                    trial[v] = new[v];
+                    trial[v] = if share < 1.0 { positions[v] + share * (new[v] - positions[v]) } else { new[v] };
                 }
-                let candidate = TriMesh { positions: trial, triangles: mesh.triangles.clone() };
-                let faces = crossings.faces(&candidate).map_err(spatial)?.len();
-                if faces > faces_now {
-                    stats.error = Some(format!(
-                        "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
-                    ));
-                } else {
-                    faces_now = faces;
-                    positions = candidate.positions;
-                    for &v in &changed {
-                        moved[v] = true;
-                        claimed[v] = true;
+                let trial = if share < 1.0 { restore_volume(&input, trial) } else { Some(trial) };
+                // Never worse than the pair's input: a result that leaves the object more
+                // self-intersecting faces is undone.
+                match trial {
+                    None => {
+                        stats.error = Some(format!(
+                            "{:.0}% of the result (its onset) has no exact volume; undone",
+                            100.0 * share
+                        ));
+                    }
+                    Some(trial) => {
+                        let candidate = TriMesh { positions: trial, triangles: mesh.triangles.clone() };
+                        let faces = crossings.faces(&candidate).map_err(spatial)?.len();
+                        if faces > faces_now {
+                            stats.error = Some(format!(
+                                "the result would leave {faces} self-intersecting faces instead of {faces_now}; undone"
+                            ));
+                        } else {
+                            faces_now = faces;
+                            for &v in &changed {
+                                moved[v] |= candidate.positions[v] != positions[v];
+                                claimed[v] = true;
+                            }
+                            positions = candidate.positions;
+                        }
                     }
                 }
             }
@@ -986,8 +1056,6 @@ pub(super) fn resolve_part_contacts(
     {
         let before = TriMesh { positions: positions.clone(), triangles: mesh.triangles.clone() };
         let mut candidate = positions.clone();
-        // The length the untangling's ramp is measured in.
-        let edge = mean_edge(mesh);
         let mut weights = vec![0.0_f64; n];
         let mut rounds = 0;
         let mut result: Option<(Vec<DVec3>, usize)> = None;
@@ -1150,6 +1218,61 @@ mod tests {
         let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
         assert!(((v1 - v0) / v0).abs() <= 1e-9, "{v0} → {v1}");
         assert!(result.stats.objects[0].deformed);
+    }
+
+    /// A pair's result is applied in proportion to how far its parts cross (its onset): the
+    /// share reported is the summed length of the crossing segments between the two capsules
+    /// (measured here over every face pair) over `ONSET_EDGES` mean edges, growing with the
+    /// depth up to the whole result, and the object keeps its volume at every share.
+    #[test]
+    fn a_part_pair_applies_a_share_of_its_result_growing_with_its_crossing() {
+        let s = Siblings::new();
+        let params = ObjectParams { untangle: false, ..s.params(&s.rest) };
+        let mut shares = Vec::new();
+        for x in [0.99, 0.97, 0.9, 0.6] {
+            let posed = s.pose(x, std::f64::consts::FRAC_PI_2);
+            let result = s.run(&mut Deformer::new(), &posed, &params);
+            let pair = &result.stats.part_pairs[0];
+            let share = pair.onset.unwrap_or_else(|| panic!("{x}: no result {pair:?}"));
+            let half = posed.num_triangles() / 2;
+            let length: f64 = (0..half)
+                .flat_map(|f| (half..2 * half).map(move |g| (f, g)))
+                .map(|(f, g)| crate::spatial::intersection_length(&posed.corners(f), &posed.corners(g)))
+                .sum();
+            let expected = (length / (ONSET_EDGES * mean_edge(&posed))).min(1.0);
+            assert!((share - expected).abs() <= 1e-9 * expected, "{x}: {share} against {expected}");
+            let after = TriMesh { positions: result.positions[0].clone(), triangles: posed.triangles.clone() };
+            let (v0, v1) = (signed_volume(&posed), signed_volume(&after));
+            assert!(((v1 - v0) / v0).abs() <= 1e-9, "{x}: {v0} → {v1}");
+            assert_ne!(after.positions, posed.positions, "{x}: {pair:?}");
+            shares.push(share);
+        }
+        assert!(shares[0] > 0.0 && shares.windows(2).all(|w| w[0] < w[1] || w[1] == 1.0), "{shares:?}");
+        assert!(shares[1] < 1.0 && shares[3] == 1.0, "{shares:?}");
+    }
+
+    /// Pushed through each other in small steps from touching, the capsules' output moves by at
+    /// most twice their input's step (1.14× measured): no result switches on at once.
+    #[test]
+    fn a_part_pair_starting_to_cross_moves_the_output_in_proportion_to_the_input() {
+        let s = Siblings::new();
+        let params = ObjectParams { untangle: false, ..s.params(&s.rest) };
+        let mut deformer = Deformer::new();
+        let mut last: Option<(TriMesh, Vec<DVec3>)> = None;
+        let mut largest_ratio = 0.0_f64;
+        for k in 0..=16 {
+            let posed = s.pose(1.0 - 0.004 * k as f64, std::f64::consts::FRAC_PI_2);
+            let result = s.run(&mut deformer, &posed, &params);
+            let output = result.positions[0].clone();
+            if let Some((input, before)) = &last {
+                let input_step =
+                    posed.positions.iter().zip(&input.positions).map(|(a, b)| a.distance(*b)).fold(0.0, f64::max);
+                let output_step = output.iter().zip(before).map(|(a, b)| a.distance(*b)).fold(0.0, f64::max);
+                largest_ratio = largest_ratio.max(output_step / input_step);
+            }
+            last = Some((posed, output));
+        }
+        assert!(largest_ratio <= 2.0, "an output step {largest_ratio}× the input's");
     }
 
     /// The rest pose's caches (its own crossings, the touching search's tree, the object's
