@@ -134,9 +134,15 @@ impl Aabb3 {
         0.5 * (self.min + self.max)
     }
 
+    /// Squared Euclidean distance from `p` to the box: 0 inside it, +∞ to the empty box.
+    #[inline]
+    pub fn distance_squared_to(&self, p: DVec3) -> f64 {
+        (self.min - p).max(p - self.max).max(DVec3::ZERO).length_squared()
+    }
+
     /// Euclidean distance from `p` to the box: 0 inside it, +∞ to the empty box.
     pub fn distance_to(&self, p: DVec3) -> f64 {
-        (self.min - p).max(p - self.max).max(DVec3::ZERO).length()
+        self.distance_squared_to(p).sqrt()
     }
 
     /// True if the boxes overlap (touching counts).

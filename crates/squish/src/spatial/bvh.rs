@@ -363,9 +363,9 @@ impl SegmentProbe {
     }
 }
 
+#[inline]
 pub(super) fn box_distance_squared(mins: DVec3, maxs: DVec3, p: DVec3) -> f64 {
-    let d = (mins - p).max(p - maxs).max(DVec3::ZERO);
-    d.length_squared()
+    crate::mesh::Aabb3 { min: mins, max: maxs }.distance_squared_to(p)
 }
 
 #[cfg(test)]
