@@ -297,15 +297,32 @@ impl Surface<'_> {
     /// in `q`, across faces and through the surface; a point on the bisector of a fold weighs on
     /// both faces. Empty when `q` is farther than `reach` outside or (open surfaces, whose inside
     /// is `winding`'s) deeper than `depth` inside. `leaves`: scratch space.
+    ///
+    /// Returned with bounds of `q`'s distance to the surface ([`DistanceBounds`]). `known`: the
+    /// bounds known before. A point of an open surface's depth band (at most `depth` away) known
+    /// to be farther than `reach` has an empty answer in front of the surface, so its side is
+    /// asked first and its closest point only when it is behind (the same answer; `known` is then
+    /// returned).
     fn near(
         &self,
         winding: Option<&FastWinding>,
         q: DVec3,
         inside_closed: bool,
-        reach: f64,
-        depth: f64,
+        known: DistanceBounds,
+        reach: Reach,
         leaves: &mut Vec<u32>,
-    ) -> (Vec<Near>, f64) {
+    ) -> (Vec<Near>, DistanceBounds) {
+        let Reach { gap: reach, depth } = reach;
+        let open_winding = winding.filter(|_| !self.closed);
+        let mut behind = None;
+        let in_band = known.lower > reach * (1.0 + BOUND_SLACK) && known.upper < depth * (1.0 - BOUND_SLACK);
+        if let Some(winding) = open_winding.filter(|_| in_band) {
+            let is_behind = self.behind_open(winding, q);
+            if !is_behind {
+                return (Vec::new(), known);
+            }
+            behind = Some(is_behind);
+        }
         let bvh = &self.trees.bvh;
         // A closed surface's inside is known: outside, only faces within `reach` matter.
         let limit = match (self.closed, inside_closed) {
@@ -315,14 +332,17 @@ impl Surface<'_> {
         };
         // Searched a little farther than needed: the distance found bounds the next rounds'.
         let search = limit + reach;
-        let Some(cp) = bvh.closest_point_within(q, search) else { return (Vec::new(), search) };
-        let bound = if self.closed && inside_closed { 0.0 } else { cp.distance };
+        let Some(cp) = bvh.closest_point_within(q, search) else {
+            return (Vec::new(), DistanceBounds { lower: search, upper: f64::INFINITY });
+        };
+        let lower = if self.closed && inside_closed { 0.0 } else { cp.distance };
+        let bound = DistanceBounds { lower, upper: cp.distance };
         if cp.distance > limit {
             return (Vec::new(), bound);
         }
-        let inside = match winding {
-            Some(winding) if !self.closed => self.behind_open(winding, q),
-            _ => inside_closed,
+        let inside = match open_winding {
+            Some(winding) => behind.unwrap_or_else(|| self.behind_open(winding, q)),
+            None => inside_closed,
         };
         let d0 = cp.distance;
         if (inside && !self.closed && d0 > depth) || (!inside && d0 > reach) {
@@ -349,6 +369,19 @@ impl Surface<'_> {
             .collect();
         (near, bound)
     }
+}
+
+/// What a querying vertex knows of its distance to a surface between rounds: a lower bound while
+/// it is outside (0 when unknown or inside a closed surface) and an upper bound (infinite when
+/// unknown), each moved after a round by how far the vertex and the surface moved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct DistanceBounds {
+    lower: f64,
+    upper: f64,
+}
+
+impl DistanceBounds {
+    const UNKNOWN: Self = Self { lower: 0.0, upper: f64::INFINITY };
 }
 
 /// The moves asked of one vertex, blended by [`Blend::result`].
@@ -499,11 +532,11 @@ fn separate_with(
     }
     // Per active region pair and direction l (side l's vertices against side 1 − l): a lower
     // bound of each querying vertex's distance to the surface it queries (see `query_direction`).
-    let mut bounds: Vec<[Vec<f64>; 2]> = active
+    let mut bounds: Vec<[Vec<DistanceBounds>; 2]> = active
         .iter()
         .map(|&k| {
             let objects = frame.pairs[region_pairs[k].pair].objects;
-            objects.map(|i| vec![0.0; frame.objects[i].mesh.num_vertices()])
+            objects.map(|i| vec![DistanceBounds::UNKNOWN; frame.objects[i].mesh.num_vertices()])
         })
         .collect();
     // Per object and region: the volume terms of its last correction.
@@ -663,13 +696,14 @@ fn separate_with(
                 let vertex_moved = moved[querying].as_ref().map(|m| &m.by_vertex);
                 let at = &positions[querying];
                 for (v, bound) in direction.iter_mut().enumerate() {
-                    if *bound > 0.0 {
-                        let own = vertex_moved.map_or(0.0, |m| m[v]);
-                        *bound = match surface {
-                            Some(surface) => surface.lowered(*bound, own, at[v]),
-                            None => *bound - own * (1.0 + BOUND_SLACK),
+                    let own = vertex_moved.map_or(0.0, |m| m[v]);
+                    if bound.lower > 0.0 {
+                        bound.lower = match surface {
+                            Some(surface) => surface.lowered(bound.lower, own, at[v]),
+                            None => bound.lower - own * (1.0 + BOUND_SLACK),
                         };
                     }
+                    bound.upper += (surface.map_or(0.0, |s| s.largest) + own) * (1.0 + BOUND_SLACK);
                 }
             }
         }
@@ -803,14 +837,17 @@ impl RoundMoves {
 /// ([`RoundMoves::lowered`]: the surface's slow faces by their largest move, its fast ones by their box),
 /// so the later rounds query only the vertices it no longer keeps out of reach. Skipped vertices
 /// are exactly those whose answer is empty (a bound above the reach, a surface that did not pass
-/// through them), so the result is the one of querying all of them.
+/// through them), so the result is the one of querying all of them. An open surface's depth band
+/// keeps its vertices asking; one whose bounds put it beyond the gap and within the depth
+/// (`bounds` keeps an upper bound too, raised after each round by how far both moved) asks its
+/// side first ([`Surface::near`]): in front, its answer is empty without its closest point.
 fn query_direction(
     querying: &Surface,
     filter: impl Fn(u32) -> bool,
     target: &Surface,
     winding: Option<&FastWinding>,
     reach: Reach,
-    bounds: &mut [f64],
+    bounds: &mut [DistanceBounds],
 ) -> Vec<(u32, Vec<Near>)> {
     // Outside a closed surface only its faces within the gap matter; an open one's inside is
     // decided by the winding number up to `depth` behind it.
@@ -823,18 +860,21 @@ fn query_direction(
         .vertices
         .iter()
         .copied()
-        .filter(|&v| bounds[v as usize] <= limit && filter(v) && inside_box(&within, querying.positions[v as usize]))
+        .filter(|&v| {
+            bounds[v as usize].lower <= limit && filter(v) && inside_box(&within, querying.positions[v as usize])
+        })
         .collect();
-    let outside: Vec<bool> = candidates.iter().map(|&v| bounds[v as usize] > 0.0).collect();
+    let outside: Vec<bool> = candidates.iter().map(|&v| bounds[v as usize].lower > 0.0).collect();
     let inside = target.inside_flags(querying.positions, querying.topology, &candidates, &outside);
     let work = SharedWork::default();
-    let answers: Vec<(Vec<Near>, f64)> = candidates
+    let answers: Vec<(Vec<Near>, DistanceBounds)> = candidates
         .par_iter()
         .zip(&inside)
         .with_min_len(256)
         .map_init(Vec::new, |leaves, (&v, &inside)| {
             let q = querying.positions[v as usize];
-            work.measure(|| target.near(winding, q, inside, reach.gap, reach.depth, leaves))
+            let known = bounds[v as usize];
+            work.measure(|| target.near(winding, q, inside, known, reach, leaves))
         })
         .collect();
     work.record();
@@ -950,6 +990,62 @@ mod tests {
                 (b[0] * corners[0] + b[1] * corners[1] + b[2] * corners[2]).distance(q)
             })
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// A point of an open surface's depth band known to be farther than the gap asks the
+    /// surface's side first and its closest point only when behind it: the answer is the same,
+    /// bit for bit, in front of the surface (empty), behind it within the depth band, and beyond
+    /// it, and the bounds returned hold the distance. A bowl (a bumped grid), points all around
+    /// it, lower bounds anywhere between the gap and the distance, upper ones up to 0.2 above it.
+    #[test]
+    fn a_point_known_beyond_the_gap_of_an_open_surface_gets_the_same_answer() {
+        let mut mesh = shapes::grid(2.0, 2.0, 16, 16);
+        for p in &mut mesh.positions {
+            p.z = 0.4 * (p.x * p.x + p.y * p.y);
+        }
+        let topology = Topology::new(&mesh);
+        let bvh = TriangleBvh::new(&mesh).unwrap();
+        let mut clusters = WindingClusters::default();
+        clusters.refresh(&bvh);
+        let trees = SideTrees { bvh, whole: None, vertices: (0..mesh.num_vertices() as u32).collect(), clusters };
+        let surface = Surface {
+            trees: &trees,
+            positions: &mesh.positions,
+            triangles: &mesh.triangles,
+            topology: &topology,
+            closed: false,
+        };
+        let winding = FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY);
+        let reach = Reach { gap: 0.05, depth: 0.3 };
+        let key = |near: &[Near]| -> Vec<(u32, [u64; 3], u64, [u64; 3])> {
+            near.iter()
+                .map(|n| (n.face, n.bary.map(f64::to_bits), n.distance.to_bits(), n.out.to_array().map(f64::to_bits)))
+                .collect()
+        };
+        let mut rng = Lcg::new(37);
+        let (mut leaves, mut behind, mut skipped) = (Vec::new(), 0, 0);
+        for _ in 0..2000 {
+            let q = DVec3::new(1.2 * rng.next_signed(), 1.2 * rng.next_signed(), 0.4 + 0.8 * rng.next_signed());
+            let distance = distance_to_mesh(&mesh, &mesh.positions, q);
+            let least = reach.gap * (1.0 + 1e-6);
+            if distance <= least {
+                continue;
+            }
+            let lower = least + (distance - least) * 0.5 * (rng.next_signed() + 1.0);
+            let upper = distance + 0.1 * (rng.next_signed() + 1.0);
+            let bounds = DistanceBounds { lower, upper };
+            let unknown = DistanceBounds::UNKNOWN;
+            let (asked, _) = surface.near(Some(&winding), q, false, unknown, reach, &mut leaves);
+            let (known, kept) = surface.near(Some(&winding), q, false, bounds, reach, &mut leaves);
+            assert_eq!(key(&asked), key(&known), "at {q}, {distance} from the bowl");
+            assert!(kept.lower <= distance * (1.0 + 1e-12) && kept.upper >= distance * (1.0 - 1e-12));
+            if surface.behind_open(&winding, q) {
+                behind += usize::from(!asked.is_empty());
+            } else {
+                skipped += usize::from(upper < reach.depth);
+            }
+        }
+        assert!(behind > 50 && skipped > 100, "{behind} answered behind, {skipped} in front within the band");
     }
 
     /// The distance bounds after a round never exceed the true distance, whatever the moves:
