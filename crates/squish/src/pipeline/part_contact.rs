@@ -1252,7 +1252,7 @@ mod tests {
     }
 
     /// Pushed through each other in small steps from touching, the capsules' output moves by at
-    /// most twice their input's step (1.14× measured): no result switches on at once.
+    /// most twice their input's step: no result switches on at once.
     #[test]
     fn a_part_pair_starting_to_cross_moves_the_output_in_proportion_to_the_input() {
         let s = Siblings::new();

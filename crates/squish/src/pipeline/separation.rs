@@ -314,15 +314,13 @@ impl Surface<'_> {
     ) -> (Vec<Near>, DistanceBounds) {
         let Reach { gap: reach, depth } = reach;
         let open_winding = winding.filter(|_| !self.closed);
-        let mut behind = None;
         let in_band = known.lower > reach * (1.0 + BOUND_SLACK) && known.upper < depth * (1.0 - BOUND_SLACK);
-        if let Some(winding) = open_winding.filter(|_| in_band) {
-            let is_behind = self.behind_open(winding, q);
-            if !is_behind {
-                return (Vec::new(), known);
-            }
-            behind = Some(is_behind);
-        }
+        // True once this point is known to be behind the open surface.
+        let known_behind = match open_winding.filter(|_| in_band) {
+            Some(winding) if !self.behind_open(winding, q) => return (Vec::new(), known),
+            Some(_) => true,
+            None => false,
+        };
         let bvh = &self.trees.bvh;
         // A closed surface's inside is known: outside, only faces within `reach` matter.
         let limit = match (self.closed, inside_closed) {
@@ -341,7 +339,7 @@ impl Surface<'_> {
             return (Vec::new(), bound);
         }
         let inside = match open_winding {
-            Some(winding) => behind.unwrap_or_else(|| self.behind_open(winding, q)),
+            Some(winding) => known_behind || self.behind_open(winding, q),
             None => inside_closed,
         };
         let d0 = cp.distance;
@@ -530,8 +528,8 @@ fn separate_with(
             }
         }
     }
-    // Per active region pair and direction l (side l's vertices against side 1 − l): a lower
-    // bound of each querying vertex's distance to the surface it queries (see `query_direction`).
+    // Per active region pair and direction l (side l's vertices against side 1 − l): bounds of
+    // each querying vertex's distance to the surface it queries (see `query_direction`).
     let mut bounds: Vec<[Vec<DistanceBounds>; 2]> = active
         .iter()
         .map(|&k| {
