@@ -108,7 +108,7 @@ pub(super) fn resolve_self_contacts(
     }
 
     // Setup: each object's connectivity caches and rest pose, then every articulation's caches.
-    let timer = Instant::now();
+    let setup_start = Instant::now();
     for (cache, object) in caches.iter_mut().zip(&frame.objects) {
         if has_self_contact(object.params) {
             refresh_object(cache, object)?;
@@ -152,38 +152,10 @@ pub(super) fn resolve_self_contacts(
         })
         .collect::<Result<_, PipelineError>>()?;
     drop(slots);
-    // Each object's work counted in a span of its own, whatever thread runs it.
-    let prepared: Vec<(Result<Option<Prepared>, PipelineError>, Work)> = caches
-        .par_iter_mut()
-        .zip(&frame.objects)
-        .zip(rests)
-        .enumerate()
-        .map(|(i, ((cache, object), rest))| {
-            Work::measure(|| {
-                let Some(rest) = rest else { return Ok(None) };
-                prepare(
-                    cache,
-                    object,
-                    rest,
-                    jobs.iter().zip(&states).filter(|((o, _), s)| *o == i && s.is_ok()).map(|((_, k), _)| *k),
-                )
-                .map(Some)
-            })
-        })
-        .collect();
-    let mut setup_work = StageWork::default();
-    for (_, work) in &prepared {
-        setup_work[Stage::Setup] += *work;
-    }
-    let prepared: Vec<Option<Prepared>> = prepared.into_iter().map(|(p, _)| p).collect::<Result<_, PipelineError>>()?;
-    let mut setup_times = StageTimes::default();
-    setup_times[Stage::Setup] = timer.elapsed();
-    trace.add(&setup_times, &setup_work);
-
     // With parts: the whole object's crossing pairs at the input, which the counts before and
     // after start from (`finish_object`), found before the articulations so that one none of
-    // whose faces cross another skips its truncated regions and chapter 4.
-    let timer = Instant::now();
+    // whose faces cross another skips its interior flags, its truncated regions and chapter 4.
+    let pairs_start = Instant::now();
     let (input_pairs, pairs_work) = Work::measure(|| {
         caches
             .iter_mut()
@@ -198,8 +170,55 @@ pub(super) fn resolve_self_contacts(
             .collect::<Result<Vec<_>, _>>()
     });
     let mut input_pairs = input_pairs?;
-    trace.time(Stage::Quality, timer.elapsed());
+    let pairs_time = pairs_start.elapsed();
+    trace.time(Stage::Quality, pairs_time);
     trace.work[Stage::Quality] += pairs_work;
+    // Per object and articulation: some of its faces cross (unknown: true).
+    let crossing: Vec<Vec<bool>> = caches
+        .iter()
+        .zip(&input_pairs)
+        .map(|(cache, pairs)| {
+            cache
+                .setups
+                .iter()
+                .map(|setup| match (pairs, setup) {
+                    (Some(pairs), Some(setup)) => faces_cross(pairs.pairs(), setup.faces()),
+                    _ => true,
+                })
+                .collect()
+        })
+        .collect();
+
+    // Each object's work counted in a span of its own, whatever thread runs it.
+    let prepared: Vec<(Result<Option<Prepared>, PipelineError>, Work)> = caches
+        .par_iter_mut()
+        .zip(&frame.objects)
+        .zip(rests)
+        .enumerate()
+        .map(|(i, ((cache, object), rest))| {
+            Work::measure(|| {
+                let Some(rest) = rest else { return Ok(None) };
+                prepare(
+                    cache,
+                    object,
+                    rest,
+                    jobs.iter()
+                        .zip(&states)
+                        .filter(|((o, k), s)| *o == i && s.is_ok() && crossing[i].get(*k).copied().unwrap_or(true))
+                        .map(|((_, k), _)| *k),
+                )
+                .map(Some)
+            })
+        })
+        .collect();
+    let mut setup_work = StageWork::default();
+    for (_, work) in &prepared {
+        setup_work[Stage::Setup] += *work;
+    }
+    let prepared: Vec<Option<Prepared>> = prepared.into_iter().map(|(p, _)| p).collect::<Result<_, PipelineError>>()?;
+    let mut setup_times = StageTimes::default();
+    setup_times[Stage::Setup] = setup_start.elapsed().saturating_sub(pairs_time);
+    trace.add(&setup_times, &setup_work);
 
     // The crease cut and chapter 4 of every articulation, in parallel.
     let mut slots = setup_slots(caches, frame);
@@ -213,7 +232,7 @@ pub(super) fn resolve_self_contacts(
             else {
                 return Ok(state);
             };
-            let crossing = input_pairs[*i].as_ref().is_none_or(|pairs| faces_cross(pairs.pairs(), setup.faces()));
+            let crossing = crossing[*i].get(*k).copied().unwrap_or(true);
             // Its work beyond chapter 4's own stages (the crease cut, the truncated regions) is
             // the cut's.
             let (found, rest) = Work::measure(|| {
@@ -394,7 +413,8 @@ fn rest_mesh(object: &FrameObject) -> Result<TriMesh, PipelineError> {
 
 /// What an object's articulations share at this frame (see [`Prepared`]): the whole object's tree
 /// refitted once, its normals, and the interior flags of the vertices of the articulations
-/// `ready` (those whose caches are ready).
+/// `ready` (those whose caches are ready and whose faces cross: the others skip their truncated
+/// regions, the only readers of the flags).
 fn prepare(
     cache: &mut SelfContactCache,
     object: &FrameObject,

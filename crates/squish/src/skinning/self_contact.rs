@@ -183,6 +183,8 @@ pub struct ArticulationSetup {
     epsilon: f64,
     /// Mean edge length of the rest pose.
     edge_length: f64,
+    /// Per truncated region 𝒲̄_l: what its last frame built that depends on its faces only.
+    kept: [Option<KeptTruncated>; 2],
 }
 
 impl ArticulationSetup {
@@ -244,6 +246,7 @@ impl ArticulationSetup {
             sides,
             faces,
             size,
+            kept: [None, None],
         })
     }
 
@@ -262,6 +265,8 @@ impl ArticulationSetup {
             self.edge_length = crate::mesh::mean_edge_length(rest, topology);
             self.epsilon = 1e-4 * self.edge_length;
             self.size = shared_size(rest, &self.shared);
+            // Their trees were built on the former rest pose.
+            self.kept = [None, None];
         }
         Ok(())
     }
@@ -299,6 +304,18 @@ pub struct ArticulationPlan {
     pub stats: ArticulationStats,
 }
 
+/// What a truncated region keeps between frames: what depends on its faces only. Its tree is
+/// built on the rest pose and refitted to each frame, so that it depends on the rest pose, the
+/// faces and the positions only, never on the frames before (a kept and a fresh deformer give
+/// the same bits).
+#[derive(Debug)]
+struct KeptTruncated {
+    sub: SubMesh,
+    topology: Topology,
+    bvh: TriangleBvh,
+    border: Vec<bool>,
+}
+
 /// A truncated region 𝒲̄_l of this frame, ready for the contact stage.
 struct Truncated {
     sub: SubMesh,
@@ -314,7 +331,9 @@ struct Truncated {
 }
 
 impl Truncated {
-    /// `None` when no face lies wholly in the mask.
+    /// `None` when no face lies wholly in the mask. `kept`: what an earlier frame built, used
+    /// when it is of the same faces; `rest`: the object's rest pose, where a new tree is built.
+    #[allow(clippy::too_many_arguments)]
     fn new(
         mesh: &TriMesh,
         topology: &Topology,
@@ -322,13 +341,39 @@ impl Truncated {
         side: &RegionSide,
         interior: &[bool],
         toward: DVec3,
+        kept: Option<KeptTruncated>,
+        rest: &[DVec3],
     ) -> Result<Option<Self>, SpatialError> {
-        let sub = SubMesh::from_vertex_mask(mesh, mask);
-        if sub.mesh.triangles.is_empty() {
+        let faces: Vec<u32> = (0..mesh.num_triangles() as u32)
+            .filter(|&f| mesh.triangles[f as usize].iter().all(|&v| mask.get(v as usize).copied().unwrap_or(false)))
+            .collect();
+        if faces.is_empty() {
             return Ok(None);
         }
-        let sub_topology = Topology::new(&sub.mesh);
-        let bvh = TriangleBvh::new(&sub.mesh)?;
+        let KeptTruncated { sub, topology: sub_topology, mut bvh, border } =
+            match kept.filter(|k| k.sub.parent_face == faces) {
+                Some(mut kept) => {
+                    kept.sub.update_positions(&mesh.positions);
+                    kept
+                }
+                None => {
+                    let sub = SubMesh::from_faces(mesh, faces);
+                    let at_rest = TriMesh {
+                        positions: sub.parent_vertex.iter().map(|&v| rest[v as usize]).collect(),
+                        triangles: sub.mesh.triangles.clone(),
+                    };
+                    let border = sub
+                        .parent_vertex
+                        .iter()
+                        .map(|&v| {
+                            let local = side.sub.local_vertex[v as usize];
+                            local != NOT_IN_SUBMESH && side.far_border[local as usize]
+                        })
+                        .collect();
+                    KeptTruncated { topology: Topology::new(&sub.mesh), bvh: TriangleBvh::new(&at_rest)?, sub, border }
+                }
+            };
+        bvh.refit(&sub.mesh.positions)?;
         let facing_faces: Vec<u32> = crate::mesh::face_normals(&sub.mesh)
             .iter()
             .enumerate()
@@ -338,16 +383,13 @@ impl Truncated {
         let facing =
             if facing_faces.is_empty() { None } else { Some(TriangleBvh::with_faces(&sub.mesh, facing_faces)?) };
         let normals = region_vertex_normals(mesh, topology, &sub.parent_vertex);
-        let border = sub
-            .parent_vertex
-            .iter()
-            .map(|&v| {
-                let local = side.sub.local_vertex[v as usize];
-                local != NOT_IN_SUBMESH && side.far_border[local as usize]
-            })
-            .collect();
         let interior = sub.gather(interior);
         Ok(Some(Self { sub, topology: sub_topology, bvh, facing, normals, border, interior }))
+    }
+
+    /// What the next frame may reuse.
+    fn into_kept(self) -> KeptTruncated {
+        KeptTruncated { sub: self.sub, topology: self.topology, bvh: self.bvh, border: self.border }
     }
 }
 
@@ -607,9 +649,11 @@ pub fn contact_articulation(
         side.sub.update_positions(&mesh.positions);
     }
     let truncated = if crossing {
+        let [first, second] = std::mem::take(&mut setup.kept);
+        let rest = &setup.rest;
         match (
-            Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d)?,
-            Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d)?,
+            Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d, first, rest)?,
+            Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d, second, rest)?,
         ) {
             (Some(first), Some(second)) => Some([first, second]),
             _ => None,
@@ -660,7 +704,13 @@ pub fn deform_articulation(
 ) -> Result<ArticulationPlan, SelfContactError> {
     let start = Instant::now();
     let n = mesh.num_vertices();
-    let ArticulationContact { labels, contact, truncated, direction: d, stats, contact_step } = found;
+    let ArticulationContact { labels, contact, mut truncated, direction: d, stats, contact_step } = found;
+    let contact = contact.filter(|c| !c.is_empty());
+    if contact.is_none()
+        && let Some(truncated) = truncated.take()
+    {
+        setup.kept = truncated.map(|t| Some(t.into_kept()));
+    }
     let shared = &setup.shared;
     let mut plan = ArticulationPlan {
         displacement: AffineDisplacement::none(n),
@@ -669,7 +719,7 @@ pub fn deform_articulation(
         contact: vec![false; n],
         stats,
     };
-    let (Some(contact), Some(truncated)) = (contact.filter(|c| !c.is_empty()), truncated) else {
+    let (Some(contact), Some(truncated)) = (contact, truncated) else {
         plan.stats.total_time = contact_step + start.elapsed();
         return Ok(plan);
     };
@@ -687,6 +737,7 @@ pub fn deform_articulation(
             .filter(|z| !z.is_empty())
             .collect()
     });
+    setup.kept = truncated.map(|t| Some(t.into_kept()));
     let zone_refs: [Vec<&ContactZone>; 2] = [0, 1].map(|l| zones[l].iter().collect());
     // §6.2.2: d̄ = (2β − 1)·d̂, unnormalized.
     let fields: [Vec<DVec3>; 2] = [0, 1]

@@ -344,6 +344,48 @@ fn the_regions_are_analyzed_at_the_first_frame_in_contact_only() {
     assert_eq!(first, alone);
 }
 
+/// The truncated regions' faces, connectivity and tree are kept for the next frame whose crease
+/// cut gives the same faces, their tree built on the rest pose and refitted; a setup kept over a
+/// sweep of bends gives at every frame the bits of a fresh one, and it builds them again when the
+/// faces kept are not this frame's.
+#[test]
+fn the_truncated_regions_kept_between_frames_give_a_fresh_setups_bits() {
+    let capsule = BentCapsule::new(24, 30, 1.0);
+    let new_setup =
+        || ArticulationSetup::new(&capsule.rest, &capsule.topology, &capsule.articulation(0.0), &capsule.rest).unwrap();
+    let mut kept = new_setup();
+    let (mut reused, mut rebuilt) = (0, 0);
+    for step in 0..=24 {
+        let angle = (126.0 + 24.0 * step as f64 / 24.0).to_radians();
+        let (mesh, articulation) = (capsule.posed(angle), capsule.articulation(angle));
+        if step % 6 == 3 {
+            // Each side offered the other's faces: they do not match, and are built again.
+            kept.kept.swap(0, 1);
+        }
+        let faces_before: Option<[Vec<u32>; 2]> = match &kept.kept {
+            [Some(a), Some(b)] => Some([a.sub.parent_face.clone(), b.sub.parent_face.clone()]),
+            _ => None,
+        };
+        let (positions, plan, _) = run(&capsule, &mut kept, &mesh, &articulation);
+        let (alone, fresh_plan, _) = run(&capsule, &mut new_setup(), &mesh, &articulation);
+        assert_eq!(positions, alone, "step {step}");
+        assert_eq!(plan.displacement.constant, fresh_plan.displacement.constant, "step {step}");
+        assert!(plan.stats.in_contact, "step {step}");
+        let [Some(a), Some(b)] = &kept.kept else { panic!("step {step}: the truncated regions were not kept") };
+        // The kept tree answers for this frame's positions.
+        for side in [a, b] {
+            assert_eq!(side.bvh.len(), side.sub.mesh.num_triangles());
+            let fresh = TriangleBvh::new(&side.sub.mesh).unwrap();
+            assert_eq!(side.bvh.bounds(), fresh.bounds(), "step {step}");
+        }
+        match faces_before {
+            Some(before) if before == [a.sub.parent_face.clone(), b.sub.parent_face.clone()] => reused += 1,
+            _ => rebuilt += 1,
+        }
+    }
+    assert!(reused >= 5 && rebuilt >= 2, "{reused} frames reused, {rebuilt} rebuilt");
+}
+
 /// The automatic extent of a fold is 5/3 of max(1.2·r, 1.5·√(A/π)) (see the module doc for
 /// why), and it is what the plan used.
 #[test]
