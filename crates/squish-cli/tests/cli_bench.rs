@@ -262,7 +262,9 @@ fn guard_self_contact_work(scene: &Value) {
     assert_eq!(scene["same_work_across_threads"], true, "{}", scene["multi"]["work_timed_frames"]);
     let work: StageWork =
         serde_json::from_value(scene["single"]["work_timed_frames"].clone()).expect("work_timed_frames");
-    for stage in [Stage::Setup, Stage::PartContacts, Stage::Quality] {
+    // (`setup` asks nothing at the timed frames: its rest-pose caches are the first frame's, and
+    // the articulations' interior flags are asked by chapter 4, in its stages.)
+    for stage in [Stage::PartContacts, Stage::Quality] {
         assert!(work[stage].queries + work[stage].rows > 0, "{stage}: no work counted: {:?}", work[stage]);
     }
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/cesium_man_work.json");

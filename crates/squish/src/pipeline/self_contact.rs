@@ -13,6 +13,7 @@
 //! bind pose), or the frame's own mesh when none is given: β then follows the frame, which keeps
 //! every frame independent of the others.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -23,6 +24,7 @@ use super::plan::{JobKind, JobLevel, JobRecord, Trace};
 use super::{Frame, FrameObject, ObjectParams, ObjectStats, PipelineError};
 use crate::deform::DeformParams;
 use crate::mesh::{Topology, TriMesh, signed_volume, vertex_normals};
+use crate::params::VertexFlags;
 use crate::skinning::{
     ArticulationContact, ArticulationPlan, ArticulationSetup, ArticulationStats, apply_articulations,
     articulation_crossings, articulation_interiors, contact_articulation, deform_articulation,
@@ -36,8 +38,9 @@ use crate::stage::{SharedWork, Stage, StageTimes, StageWork, Work};
 pub(super) struct SelfContactCache {
     triangles: Vec<[u32; 3]>,
     topology: Option<Topology>,
-    /// Tree over the whole object, refitted to each frame: shared by its articulations.
-    tree: Option<TriangleBvh>,
+    /// Tree over the whole object, refitted to each frame: shared by its articulations (and by
+    /// their interior flags, which hold it while the frame runs).
+    tree: Option<Arc<TriangleBvh>>,
     setups: Vec<Option<ArticulationSetup>>,
     /// The contacts between its parts (issue 27).
     parts: PartContactCache,
@@ -72,11 +75,11 @@ pub(super) fn has_self_contact(params: &ObjectParams) -> bool {
 }
 
 /// What the articulations of an object share at one frame: its rest pose and normals, and which
-/// of its vertices lie inside another part.
+/// of its vertices lie inside another part (asked where chapter 4 needs them).
 struct Prepared {
     rest: TriMesh,
     normals: Vec<DVec3>,
-    interior: Vec<bool>,
+    interior: VertexFlags,
     closed: bool,
 }
 
@@ -426,14 +429,14 @@ fn prepare(
     let normals = vertex_normals(mesh);
     let setups: Vec<&ArticulationSetup> = ready.filter_map(|k| cache.setups.get(k)?.as_ref()).collect();
     let interior = if setups.is_empty() {
-        vec![false; mesh.num_vertices()]
+        VertexFlags::new(|asked| vec![false; asked.len()])
     } else {
         let tree = match cache.tree.as_mut() {
             Some(tree) => {
-                tree.refit(&mesh.positions).map_err(spatial)?;
-                tree
+                Arc::make_mut(tree).refit(&mesh.positions).map_err(spatial)?;
+                Arc::clone(tree)
             }
-            None => cache.tree.insert(TriangleBvh::new(mesh).map_err(spatial)?),
+            None => Arc::clone(cache.tree.insert(Arc::new(TriangleBvh::new(mesh).map_err(spatial)?))),
         };
         articulation_interiors(mesh, &normals, tree, setups)
     };

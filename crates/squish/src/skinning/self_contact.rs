@@ -52,6 +52,7 @@
 //!   CesiumMan's knees (149 → 0 and 129 → 0 self-intersecting faces, none newly inverted, extent
 //!   never clamped) and the skinned cylinders give the same figures as with the pipeline's rule.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
@@ -65,7 +66,7 @@ use crate::deform::{
     VolumeCubic, plan_region, solve_bulge_height, solve_dent_height,
 };
 use crate::mesh::{NOT_IN_SUBMESH, SubMesh, Topology, TriMesh, region_vertex_normals, signed_volume, vertex_centroid};
-use crate::params::{Articulation, PairParams, Params};
+use crate::params::{Articulation, PairParams, Params, VertexFlags};
 use crate::spatial::{SpatialError, TriangleBvh};
 
 /// The automatic extent of an articulation is `max(1.2·r, 1.5·√(A/π))` scaled by this factor;
@@ -326,8 +327,9 @@ struct Truncated {
     facing: Option<TriangleBvh>,
     normals: Vec<DVec3>,
     border: Vec<bool>,
-    /// Per vertex: inside another part of the object (see [`interior_flags`]).
-    interior: Vec<bool>,
+    /// Per object vertex: inside another part of the object (see [`interior_flags`]), asked for
+    /// this region's vertices where chapter 4 needs them.
+    interior: VertexFlags,
 }
 
 impl Truncated {
@@ -339,7 +341,7 @@ impl Truncated {
         topology: &Topology,
         mask: &[bool],
         side: &RegionSide,
-        interior: &[bool],
+        interior: &VertexFlags,
         toward: DVec3,
         kept: Option<KeptTruncated>,
         rest: &[DVec3],
@@ -383,8 +385,7 @@ impl Truncated {
         let facing =
             if facing_faces.is_empty() { None } else { Some(TriangleBvh::with_faces(&sub.mesh, facing_faces)?) };
         let normals = region_vertex_normals(mesh, topology, &sub.parent_vertex);
-        let interior = sub.gather(interior);
-        Ok(Some(Self { sub, topology: sub_topology, bvh, facing, normals, border, interior }))
+        Ok(Some(Self { sub, topology: sub_topology, bvh, facing, normals, border, interior: interior.clone() }))
     }
 
     /// What the next frame may reuse.
@@ -400,7 +401,7 @@ impl Truncated {
             .with_name(name)
             .with_stiffness(Stiffness::Elastic(stiffness))
             .with_border(self.border.iter().any(|&b| b).then_some(self.border.as_slice()))
-            .with_interior(Some(&self.interior))
+            .with_interior_asked(Some((&self.interior, &self.sub.parent_vertex)))
             .with_match_bvh(self.facing.as_ref())
     }
 }
@@ -415,19 +416,31 @@ impl Truncated {
 /// `w(p − εn) ≥ 2` missed exactly the vertices that had gone through the other side
 /// (CesiumMan's knees, the frames they unbend). ε = 10⁻⁴·h keeps the points on the right side of
 /// their own faces without reaching other layers.
-fn interior_flags(mesh: &TriMesh, normals: &[DVec3], tree: &TriangleBvh, vertices: &[bool], epsilon: f64) -> Vec<bool> {
+/// `asked` are the vertices to answer for, `vertices` those the test runs on (false elsewhere).
+fn interior_flags(
+    positions: &[DVec3],
+    normals: &[DVec3],
+    tree: &TriangleBvh,
+    vertices: &[bool],
+    epsilon: f64,
+    asked: &[u32],
+) -> Vec<bool> {
     use rayon::prelude::*;
     // The queries are counted on whatever thread runs them, for the caller's span.
     let work = crate::stage::SharedWork::default();
-    let flags = (0..mesh.num_vertices())
-        .into_par_iter()
+    let flags = asked
+        .par_iter()
         .with_min_len(256)
-        .map(|v| {
+        .map(|&v| {
+            let v = v as usize;
+            if !vertices.get(v).copied().unwrap_or(false) {
+                return false;
+            }
             work.measure(|| {
                 // The outer point first: it is outside everything (0) for most vertices, which
                 // settles the minimum without the inner point's query.
-                let (p, offset) = (mesh.positions[v], epsilon * normals[v]);
-                vertices[v] && tree.winding_number(p + offset) >= 1 && tree.winding_number(p - offset) >= 1
+                let (p, offset) = (positions[v], epsilon * normals[v]);
+                tree.winding_number(p + offset) >= 1 && tree.winding_number(p - offset) >= 1
             })
         })
         .collect();
@@ -533,8 +546,8 @@ pub fn plan_articulation(
     articulation: &Articulation,
     params: &DeformParams,
 ) -> Result<ArticulationPlan, SelfContactError> {
-    let tree = TriangleBvh::new(mesh)?;
-    let interior = articulation_interiors(mesh, normals, &tree, [&*setup]);
+    let tree = Arc::new(TriangleBvh::new(mesh)?);
+    let interior = articulation_interiors(mesh, normals, tree, [&*setup]);
     let found = contact_articulation(mesh, topology, normals, &interior, setup, articulation, true)?;
     deform_articulation(found, mesh, setup, articulation, params)
 }
@@ -573,14 +586,17 @@ impl ArticulationContact {
 }
 
 /// Per object vertex: inside another part of the object (the winding number of a point just
-/// inside its own faces), for the vertices of every articulation of `setups`; `tree` is the
-/// whole object's triangle tree at `mesh`'s positions, shared by the object's articulations.
+/// inside its own faces), for the vertices of every articulation of `setups` (false for the
+/// others); `tree` is the whole object's triangle tree at `mesh`'s positions, shared by the
+/// object's articulations. The flags are evaluated for the vertices asked only (chapter 4 asks
+/// those near the intersection): a vertex's flag is a function of its position and normal, so
+/// the answers are those of evaluating every vertex.
 pub fn articulation_interiors<'a>(
     mesh: &TriMesh,
     normals: &[DVec3],
-    tree: &TriangleBvh,
+    tree: Arc<TriangleBvh>,
     setups: impl IntoIterator<Item = &'a ArticulationSetup>,
-) -> Vec<bool> {
+) -> VertexFlags {
     let mut vertices = vec![false; mesh.num_vertices()];
     let mut epsilon = None;
     for setup in setups {
@@ -589,10 +605,9 @@ pub fn articulation_interiors<'a>(
         }
         epsilon.get_or_insert(setup.epsilon);
     }
-    match epsilon {
-        Some(epsilon) => interior_flags(mesh, normals, tree, &vertices, epsilon),
-        None => vertices,
-    }
+    let Some(epsilon) = epsilon else { return VertexFlags::new(|asked| vec![false; asked.len()]) };
+    let (positions, normals) = (mesh.positions.clone(), normals.to_vec());
+    VertexFlags::new(move |asked| interior_flags(&positions, &normals, &tree, &vertices, epsilon, asked))
 }
 
 /// Steps 1–3 of the module doc for one articulation at one frame: d̂, the crease cut and the
@@ -607,7 +622,7 @@ pub fn contact_articulation(
     mesh: &TriMesh,
     topology: &Topology,
     normals: &[DVec3],
-    interior: &[bool],
+    interior: &VertexFlags,
     setup: &mut ArticulationSetup,
     articulation: &Articulation,
     crossing: bool,

@@ -277,8 +277,8 @@ fn an_articulation_whose_faces_do_not_cross_finds_no_contact() {
         let articulation = capsule.articulation(angle);
         let pairs = crate::spatial::self_intersecting_pairs(&mesh, setup.faces(), usize::MAX).unwrap().unwrap();
         let normals = crate::mesh::vertex_normals(&mesh);
-        let tree = TriangleBvh::new(&mesh).unwrap();
-        let interior = articulation_interiors(&mesh, &normals, &tree, [&setup]);
+        let tree = std::sync::Arc::new(TriangleBvh::new(&mesh).unwrap());
+        let interior = articulation_interiors(&mesh, &normals, tree, [&setup]);
         let run = |setup: &mut ArticulationSetup, crossing: bool| {
             let found =
                 contact_articulation(&mesh, &capsule.topology, &normals, &interior, setup, &articulation, crossing)
