@@ -333,22 +333,20 @@ struct Truncated {
 }
 
 impl Truncated {
-    /// `None` when no face lies wholly in the mask. `kept`: what an earlier frame built, used
-    /// when it is of the same faces; `rest`: the object's rest pose, where a new tree is built.
+    /// The region of `faces` (object ids, increasing); `None` when there is none. `kept`: what
+    /// an earlier frame built, used when it is of the same faces; `rest`: the object's rest
+    /// pose, where a new tree is built.
     #[allow(clippy::too_many_arguments)]
     fn new(
         mesh: &TriMesh,
         topology: &Topology,
-        mask: &[bool],
+        faces: Vec<u32>,
         side: &RegionSide,
         interior: &VertexFlags,
         toward: DVec3,
         kept: Option<KeptTruncated>,
         rest: &[DVec3],
     ) -> Result<Option<Self>, SpatialError> {
-        let faces: Vec<u32> = (0..mesh.num_triangles() as u32)
-            .filter(|&f| mesh.triangles[f as usize].iter().all(|&v| mask.get(v as usize).copied().unwrap_or(false)))
-            .collect();
         if faces.is_empty() {
             return Ok(None);
         }
@@ -664,11 +662,18 @@ pub fn contact_articulation(
         side.sub.update_positions(&mesh.positions);
     }
     let truncated = if crossing {
+        // A face wholly in a mask is a face of 𝒲₁ ∪ 𝒲₂ (each mask lies in its region's
+        // vertices): the regions' faces are the only candidates.
+        let faces_in = |mask: &[bool]| -> Vec<u32> {
+            let in_mask = |f: u32| mesh.triangles[f as usize].iter().all(|&v| mask[v as usize]);
+            setup.faces.iter().copied().filter(|&f| in_mask(f)).collect()
+        };
+        let [faces_first, faces_second] = [faces_in(&masks[0]), faces_in(&masks[1])];
         let [first, second] = std::mem::take(&mut setup.kept);
         let rest = &setup.rest;
         match (
-            Truncated::new(mesh, topology, &masks[0], &setup.sides[0], interior, d, first, rest)?,
-            Truncated::new(mesh, topology, &masks[1], &setup.sides[1], interior, -d, second, rest)?,
+            Truncated::new(mesh, topology, faces_first, &setup.sides[0], interior, d, first, rest)?,
+            Truncated::new(mesh, topology, faces_second, &setup.sides[1], interior, -d, second, rest)?,
         ) {
             (Some(first), Some(second)) => Some([first, second]),
             _ => None,
