@@ -82,6 +82,7 @@ use cache::ObjectCache;
 use contacts::{RegionPair, RegionZones};
 use edits::EditState;
 use plan::Trace;
+use separation::Seeds;
 use store::FrameStore;
 
 /// One object of a frame.
@@ -388,7 +389,8 @@ impl ObjectContacts {
         }
 
         // The separation pass on the outputs (issue 29).
-        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, trace)?;
+        let seeds = Seeds { from: None, kept: kept_state.as_mut().map(|s| &mut s.separation) };
+        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, seeds, trace)?;
         let level = ObjectsLevel {
             region_pairs,
             contacts,
@@ -411,7 +413,8 @@ impl ObjectContacts {
         let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &zones, &state.regions)?;
         deformations::record(&outcomes, trace);
         let summary = zones.summary();
-        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, trace)?;
+        let seeds = Seeds { from: state.separation.as_ref(), kept: None };
+        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, seeds, trace)?;
         Ok(ObjectsLevel {
             region_pairs: state.region_pairs.clone(),
             contacts: state.contacts.clone(),
@@ -431,13 +434,14 @@ impl ObjectContacts {
         region_pairs: &[RegionPair],
         contacts: &[Option<PairContact>],
         outcomes: &mut [Vec<Option<deformations::RegionOutcome>>],
+        seeds: Seeds<'_>,
         trace: &mut Trace,
     ) -> Result<Vec<FrameWarning>, PipelineError> {
         if self.skip_separation {
             return Ok(Vec::new());
         }
         let (_, warnings) = trace.run(Stage::Separation, || {
-            separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes)
+            separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes, seeds)
         })?;
         Ok(warnings)
     }

@@ -40,6 +40,10 @@
 //! The faces still intersecting then are counted with the exact test and reported as a
 //! [`WarningKind::Unseparated`] frame warning, never silently.
 //!
+//! **Edits.** An edit of a kept frame (`super::edits`) starts its pass from the kept pass's first
+//! distance bounds ([`SeparationSeed`]), lowered by how far every vertex moved between the two
+//! passes' starts: it queries fewer vertices and gets the same answers, so the same bits.
+//!
 //! Deterministic: every loop runs in vertex or region-pair order, the faces near a point come
 //! sorted, and parallel maps collect in order. Continuous: every move is a continuous function
 //! of the outputs of chapter 5 (measured: the largest step of a vertex between frames of a
@@ -382,6 +386,75 @@ impl DistanceBounds {
     const UNKNOWN: Self = Self { lower: 0.0, upper: f64::INFINITY };
 }
 
+/// What a full frame's pass leaves for an edit of the frame (`super::edits`): the objects'
+/// positions at its start and the distance bounds its first round's queries found. An edit's pass
+/// starts from these bounds lowered by how far every vertex moved between the two starts
+/// ([`RoundMoves`], as between rounds), so its first round queries only the vertices they no
+/// longer keep out of reach: the same answers, the same bits.
+#[derive(Clone, Debug)]
+pub(super) struct SeparationSeed {
+    /// The region pairs the pass worked on.
+    active: Vec<usize>,
+    /// Per object: its positions at the start of the pass.
+    positions: Vec<Vec<DVec3>>,
+    /// Per active pair and direction: the bounds after the first round's queries.
+    bounds: Vec<[Vec<DistanceBounds>; 2]>,
+}
+
+impl SeparationSeed {
+    /// True if the seed was left by a pass over the same region pairs and object sizes.
+    fn fits(&self, active: &[usize], bounds: &[[Vec<DistanceBounds>; 2]], positions: &[Vec<DVec3>]) -> bool {
+        let same_sizes =
+            |a: &[Vec<DVec3>], b: &[Vec<DVec3>]| a.len() == b.len() && a.iter().zip(b).all(|(a, b)| a.len() == b.len());
+        self.active == active
+            && same_sizes(&self.positions, positions)
+            && self.bounds.len() == bounds.len()
+            && self.bounds.iter().zip(bounds).all(|(a, b)| a[0].len() == b[0].len() && a[1].len() == b[1].len())
+    }
+}
+
+/// The seeds of one pass: the one it starts from (an edit of the kept frame) and where it
+/// leaves its own (a full frame kept for edits).
+#[derive(Default)]
+pub(super) struct Seeds<'a> {
+    /// The kept frame's seed, when this pass is an edit's.
+    pub from: Option<&'a SeparationSeed>,
+    /// Where to leave this pass's seed, when its frame is kept for edits.
+    pub kept: Option<&'a mut Option<SeparationSeed>>,
+}
+
+/// Lowers every active pair's distance bounds after its objects moved (`moved`, per object; `None`:
+/// it did not move): a vertex's distance to a surface shrinks at most by how far both moved (see
+/// [`RoundMoves`]); the upper bounds rise by as much.
+fn lower_bounds(
+    frame: &Frame,
+    region_pairs: &[RegionPair],
+    active: &[usize],
+    bounds: &mut [[Vec<DistanceBounds>; 2]],
+    moved: &[Option<RoundMoves>],
+    positions: &[Vec<DVec3>],
+) {
+    for (&k, pair_bounds) in active.iter().zip(bounds) {
+        let objects = frame.pairs[region_pairs[k].pair].objects;
+        for (l, direction) in pair_bounds.iter_mut().enumerate() {
+            let (querying, target) = (objects[l], objects[1 - l]);
+            let surface = moved[target].as_ref();
+            let vertex_moved = moved[querying].as_ref().map(|m| &m.by_vertex);
+            let at = &positions[querying];
+            for (v, bound) in direction.iter_mut().enumerate() {
+                let own = vertex_moved.map_or(0.0, |m| m[v]);
+                if bound.lower > 0.0 {
+                    bound.lower = match surface {
+                        Some(surface) => surface.lowered(bound.lower, own, at[v]),
+                        None => bound.lower - own * (1.0 + BOUND_SLACK),
+                    };
+                }
+                bound.upper += (surface.map_or(0.0, |s| s.largest) + own) * (1.0 + BOUND_SLACK);
+            }
+        }
+    }
+}
+
 /// The moves asked of one vertex, blended by [`Blend::result`].
 #[derive(Clone, Copy, Debug, Default)]
 struct Blend {
@@ -421,6 +494,7 @@ pub(super) fn separate(
     region_pairs: &[RegionPair],
     contacts: &[Option<PairContact>],
     outcomes: &mut [Vec<Option<RegionOutcome>>],
+    seeds: Seeds<'_>,
 ) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
     // The region pairs the pass works on: a gap, two regions, and a side it may move.
     let active: Vec<usize> = (0..region_pairs.len())
@@ -444,7 +518,8 @@ pub(super) fn separate(
                 .map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
         })
         .collect();
-    let result = separate_with(frame, caches, region_pairs, contacts, outcomes, &active, &mut trees);
+    let pairs = PassPairs { region_pairs, contacts, active: &active };
+    let result = separate_with(frame, caches, pairs, outcomes, &mut trees, seeds);
     for (cache, trees) in caches.iter_mut().zip(trees) {
         if let Some(cache) = cache.as_mut() {
             for (region, side) in cache.regions.iter_mut().zip(trees) {
@@ -455,16 +530,24 @@ pub(super) fn separate(
     result
 }
 
+/// The region pairs of one pass: all of the frame's, their contacts, and those it works on.
+#[derive(Clone, Copy)]
+struct PassPairs<'a> {
+    region_pairs: &'a [RegionPair],
+    contacts: &'a [Option<PairContact>],
+    active: &'a [usize],
+}
+
 /// [`separate`] with the trees of every region (`trees[object][region]`, built where missing).
 fn separate_with(
     frame: &Frame,
     caches: &[Option<ObjectCache>],
-    region_pairs: &[RegionPair],
-    contacts: &[Option<PairContact>],
+    pairs: PassPairs<'_>,
     outcomes: &mut [Vec<Option<RegionOutcome>>],
-    active: &[usize],
     trees: &mut [Vec<Option<SideTrees>>],
+    mut seeds: Seeds<'_>,
 ) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
+    let PassPairs { region_pairs, contacts, active } = pairs;
     let mut report = vec![PairSeparation::default(); region_pairs.len()];
     let count = frame.objects.len();
     let slots: Vec<Vec<Option<(u32, u32)>>> = (0..count)
@@ -537,6 +620,16 @@ fn separate_with(
             objects.map(|i| vec![DistanceBounds::UNKNOWN; frame.objects[i].mesh.num_vertices()])
         })
         .collect();
+    // An edit starts from the kept frame's first-round bounds, lowered by how far every vertex
+    // moved between the two passes' starts.
+    if let Some(seed) = seeds.from.filter(|seed| seed.fits(active, &bounds, &positions)) {
+        let moved: Vec<Option<RoundMoves>> = (0..count)
+            .map(|i| caches[i].as_ref().map(|c| RoundMoves::new(&c.topology, &seed.positions[i], &positions[i])))
+            .collect();
+        bounds.clone_from(&seed.bounds);
+        lower_bounds(frame, region_pairs, active, &mut bounds, &moved, &positions);
+    }
+    let mut start_positions = seeds.kept.is_some().then(|| positions.clone());
     // Per object and region: the volume terms of its last correction.
     let mut volume_terms: Vec<Vec<SweptTerms>> = caches
         .iter()
@@ -640,6 +733,11 @@ fn separate_with(
                 }
             }
         }
+        if rounds == 0
+            && let (Some(kept), Some(positions)) = (seeds.kept.as_deref_mut(), start_positions.take())
+        {
+            *kept = Some(SeparationSeed { active: active.to_vec(), positions, bounds: bounds.clone() });
+        }
         let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
         for m in moves.iter().flatten() {
             largest = largest.max(m.length());
@@ -684,27 +782,7 @@ fn separate_with(
             })
             .collect::<Result<_, PipelineError>>()?;
         work.record();
-        // A vertex's distance to a surface shrinks at most by how far both moved (see
-        // `RoundMoves`).
-        for (&k, pair_bounds) in active.iter().zip(&mut bounds) {
-            let objects = frame.pairs[region_pairs[k].pair].objects;
-            for (l, direction) in pair_bounds.iter_mut().enumerate() {
-                let (querying, target) = (objects[l], objects[1 - l]);
-                let surface = moved[target].as_ref();
-                let vertex_moved = moved[querying].as_ref().map(|m| &m.by_vertex);
-                let at = &positions[querying];
-                for (v, bound) in direction.iter_mut().enumerate() {
-                    let own = vertex_moved.map_or(0.0, |m| m[v]);
-                    if bound.lower > 0.0 {
-                        bound.lower = match surface {
-                            Some(surface) => surface.lowered(bound.lower, own, at[v]),
-                            None => bound.lower - own * (1.0 + BOUND_SLACK),
-                        };
-                    }
-                    bound.upper += (surface.map_or(0.0, |s| s.largest) + own) * (1.0 + BOUND_SLACK);
-                }
-            }
-        }
+        lower_bounds(frame, region_pairs, active, &mut bounds, &moved, &positions);
     }
     let mut warnings = Vec::new();
     for &k in active {

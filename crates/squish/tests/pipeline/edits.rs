@@ -200,3 +200,34 @@ fn an_invalid_edit_is_an_error_and_the_next_valid_one_still_edits() {
     assert!(result.stats.edit);
     assert_eq!(figures(&result), figures(&Deformer::new().deform(&fine.frame()).unwrap()));
 }
+
+/// An edit's separation pass starts from the kept frame's distance bounds, lowered by how far
+/// every vertex moved since (`separation::SeparationSeed`): it asks fewer distance queries than a
+/// full frame's pass and gives the same bits, for a small edit, a large one (the bulge tripled:
+/// the bounds must be lowered by the whole move) and the kept frame itself again.
+#[test]
+fn an_edits_separation_pass_starts_from_the_kept_frames_bounds() {
+    use squish::stage::Stage;
+    let scene = scenes::ball_on_ground(0.25, 3, 24);
+    let mut deformer = Deformer::new().keep_for_edits();
+    let kept = deformer.deform(&scene.frame()).unwrap();
+    let full = kept.stats.work[Stage::Separation];
+    assert!(full.rounds > 0 && full.queries > 0, "the pass must work on this scene: {full:?}");
+    for bulge in [1.0, 1.2, 3.0] {
+        let mut edited = scene.clone();
+        edited.objects[0].params.bulge = bulge;
+        edited.objects[1].params.bulge = bulge;
+        let result = deformer.deform(&edited.frame()).unwrap();
+        assert!(result.stats.edit);
+        let fresh = Deformer::new().deform(&edited.frame()).unwrap();
+        assert_same(&figures(&result), &figures(&fresh), &format!("bulge {bulge}"));
+        let (edit, from_scratch) = (result.stats.work[Stage::Separation], fresh.stats.work[Stage::Separation]);
+        assert_eq!(edit.rounds, from_scratch.rounds, "bulge {bulge}: the same rounds");
+        assert!(
+            edit.queries < from_scratch.queries,
+            "bulge {bulge}: the edit's pass asks {} queries, a full frame's {}",
+            edit.queries,
+            from_scratch.queries
+        );
+    }
+}
