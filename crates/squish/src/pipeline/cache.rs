@@ -90,6 +90,12 @@ impl ObjectCache {
         figures
     }
 
+    /// The connectivity the cache was built for, shared: a new cache (other triangles) has
+    /// another.
+    pub fn shared_triangles(&self) -> Arc<Vec<[u32; 3]>> {
+        Arc::clone(&self.triangles)
+    }
+
     /// True if `mesh` has the connectivity the cache was built for.
     pub fn matches(&self, mesh: &TriMesh) -> bool {
         *self.triangles == mesh.triangles && self.topology.num_vertices() == mesh.num_vertices()

@@ -1,6 +1,6 @@
 //! Fast edits: a frame that differs from the last one only by parameters of §5.4–5.5 reuses that
 //! frame's contact stage (ch. 4) and each region's fields of §5.1–5.3, and recomputes only the
-//! bulge map, the profiles, the volume, the separation pass (from the kept pass's distance
+//! bulge map, the profiles, the volume, the separation pass (from the last pass's distance
 //! bounds, `super::separation::SeparationSeed`) and the results.
 //!
 //! **The rule.** The *downstream* parameters ([`DOWNSTREAM_KEYS`]) are the object parameters
@@ -33,7 +33,6 @@ use glam::DVec3;
 use super::FrameObject;
 use super::contacts::RegionPair;
 use super::deformations::KeptRegion;
-use super::separation::SeparationSeed;
 use super::{Frame, FramePair};
 use crate::contact::PairContact;
 use crate::params::{ObjectParams, PairParams, ParamValue, Params};
@@ -71,8 +70,6 @@ pub(super) struct EditState {
     pub contained: Vec<Option<[usize; 2]>>,
     /// Per object: whether its mesh is closed.
     pub closed: Vec<bool>,
-    /// What the frame's separation pass left for the edits' passes.
-    pub separation: Option<SeparationSeed>,
 }
 
 impl EditState {
@@ -84,7 +81,7 @@ impl EditState {
         contained: Vec<Option<[usize; 2]>>,
         closed: Vec<bool>,
     ) -> Self {
-        Self { key: FrameKey::of(frame), contacts, region_pairs, regions, contained, closed, separation: None }
+        Self { key: FrameKey::of(frame), contacts, region_pairs, regions, contained, closed }
     }
 
     /// True if `frame` is an edit of the kept frame (see the module doc).

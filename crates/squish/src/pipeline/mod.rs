@@ -82,7 +82,7 @@ use cache::ObjectCache;
 use contacts::{RegionPair, RegionZones};
 use edits::EditState;
 use plan::Trace;
-use separation::Seeds;
+use separation::{Seeds, SeparationSeed};
 use store::FrameStore;
 
 /// One object of a frame.
@@ -230,13 +230,18 @@ pub(super) struct ObjectContacts {
     symbolic_analyses: usize,
     /// Whether to leave out the separation pass ([`Deformer::without_separation`]).
     skip_separation: bool,
+    /// What the last separation pass left for the next one (`separation::SeparationSeed`).
+    separation_seed: Option<SeparationSeed>,
+    /// Whether the separation pass leaves no seed (a touching part pair of a skinned mesh, whose
+    /// regions change from frame to frame).
+    without_seeds: bool,
 }
 
 impl ObjectContacts {
     /// Stages for one object whose connectivity caches are `object`'s (see
     /// [`ObjectCache::connectivity`]).
     fn with_object(object: ObjectCache) -> Self {
-        Self { caches: vec![Some(object)], ..Self::default() }
+        Self { caches: vec![Some(object)], without_seeds: true, ..Self::default() }
     }
 }
 
@@ -389,8 +394,7 @@ impl ObjectContacts {
         }
 
         // The separation pass on the outputs (issue 29).
-        let seeds = Seeds { from: None, kept: kept_state.as_mut().map(|s| &mut s.separation) };
-        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, seeds, trace)?;
+        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, trace)?;
         let level = ObjectsLevel {
             region_pairs,
             contacts,
@@ -413,8 +417,7 @@ impl ObjectContacts {
         let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &zones, &state.regions)?;
         deformations::record(&outcomes, trace);
         let summary = zones.summary();
-        let seeds = Seeds { from: state.separation.as_ref(), kept: None };
-        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, seeds, trace)?;
+        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, trace)?;
         Ok(ObjectsLevel {
             region_pairs: state.region_pairs.clone(),
             contacts: state.contacts.clone(),
@@ -434,15 +437,19 @@ impl ObjectContacts {
         region_pairs: &[RegionPair],
         contacts: &[Option<PairContact>],
         outcomes: &mut [Vec<Option<deformations::RegionOutcome>>],
-        seeds: Seeds<'_>,
         trace: &mut Trace,
     ) -> Result<Vec<FrameWarning>, PipelineError> {
         if self.skip_separation {
             return Ok(Vec::new());
         }
+        // The last pass's seed, taken: a pass that fails leaves none.
+        let last = self.separation_seed.take();
+        let mut next = None;
+        let seeds = Seeds { from: last.as_ref(), kept: (!self.without_seeds).then_some(&mut next) };
         let (_, warnings) = trace.run(Stage::Separation, || {
             separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes, seeds)
         })?;
+        self.separation_seed = next;
         Ok(warnings)
     }
 }

@@ -40,9 +40,11 @@
 //! The faces still intersecting then are counted with the exact test and reported as a
 //! [`WarningKind::Unseparated`] frame warning, never silently.
 //!
-//! **Edits.** An edit of a kept frame (`super::edits`) starts its pass from the kept pass's first
-//! distance bounds ([`SeparationSeed`]), lowered by how far every vertex moved between the two
-//! passes' starts: it queries fewer vertices and gets the same answers, so the same bits.
+//! **From the last pass.** A pass starts from the last pass's first distance bounds on the same
+//! deformer ([`SeparationSeed`]: an edit's from its kept frame's, a frame's from the frame
+//! before) when they are distances to the same surfaces, lowered by how far every vertex moved
+//! between the two passes' starts: it queries fewer vertices and gets the same answers, so the
+//! same bits.
 //!
 //! Deterministic: every loop runs in vertex or region-pair order, the faces near a point come
 //! sorted, and parallel maps collect in order. Continuous: every move is a continuous function
@@ -50,6 +52,8 @@
 //! sliding contact is unchanged, `tests/pipeline/gap.rs`), up to the stopping rule (a round
 //! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is its own stage,
 //! [`crate::stage::Stage::Separation`]. It extends the thesis' §4.3–§5.4 (not in it).
+
+use std::sync::Arc;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -386,40 +390,102 @@ impl DistanceBounds {
     const UNKNOWN: Self = Self { lower: 0.0, upper: f64::INFINITY };
 }
 
-/// What a full frame's pass leaves for an edit of the frame (`super::edits`): the objects'
-/// positions at its start and the distance bounds its first round's queries found. An edit's pass
-/// starts from these bounds lowered by how far every vertex moved between the two starts
-/// ([`RoundMoves`], as between rounds), so its first round queries only the vertices they no
-/// longer keep out of reach: the same answers, the same bits.
+/// What a pass leaves for the next pass on the same deformer (an edit of its frame, or the next
+/// frame): the objects' positions at its start and the distance bounds its first round's queries
+/// found, with what those bounds are distances to (each side's object connectivity and region
+/// faces). The next pass starts from these bounds lowered by how far every vertex moved between
+/// the two starts ([`RoundMoves`], as between rounds), so its first round queries only the
+/// vertices they no longer keep out of reach: the same answers, the same bits.
 #[derive(Clone, Debug)]
 pub(super) struct SeparationSeed {
     /// The region pairs the pass worked on.
     active: Vec<usize>,
+    /// Per active pair: its frame pair, and per side its object's connectivity and its region's
+    /// faces (`None`: the whole object).
+    sides: Vec<(usize, [SeedSide; 2])>,
     /// Per object: its positions at the start of the pass.
     positions: Vec<Vec<DVec3>>,
     /// Per active pair and direction: the bounds after the first round's queries.
     bounds: Vec<[Vec<DistanceBounds>; 2]>,
 }
 
-impl SeparationSeed {
-    /// True if the seed was left by a pass over the same region pairs and object sizes.
-    fn fits(&self, active: &[usize], bounds: &[[Vec<DistanceBounds>; 2]], positions: &[Vec<DVec3>]) -> bool {
-        let same_sizes =
-            |a: &[Vec<DVec3>], b: &[Vec<DVec3>]| a.len() == b.len() && a.iter().zip(b).all(|(a, b)| a.len() == b.len());
-        self.active == active
-            && same_sizes(&self.positions, positions)
-            && self.bounds.len() == bounds.len()
-            && self.bounds.iter().zip(bounds).all(|(a, b)| a[0].len() == b[0].len() && a[1].len() == b[1].len())
+/// One side of an active pair in a [`SeparationSeed`]: what its surface is made of.
+#[derive(Clone, Debug)]
+struct SeedSide {
+    object: usize,
+    region: usize,
+    triangles: Arc<Vec<[u32; 3]>>,
+    faces: Option<Vec<u32>>,
+}
+
+impl SeedSide {
+    fn of(frame: &Frame, caches: &[Option<ObjectCache>], pair: usize, regions: [usize; 2], l: usize) -> Option<Self> {
+        let object = frame.pairs.get(pair)?.objects[l];
+        let cache = caches.get(object)?.as_ref()?;
+        let region = regions[l];
+        Some(Self {
+            object,
+            region,
+            triangles: cache.shared_triangles(),
+            faces: cache.regions.get(region)?.faces.clone(),
+        })
+    }
+
+    fn same(&self, other: &Self) -> bool {
+        self.object == other.object
+            && self.region == other.region
+            && Arc::ptr_eq(&self.triangles, &other.triangles)
+            && self.faces == other.faces
     }
 }
 
-/// The seeds of one pass: the one it starts from (an edit of the kept frame) and where it
-/// leaves its own (a full frame kept for edits).
+impl SeparationSeed {
+    /// The sides of every active pair (`None` if one has no cache or region).
+    fn sides_of(
+        frame: &Frame,
+        caches: &[Option<ObjectCache>],
+        pairs: PassPairs<'_>,
+    ) -> Option<Vec<(usize, [SeedSide; 2])>> {
+        pairs
+            .active
+            .iter()
+            .map(|&k| {
+                let rp = &pairs.region_pairs[k];
+                let regions = rp.regions?;
+                let [a, b] = [0, 1].map(|l| SeedSide::of(frame, caches, rp.pair, regions, l));
+                Some((rp.pair, [a?, b?]))
+            })
+            .collect()
+    }
+
+    /// True if the seed was left by a pass over the same region pairs, on the same surfaces
+    /// (connectivity and region faces) and object sizes.
+    fn fits(
+        &self,
+        frame: &Frame,
+        caches: &[Option<ObjectCache>],
+        pairs: PassPairs<'_>,
+        positions: &[Vec<DVec3>],
+    ) -> bool {
+        let same_sizes = self.positions.len() == positions.len()
+            && self.positions.iter().zip(positions).all(|(a, b)| a.len() == b.len());
+        same_sizes
+            && self.active == pairs.active
+            && Self::sides_of(frame, caches, pairs).is_some_and(|sides| {
+                sides.len() == self.sides.len()
+                    && sides
+                        .iter()
+                        .zip(&self.sides)
+                        .all(|((p, s), (q, t))| p == q && s[0].same(&t[0]) && s[1].same(&t[1]))
+            })
+    }
+}
+
+/// The seeds of one pass: the last pass's, which it starts from when it fits, and where it
+/// leaves its own.
 #[derive(Default)]
 pub(super) struct Seeds<'a> {
-    /// The kept frame's seed, when this pass is an edit's.
     pub from: Option<&'a SeparationSeed>,
-    /// Where to leave this pass's seed, when its frame is kept for edits.
     pub kept: Option<&'a mut Option<SeparationSeed>>,
 }
 
@@ -620,9 +686,9 @@ fn separate_with(
             objects.map(|i| vec![DistanceBounds::UNKNOWN; frame.objects[i].mesh.num_vertices()])
         })
         .collect();
-    // An edit starts from the kept frame's first-round bounds, lowered by how far every vertex
-    // moved between the two passes' starts.
-    if let Some(seed) = seeds.from.filter(|seed| seed.fits(active, &bounds, &positions)) {
+    // The last pass's first-round bounds, lowered by how far every vertex moved between the two
+    // passes' starts.
+    if let Some(seed) = seeds.from.filter(|seed| seed.fits(frame, caches, pairs, &positions)) {
         let moved: Vec<Option<RoundMoves>> = (0..count)
             .map(|i| caches[i].as_ref().map(|c| RoundMoves::new(&c.topology, &seed.positions[i], &positions[i])))
             .collect();
@@ -736,7 +802,12 @@ fn separate_with(
         if rounds == 0
             && let (Some(kept), Some(positions)) = (seeds.kept.as_deref_mut(), start_positions.take())
         {
-            *kept = Some(SeparationSeed { active: active.to_vec(), positions, bounds: bounds.clone() });
+            *kept = SeparationSeed::sides_of(frame, caches, pairs).map(|sides| SeparationSeed {
+                active: active.to_vec(),
+                sides,
+                positions,
+                bounds: bounds.clone(),
+            });
         }
         let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
         for m in moves.iter().flatten() {

@@ -232,3 +232,40 @@ fn the_separation_pass_keeps_the_motion_continuous() {
     );
     assert!(with_pass <= 1.2 * without, "{with_pass:.3e} vs {without:.3e}");
 }
+
+/// The separation pass starts from the last pass's distance bounds, lowered by how far every
+/// vertex moved since (`separation::SeparationSeed`): a ball pressed deeper in small steps, then a
+/// jump, another mesh, a cut ground region and the whole ground again (the seed then does not
+/// fit: a distance to a cut region bounds none to the whole) give on one deformer a fresh
+/// deformer's bits at every frame, and the small steps ask fewer queries.
+#[test]
+fn each_pass_starts_from_the_last_ones_bounds_with_a_fresh_frames_bits() {
+    use squish::stage::Stage;
+    let bits = |r: &FrameResult| -> Vec<u64> {
+        r.positions.iter().flatten().flat_map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    let mut frames: Vec<ProceduralScene> =
+        (0..6).map(|k| scenes::ball_on_ground(0.2 + 0.002 * k as f64, 3, 24)).collect();
+    frames.push(scenes::ball_on_ground(0.3, 3, 24));
+    let whole = scenes::ball_on_ground(0.3, 2, 24);
+    let mut cut = whole.clone();
+    let mask: Vec<bool> = cut.objects[1].mesh.positions.iter().map(|p| p.x * p.x + p.y * p.y < 0.9 * 0.9).collect();
+    cut.objects[1].params = cut.objects[1].params.clone().with_region_masks(std::slice::from_ref(&mask));
+    frames.extend([whole.clone(), cut.clone(), cut, whole]);
+    let mut deformer = Deformer::new();
+    let (mut reused, mut fresh) = (0, 0);
+    for (k, scene) in frames.iter().enumerate() {
+        let result = deformer.deform(&scene.frame()).unwrap();
+        let alone = Deformer::new().deform(&scene.frame()).unwrap();
+        assert!(bits(&result) == bits(&alone), "frame {k}: the positions differ from a fresh deformer's");
+        assert_eq!(format!("{:?}", result.stats.objects), format!("{:?}", alone.stats.objects), "frame {k}");
+        let (a, b) = (result.stats.work[Stage::Separation], alone.stats.work[Stage::Separation]);
+        assert!(b.rounds > 0, "frame {k}: the pass must work");
+        assert_eq!(a.rounds, b.rounds, "frame {k}: the same rounds");
+        if (1..6).contains(&k) {
+            reused += a.queries;
+            fresh += b.queries;
+        }
+    }
+    assert!(reused * 10 < fresh * 9, "small steps: {reused} queries from the last bounds, {fresh} from none");
+}
