@@ -458,34 +458,24 @@ impl SeparationSeed {
             .collect()
     }
 
-    /// True if the seed was left by a pass over the same region pairs, on the same surfaces
-    /// (connectivity and region faces) and object sizes.
-    fn fits(
-        &self,
-        frame: &Frame,
-        caches: &[Option<ObjectCache>],
-        pairs: PassPairs<'_>,
-        positions: &[Vec<DVec3>],
-    ) -> bool {
+    /// True if the seed was left by a pass over the same region pairs (`active`), on the same
+    /// surfaces (`sides`, [`Self::sides_of`]) and object sizes.
+    fn fits(&self, active: &[usize], sides: &[(usize, [SeedSide; 2])], positions: &[Vec<DVec3>]) -> bool {
         let same_sizes = self.positions.len() == positions.len()
             && self.positions.iter().zip(positions).all(|(a, b)| a.len() == b.len());
         same_sizes
-            && self.active == pairs.active
-            && Self::sides_of(frame, caches, pairs).is_some_and(|sides| {
-                sides.len() == self.sides.len()
-                    && sides
-                        .iter()
-                        .zip(&self.sides)
-                        .all(|((p, s), (q, t))| p == q && s[0].same(&t[0]) && s[1].same(&t[1]))
-            })
+            && self.active == active
+            && sides.len() == self.sides.len()
+            && sides.iter().zip(&self.sides).all(|((p, s), (q, t))| p == q && s[0].same(&t[0]) && s[1].same(&t[1]))
     }
 }
 
 /// The seeds of one pass: the last pass's, which it starts from when it fits, and where it
 /// leaves its own.
-#[derive(Default)]
 pub(super) struct Seeds<'a> {
+    /// The last pass's seed.
     pub from: Option<&'a SeparationSeed>,
+    /// Where to leave this pass's seed (`None`: it leaves none).
     pub kept: Option<&'a mut Option<SeparationSeed>>,
 }
 
@@ -688,7 +678,14 @@ fn separate_with(
         .collect();
     // The last pass's first-round bounds, lowered by how far every vertex moved between the two
     // passes' starts.
-    if let Some(seed) = seeds.from.filter(|seed| seed.fits(frame, caches, pairs, &positions)) {
+    // What this pass's bounds are distances to, found once for the seed it starts from and the
+    // one it leaves.
+    let mut sides = (seeds.from.is_some() || seeds.kept.is_some())
+        .then(|| SeparationSeed::sides_of(frame, caches, pairs))
+        .flatten();
+    if let (Some(seed), Some(sides)) = (seeds.from, sides.as_ref())
+        && seed.fits(active, sides, &positions)
+    {
         let moved: Vec<Option<RoundMoves>> = (0..count)
             .map(|i| caches[i].as_ref().map(|c| RoundMoves::new(&c.topology, &seed.positions[i], &positions[i])))
             .collect();
@@ -800,14 +797,10 @@ fn separate_with(
             }
         }
         if rounds == 0
-            && let (Some(kept), Some(positions)) = (seeds.kept.as_deref_mut(), start_positions.take())
+            && let (Some(kept), Some(positions), Some(sides)) =
+                (seeds.kept.as_deref_mut(), start_positions.take(), sides.take())
         {
-            *kept = SeparationSeed::sides_of(frame, caches, pairs).map(|sides| SeparationSeed {
-                active: active.to_vec(),
-                sides,
-                positions,
-                bounds: bounds.clone(),
-            });
+            *kept = Some(SeparationSeed { active: active.to_vec(), sides, positions, bounds: bounds.clone() });
         }
         let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
         for m in moves.iter().flatten() {
