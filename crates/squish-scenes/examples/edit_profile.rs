@@ -1,6 +1,6 @@
 //! Repeats the bench's edit (`bulge` 1 → 1.2 on every deformable object of the middle frame) on
 //! one deformer, for profiling (`cargo run --release -p squish-scenes --example edit_profile --
-//! SCENE [EDITS] [full]`; `full`: repeat the full frame instead).
+//! SCENE [EDITS] [full]`; `full`: repeat the full frame instead), with its mean stage times.
 #![allow(clippy::unwrap_used)]
 
 use std::path::PathBuf;
@@ -37,13 +37,18 @@ fn main() {
     deformer.deform(&pose.frame()).unwrap();
     set(&mut pose, if full { 1.0 } else { 1.2 });
     let start = Instant::now();
+    let mut stages = squish::stage::StageTimes::default();
     for _ in 0..edits {
         let r = deformer.deform(&pose.frame()).unwrap();
         assert_eq!(r.stats.edit, !full);
+        stages += &r.stats.stages;
     }
     println!(
         "{name}: {:.3} ms per {}",
         start.elapsed().as_secs_f64() * 1e3 / edits as f64,
         if full { "frame" } else { "edit" }
     );
+    for (stage, ms) in stages.millis().iter().filter(|(_, ms)| **ms > 0.0) {
+        println!("  {stage:?}: {:.3} ms", ms / edits as f64);
+    }
 }
