@@ -216,8 +216,9 @@ impl RegionDeformation {
     /// Vertices without a correction keep the bits they would have for the same height.
     /// `self.displacement` is left as it was (the correction is not accumulated into it), so a
     /// caller correcting again passes the whole correction.
-    /// `terms`: the volume terms of the last correction of this region (empty at the first),
-    /// reused where the displacement did not change ([`SweptTerms`]: the same bits).
+    /// `terms`: the volume terms of the last correction of this region (at the first, chapter
+    /// 5's from [`deform_with_fields_and_terms`], or empty), reused where the displacement did
+    /// not change ([`SweptTerms`]: the same bits).
     pub fn correct(
         &mut self,
         mesh: &TriMesh,
@@ -329,11 +330,25 @@ pub fn deform_with_fields(
     fields: RegionFields,
     params: &DeformParams,
 ) -> Result<RegionDeformation, DeformError> {
+    deform_with_fields_and_terms(mesh, topology, zones, fields, params).map(|(deformation, _)| deformation)
+}
+
+/// [`deform_with_fields`] with the terms of its volume cubic: a later
+/// [`RegionDeformation::correct`] given them expands only the faces around the vertices it
+/// corrects (the same bits as from no terms).
+pub fn deform_with_fields_and_terms(
+    mesh: &TriMesh,
+    topology: &Topology,
+    zones: &[&ContactZone],
+    fields: RegionFields,
+    params: &DeformParams,
+) -> Result<(RegionDeformation, SweptTerms), DeformError> {
     let start = Instant::now();
     let upstream_time = fields.stats.time;
     let plan = fields.plan(mesh, zones, params)?;
     let stage = Instant::now();
-    let cubic = plan.volume_cubic(mesh, topology)?;
+    let mut terms = SweptTerms::default();
+    let cubic = plan.volume_cubic_with(mesh, topology, &mut terms)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
         let solution = solve_bulge_height(&cubic, params.extent);
         (solution.height, solution.exact, solution.residual)
@@ -349,7 +364,7 @@ pub fn deform_with_fields(
     stats.fallbacks.volume_without_root = usize::from(params.preserve_volume && !volume_exact);
     stats.timings[Stage::Deformation] += height_time;
     stats.time = upstream_time + start.elapsed();
-    Ok(deformation)
+    Ok((deformation, terms))
 }
 
 /// What a caller may impose on [`plan_region`] beyond [`DeformParams`] (chapter 6 needs it).
@@ -403,7 +418,18 @@ impl RegionPlan {
     /// ΔV(h) of the volume swept by the region's displacement ([`VolumeCubic::swept`], relative
     /// to the region's vertex centroid): the enclosed volume's change for a closed object.
     pub fn volume_cubic(&self, mesh: &TriMesh, topology: &Topology) -> Result<VolumeCubic, DeformError> {
-        VolumeCubic::swept(mesh, topology, &self.displacement, vertex_centroid(&mesh.positions))
+        self.volume_cubic_with(mesh, topology, &mut SweptTerms::default())
+    }
+
+    /// [`Self::volume_cubic`], leaving its terms in `terms` (reused where they are of the same
+    /// displacement, [`VolumeCubic::swept_with`]).
+    pub fn volume_cubic_with(
+        &self,
+        mesh: &TriMesh,
+        topology: &Topology,
+        terms: &mut SweptTerms,
+    ) -> Result<VolumeCubic, DeformError> {
+        VolumeCubic::swept_with(mesh, topology, &self.displacement, vertex_centroid(&mesh.positions), terms)
     }
 
     /// The positions for an applied height `applied` (γ·h_v): moved vertices get

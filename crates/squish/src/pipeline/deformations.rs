@@ -30,8 +30,8 @@ use super::store::FrameStore;
 use super::{Frame, FrameObject, ObjectStats, PipelineError, RegionStats, RegionSummary};
 use crate::contact::ContactZone;
 use crate::deform::{
-    DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver,
-    automatic_extent, deform_with_fields, region_fields, swept_volume_change,
+    DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver, SweptTerms,
+    automatic_extent, deform_with_fields_and_terms, region_fields, swept_volume_change,
 };
 use crate::linalg::FillOrder;
 use crate::mesh::{Topology, signed_volume, signed_volume_of};
@@ -56,6 +56,9 @@ pub(super) struct RegionOutcome {
     /// The region's fields of §5.1–5.3 and resolved scales, when the deformer keeps them for
     /// edits ([`KeptRegion`]).
     pub kept: Option<KeptRegion>,
+    /// The terms of the region's volume cubic, for the separation pass's first height solve
+    /// (taken by it).
+    pub volume_terms: SweptTerms,
 }
 
 /// What an edit of §5.4–5.5's parameters reuses of a region's deformation (see `edits`): its
@@ -229,9 +232,11 @@ fn deform_one(
         border.iter().zip(&fields.domain).any(|(&on_cut, &within)| on_cut && within)
     });
     let kept = keep.then(|| KeptRegion { fields: fields.clone(), scales, clamped, domain_reaches_cut });
-    let deformation = deform_with_fields(mesh, topology, zones, fields, &params).map_err(err)?;
+    let (deformation, volume_terms) =
+        deform_with_fields_and_terms(mesh, topology, zones, fields, &params).map_err(err)?;
     Ok(RegionOutcome {
         deformation,
+        volume_terms,
         extent: params.extent,
         clamped,
         domain_reaches_cut,
@@ -302,8 +307,9 @@ pub(super) fn finish_kept_regions(
                         .as_deref()
                         .map_or((object.mesh, &*cache.topology), |sub| (&sub.sub.mesh, &sub.topology));
                     let params = region_params(object, region.sub.as_deref(), kept.scales).map_err(err)?;
-                    let mut deformation =
-                        deform_with_fields(mesh, topology, zones, kept.fields.clone(), &params).map_err(err)?;
+                    let (mut deformation, volume_terms) =
+                        deform_with_fields_and_terms(mesh, topology, zones, kept.fields.clone(), &params)
+                            .map_err(err)?;
                     let stats = &mut deformation.stats;
                     (stats.numeric_factorizations, stats.factorized_rows, stats.recomputed_rows) = (0, 0, 0);
                     stats.reduced_analyses = 0;
@@ -323,6 +329,7 @@ pub(super) fn finish_kept_regions(
                         new_solver: false,
                         analysis_time: Duration::ZERO,
                         kept: None,
+                        volume_terms,
                     }))
                 })
                 .collect()

@@ -693,10 +693,12 @@ fn separate_with(
         lower_bounds(frame, region_pairs, active, &mut bounds, &moved, &positions);
     }
     let mut start_positions = seeds.kept.is_some().then(|| positions.clone());
-    // Per object and region: the volume terms of its last correction.
-    let mut volume_terms: Vec<Vec<SweptTerms>> = caches
-        .iter()
-        .map(|c| c.as_ref().map_or(Vec::new(), |c| vec![SweptTerms::default(); c.regions.len()]))
+    // Per object and region: the volume terms of its last correction, at first chapter 5's.
+    let mut volume_terms: Vec<Vec<SweptTerms>> = outcomes
+        .iter_mut()
+        .map(|o| {
+            o.iter_mut().map(|o| o.as_mut().map(|o| std::mem::take(&mut o.volume_terms)).unwrap_or_default()).collect()
+        })
         .collect();
     // The sides some active pair sees as open (their inside is the generalized winding number).
     let mut open_sides: Vec<(usize, usize)> = Vec::new();
