@@ -258,33 +258,29 @@ impl RegionDeformation {
         }
         self.stats.bulge_height = bulge_height;
         self.stats.applied_bulge_height = applied;
+        let cones = terms.input_cones(&mesh.triangles, &mesh.positions, reference);
         (self.stats.volume_before, self.stats.volume_after) =
-            volumes_about(&mesh.triangles, &mesh.positions, &self.positions, &displacement.moved, reference);
+            volumes_about_with(&mesh.triangles, cones, &self.positions, &displacement.moved, reference);
         Ok(())
     }
 }
 
 /// The signed volumes of `before` and `after` on the region's faces relative to `reference`, in
-/// one pass: a face none of whose vertices is marked in `moved` has the same cone in both, which
-/// is computed once (each sum gets the same terms in the same order as two separate passes, so
-/// the same bits).
-fn volumes_about(
+/// one pass, from the cones of `before` (`before_cones`, per face, [`SweptTerms::input_cones`]):
+/// a face none of whose vertices is marked in `moved` has the same cone in both (each sum gets
+/// the same terms in the same order as two separate passes, so the same bits).
+fn volumes_about_with(
     triangles: &[[u32; 3]],
-    before: &[DVec3],
+    before_cones: &[f64],
     after: &[DVec3],
     moved: &[bool],
     reference: DVec3,
 ) -> (f64, f64) {
-    let cone = |positions: &[DVec3], tri: &[u32; 3]| {
-        let [a, b, c] = tri.map(|v| positions[v as usize] - reference);
-        a.dot(b.cross(c))
-    };
     let (mut sum_before, mut sum_after) = (0.0, 0.0);
-    for tri in triangles {
-        let first = cone(before, tri);
+    for (tri, &first) in triangles.iter().zip(before_cones) {
         sum_before += first;
         let still = tri.iter().all(|&v| !moved[v as usize]);
-        sum_after += if still { first } else { cone(after, tri) };
+        sum_after += if still { first } else { volume::cone(after, tri, reference) };
     }
     (sum_before / 6.0, sum_after / 6.0)
 }
@@ -357,7 +353,7 @@ pub fn deform_with_fields_and_terms(
     };
     // `finish` adds its own time to the deformation stage: only the height solve is added here.
     let height_time = stage.elapsed();
-    let mut deformation = plan.finish(mesh, bulge_height, params.object.bulge * bulge_height);
+    let mut deformation = plan.finish_with(mesh, bulge_height, params.object.bulge * bulge_height, &mut terms);
     let stats = &mut deformation.stats;
     stats.volume_exact = volume_exact;
     stats.volume_residual = volume_residual;
@@ -448,6 +444,18 @@ impl RegionPlan {
     /// The deformation for the bulge height `bulge_height` (h_v) applied as `applied` (γ·h_v).
     /// The caller sets the volume figures of the stats that depend on how h_v was chosen.
     pub fn finish(self, mesh: &TriMesh, bulge_height: f64, applied: f64) -> RegionDeformation {
+        self.finish_with(mesh, bulge_height, applied, &mut SweptTerms::default())
+    }
+
+    /// [`Self::finish`] with the terms of this plan's volume cubic
+    /// ([`Self::volume_cubic_with`]), which keep the input's cones for the corrections after.
+    pub fn finish_with(
+        self,
+        mesh: &TriMesh,
+        bulge_height: f64,
+        applied: f64,
+        terms: &mut SweptTerms,
+    ) -> RegionDeformation {
         let stage = Instant::now();
         let positions = self.positions(mesh, applied);
         let heights = (0..positions.len())
@@ -464,8 +472,9 @@ impl RegionPlan {
         stats.bulge_height = bulge_height;
         stats.applied_bulge_height = applied;
         // Unmoved vertices keep their input bits (`positions`), so their faces' cones are shared.
+        let cones = terms.input_cones(&mesh.triangles, &mesh.positions, reference);
         (stats.volume_before, stats.volume_after) =
-            volumes_about(&mesh.triangles, &mesh.positions, &positions, &self.displacement.moved, reference);
+            volumes_about_with(&mesh.triangles, cones, &positions, &self.displacement.moved, reference);
         stats.timings[Stage::Deformation] += stage.elapsed();
         RegionDeformation {
             positions,

@@ -160,6 +160,28 @@ pub struct SweptTerms {
     faces: Vec<Option<[f64; 4]>>,
     /// Per boundary edge of the topology, in its order.
     strips: Vec<Option<[f64; 4]>>,
+    /// Per face, the signed volume (×6) of its cone at the input positions about `reference`
+    /// (empty until asked, [`SweptTerms::input_cones`]).
+    cones: Vec<f64>,
+}
+
+impl SweptTerms {
+    /// Per face of `triangles`, six times the signed volume of its cone from `reference` at the
+    /// input `positions` (those the terms are of): computed at the first call after the terms
+    /// were (re)built, kept after.
+    pub(super) fn input_cones(&mut self, triangles: &[[u32; 3]], positions: &[DVec3], reference: DVec3) -> &[f64] {
+        if self.cones.len() != triangles.len() {
+            self.cones = triangles.iter().map(|tri| cone(positions, tri, reference)).collect();
+        }
+        &self.cones
+    }
+}
+
+/// Six times the signed volume of the cone from `reference` over the triangle `tri` at `positions`.
+#[inline]
+pub(super) fn cone(positions: &[DVec3], tri: &[u32; 3], reference: DVec3) -> f64 {
+    let [a, b, c] = tri.map(|v| positions[v as usize] - reference);
+    a.dot(b.cross(c))
 }
 
 impl VolumeCubic {
@@ -216,6 +238,7 @@ impl VolumeCubic {
         if !reusable {
             terms.faces = vec![None; mesh.num_triangles()];
             terms.strips = vec![None; boundary.len()];
+            terms.cones.clear();
         }
         for (tri, slot) in mesh.triangles.iter().zip(terms.faces.iter_mut()) {
             if tri.iter().any(|&v| changed[v as usize]) {
