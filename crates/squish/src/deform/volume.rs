@@ -251,7 +251,17 @@ impl VolumeCubic {
                 *slot = strip_terms(mesh, topology, e, displacement, reference);
             }
         }
-        terms.displacement.clone_from(displacement);
+        if reusable {
+            // Only the changed vertices differ from the displacement the terms were of.
+            let old = &mut terms.displacement;
+            for v in (0..n).filter(|&v| changed[v]) {
+                old.moved[v] = displacement.moved[v];
+                old.constant[v] = displacement.constant[v];
+                old.linear[v] = displacement.linear[v];
+            }
+        } else {
+            terms.displacement.clone_from(displacement);
+        }
         terms.reference = Some(reference);
         Ok(sum_terms(terms.faces.iter(), terms.strips.iter()))
     }
