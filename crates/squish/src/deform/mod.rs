@@ -229,15 +229,10 @@ impl RegionDeformation {
     ) -> Result<(), DeformError> {
         let n = mesh.num_vertices();
         DeformError::check_len("correction", n, correction.len())?;
-        let mut displacement = self.displacement.clone();
-        for (v, c) in correction.iter().enumerate() {
-            if *c != DVec3::ZERO {
-                displacement.moved[v] = true;
-                displacement.constant[v] += *c;
-            }
-        }
         let reference = vertex_centroid(&mesh.positions);
-        let cubic = VolumeCubic::swept_with(mesh, topology, &displacement, reference, terms)?;
+        let cubic = VolumeCubic::swept_corrected(mesh, topology, &self.displacement, correction, reference, terms)?;
+        // The corrected displacement, built in the terms.
+        let displacement = terms.displacement();
         let old_applied = self.stats.applied_bulge_height;
         let (bulge_height, applied) = if choice.preserve_volume {
             let solution = solve_bulge_height(&cubic, choice.extent);
@@ -258,9 +253,9 @@ impl RegionDeformation {
         }
         self.stats.bulge_height = bulge_height;
         self.stats.applied_bulge_height = applied;
-        let cones = terms.input_cones(&mesh.triangles, &mesh.positions, reference);
+        let (cones, moved) = terms.input_cones_and_moved(&mesh.triangles, &mesh.positions, reference);
         (self.stats.volume_before, self.stats.volume_after) =
-            volumes_about_with(&mesh.triangles, cones, &self.positions, &displacement.moved, reference);
+            volumes_about_with(&mesh.triangles, cones, &self.positions, moved, reference);
         Ok(())
     }
 }

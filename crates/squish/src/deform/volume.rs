@@ -166,6 +166,69 @@ pub struct SweptTerms {
 }
 
 impl SweptTerms {
+    /// The displacement the terms are of.
+    pub fn displacement(&self) -> &AffineDisplacement {
+        &self.displacement
+    }
+
+    /// Brings the terms to the displacement given per vertex by `at` (moved, constant, linear),
+    /// `whole` building all of it when the terms cannot be reused (another mesh, topology or
+    /// reference, or none yet): only the faces and strips around the vertices whose displacement
+    /// changed (bit for bit) are expanded again, and the cubic is summed in the same order as from
+    /// scratch.
+    fn update(
+        &mut self,
+        mesh: &TriMesh,
+        topology: &Topology,
+        reference: DVec3,
+        whole: impl FnOnce() -> AffineDisplacement,
+        at: impl Fn(usize) -> (bool, DVec3, DVec3),
+    ) -> VolumeCubic {
+        let bits = |p: DVec3| p.to_array().map(f64::to_bits);
+        let n = mesh.num_vertices();
+        let boundary = topology.boundary_edges();
+        let reusable = self.reference.map(bits) == Some(bits(reference))
+            && self.faces.len() == mesh.num_triangles()
+            && self.strips.len() == boundary.len()
+            && self.displacement.moved.len() == n;
+        // The vertices whose displacement differs from the one the terms are of, written in.
+        let changed: Vec<bool> = if reusable {
+            let old = &mut self.displacement;
+            (0..n)
+                .map(|v| {
+                    let (moved, constant, linear) = at(v);
+                    let changed = old.moved[v] != moved
+                        || bits(old.constant[v]) != bits(constant)
+                        || bits(old.linear[v]) != bits(linear);
+                    if changed {
+                        (old.moved[v], old.constant[v], old.linear[v]) = (moved, constant, linear);
+                    }
+                    changed
+                })
+                .collect()
+        } else {
+            self.faces = vec![None; mesh.num_triangles()];
+            self.strips = vec![None; boundary.len()];
+            self.cones.clear();
+            self.displacement = whole();
+            vec![true; n]
+        };
+        self.reference = Some(reference);
+        let displacement = &self.displacement;
+        for (tri, slot) in mesh.triangles.iter().zip(self.faces.iter_mut()) {
+            if tri.iter().any(|&v| changed[v as usize]) {
+                *slot = face_terms(mesh, tri, displacement, reference);
+            }
+        }
+        for (&e, slot) in boundary.iter().zip(self.strips.iter_mut()) {
+            let [a, b] = topology.edge(e);
+            if changed[a as usize] || changed[b as usize] {
+                *slot = strip_terms(mesh, topology, e, displacement, reference);
+            }
+        }
+        sum_terms(self.faces.iter(), self.strips.iter())
+    }
+
     /// Per face of `triangles`, six times the signed volume of its cone from `reference` at the
     /// input `positions` (those the terms are of): computed at the first call after the terms
     /// were (re)built, kept after.
@@ -174,6 +237,17 @@ impl SweptTerms {
             self.cones = triangles.iter().map(|tri| cone(positions, tri, reference)).collect();
         }
         &self.cones
+    }
+
+    /// [`Self::input_cones`] with the vertices the terms' displacement moves.
+    pub(super) fn input_cones_and_moved(
+        &mut self,
+        triangles: &[[u32; 3]],
+        positions: &[DVec3],
+        reference: DVec3,
+    ) -> (&[f64], &[bool]) {
+        self.input_cones(triangles, positions, reference);
+        (&self.cones, &self.displacement.moved)
     }
 }
 
@@ -215,55 +289,42 @@ impl VolumeCubic {
         terms: &mut SweptTerms,
     ) -> Result<Self, DeformError> {
         check_displacement(mesh, displacement)?;
-        let bits = |p: DVec3| p.to_array().map(f64::to_bits);
-        let n = mesh.num_vertices();
-        let boundary = topology.boundary_edges();
-        let reusable = terms.reference.map(bits) == Some(bits(reference))
-            && terms.faces.len() == mesh.num_triangles()
-            && terms.strips.len() == boundary.len()
-            && terms.displacement.moved.len() == n;
-        // The vertices whose displacement differs from the one the terms are of.
-        let changed: Vec<bool> = if reusable {
-            let old = &terms.displacement;
-            (0..n)
-                .map(|v| {
-                    old.moved[v] != displacement.moved[v]
-                        || bits(old.constant[v]) != bits(displacement.constant[v])
-                        || bits(old.linear[v]) != bits(displacement.linear[v])
-                })
-                .collect()
-        } else {
-            vec![true; n]
+        let at = |v: usize| (displacement.moved[v], displacement.constant[v], displacement.linear[v]);
+        Ok(terms.update(mesh, topology, reference, || displacement.clone(), at))
+    }
+
+    /// [`Self::swept_with`] of `base` with `correction` (per vertex) added to its constant part,
+    /// a vertex with a non-zero correction moving: the displacement is built in `terms`
+    /// ([`SweptTerms::displacement`]) where it changed since their last call, not copied whole.
+    pub fn swept_corrected(
+        mesh: &TriMesh,
+        topology: &Topology,
+        base: &AffineDisplacement,
+        correction: &[DVec3],
+        reference: DVec3,
+        terms: &mut SweptTerms,
+    ) -> Result<Self, DeformError> {
+        check_displacement(mesh, base)?;
+        DeformError::check_len("correction", mesh.num_vertices(), correction.len())?;
+        let at = |v: usize| {
+            let c = correction[v];
+            if c == DVec3::ZERO {
+                (base.moved[v], base.constant[v], base.linear[v])
+            } else {
+                (true, base.constant[v] + c, base.linear[v])
+            }
         };
-        if !reusable {
-            terms.faces = vec![None; mesh.num_triangles()];
-            terms.strips = vec![None; boundary.len()];
-            terms.cones.clear();
-        }
-        for (tri, slot) in mesh.triangles.iter().zip(terms.faces.iter_mut()) {
-            if tri.iter().any(|&v| changed[v as usize]) {
-                *slot = face_terms(mesh, tri, displacement, reference);
+        let whole = || {
+            let mut d = base.clone();
+            for (v, c) in correction.iter().enumerate() {
+                if *c != DVec3::ZERO {
+                    d.moved[v] = true;
+                    d.constant[v] += *c;
+                }
             }
-        }
-        for (&e, slot) in boundary.iter().zip(terms.strips.iter_mut()) {
-            let [a, b] = topology.edge(e);
-            if changed[a as usize] || changed[b as usize] {
-                *slot = strip_terms(mesh, topology, e, displacement, reference);
-            }
-        }
-        if reusable {
-            // Only the changed vertices differ from the displacement the terms were of.
-            let old = &mut terms.displacement;
-            for v in (0..n).filter(|&v| changed[v]) {
-                old.moved[v] = displacement.moved[v];
-                old.constant[v] = displacement.constant[v];
-                old.linear[v] = displacement.linear[v];
-            }
-        } else {
-            terms.displacement.clone_from(displacement);
-        }
-        terms.reference = Some(reference);
-        Ok(sum_terms(terms.faces.iter(), terms.strips.iter()))
+            d
+        };
+        Ok(terms.update(mesh, topology, reference, whole, at))
     }
 
     /// ΔV(h).
