@@ -163,25 +163,24 @@ impl TriangleBvh {
             let links = self
                 .links
                 .get_or_insert_with(|| Box::new(RefitLinks::new(&self.bvh, &self.indices, &self.fitted_vertices)));
-            let mut dirty: Vec<u32> = Vec::new();
+            // The highest node marked: the sweep below starts there.
+            let mut last = 0;
             for &k in &moved {
                 let k = k as usize;
                 for &leaf in &links.leaves[links.offsets[k] as usize..links.offsets[k + 1] as usize] {
                     self.corners[leaf as usize] = self.indices[leaf as usize].map(|i| positions[i as usize]);
                     let mut node = links.leaf_node[leaf as usize];
+                    last = last.max(node as usize);
                     while node != u32::MAX && !links.marked[node as usize] {
                         links.marked[node as usize] = true;
-                        dirty.push(node);
                         node = links.parent[node as usize];
                     }
                 }
             }
-            for &node in &dirty {
-                links.marked[node as usize] = false;
-            }
-            dirty.sort_unstable_by(|a, b| b.cmp(a));
+            // A node's children follow it, so a sweep down the indices refits children first (and
+            // clears the marks).
             let corners = &self.corners;
-            self.bvh.refit_nodes(&dirty, |leaf| triangle_aabb(&corners[leaf as usize]));
+            self.bvh.refit_marked(&mut links.marked[..=last], |leaf| triangle_aabb(&corners[leaf as usize]));
         }
         self.bounds = self.bvh.nodes().first().map_or(Aabb3::EMPTY, |root| Aabb3 { min: root.min, max: root.max });
         Ok(())
