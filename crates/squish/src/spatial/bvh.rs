@@ -89,6 +89,10 @@ impl RefitLinks {
 /// their leaves and ancestors; more, and every box is recomputed.
 const PARTIAL_REFIT: usize = 4;
 
+/// A partial refit marking more than one node in this many of those it would sweep sweeps them
+/// in index order rather than sorting the marked ones.
+const SWEEP_DIRTY: usize = 16;
+
 impl TriangleBvh {
     /// Builds the tree over all triangles of `mesh`. Fails on an out-of-range index or a
     /// non-finite coordinate; an empty mesh gives an empty tree (queries find nothing).
@@ -163,24 +167,33 @@ impl TriangleBvh {
             let links = self
                 .links
                 .get_or_insert_with(|| Box::new(RefitLinks::new(&self.bvh, &self.indices, &self.fitted_vertices)));
-            // The highest node marked: the sweep below starts there.
-            let mut last = 0;
+            let mut dirty: Vec<u32> = Vec::new();
             for &k in &moved {
                 let k = k as usize;
                 for &leaf in &links.leaves[links.offsets[k] as usize..links.offsets[k + 1] as usize] {
                     self.corners[leaf as usize] = self.indices[leaf as usize].map(|i| positions[i as usize]);
                     let mut node = links.leaf_node[leaf as usize];
-                    last = last.max(node as usize);
                     while node != u32::MAX && !links.marked[node as usize] {
                         links.marked[node as usize] = true;
+                        dirty.push(node);
                         node = links.parent[node as usize];
                     }
                 }
             }
-            // A node's children follow it, so a sweep down the indices refits children first (and
-            // clears the marks).
+            // A node's children follow it: refitted down the indices, children come first. Many
+            // marked boxes are swept in index order (which clears the marks); a few are sorted.
             let corners = &self.corners;
-            self.bvh.refit_marked(&mut links.marked[..=last], |leaf| triangle_aabb(&corners[leaf as usize]));
+            let item_box = |leaf: u32| triangle_aabb(&corners[leaf as usize]);
+            let last = dirty.iter().copied().max().unwrap_or(0) as usize;
+            if dirty.len() * SWEEP_DIRTY > last {
+                self.bvh.refit_marked(&mut links.marked[..=last], item_box);
+            } else {
+                for &node in &dirty {
+                    links.marked[node as usize] = false;
+                }
+                dirty.sort_unstable_by(|a, b| b.cmp(a));
+                self.bvh.refit_nodes(&dirty, item_box);
+            }
         }
         self.bounds = self.bvh.nodes().first().map_or(Aabb3::EMPTY, |root| Aabb3 { min: root.min, max: root.max });
         Ok(())
@@ -467,10 +480,12 @@ mod tests {
             let mut rng = Lcg::new(7);
             let mut positions = mesh.positions.clone();
             for step in 0..40 {
-                // Mostly a few vertices, sometimes most of them (the whole refit), sometimes none.
+                // Mostly a few vertices (their boxes sorted), sometimes a sixth of them (the
+                // marked boxes swept), most of them (the whole refit) or none.
                 let count = match step % 8 {
                     0 => positions.len(),
                     1 => 0,
+                    2 => positions.len() / 6,
                     _ => 1 + step % 13,
                 };
                 for _ in 0..count {

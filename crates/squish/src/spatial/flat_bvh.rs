@@ -205,6 +205,15 @@ impl FlatBvh {
         (parent, leaf_of)
     }
 
+    /// [`Self::refit`] of the nodes `dirty` only (sorted by decreasing index, so children come
+    /// before their parents): the boxes of a full refit when every other node's box is already
+    /// its items' (the boxes are minima and maxima, exact in any order).
+    pub fn refit_nodes(&mut self, dirty: &[u32], item_box: impl Fn(u32) -> (DVec3, DVec3)) {
+        for &i in dirty {
+            self.refit_node(i as usize, &item_box);
+        }
+    }
+
     /// [`Self::refit`] of the nodes marked in `marked` only (by index; a prefix of the nodes
     /// holding every marked one), in decreasing index order so that children come before their
     /// parents, clearing the marks: the boxes of a full refit when every other node's box is
