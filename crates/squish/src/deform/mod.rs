@@ -339,7 +339,7 @@ pub fn deform_with_fields_and_terms(
     let plan = fields.plan(mesh, zones, params)?;
     let stage = Instant::now();
     let mut terms = SweptTerms::default();
-    let cubic = plan.volume_cubic_with(mesh, topology, &mut terms)?;
+    let cubic = plan.volume_cubic(mesh, topology, &mut terms)?;
     let (bulge_height, volume_exact, volume_residual) = if params.preserve_volume {
         let solution = solve_bulge_height(&cubic, params.extent);
         (solution.height, solution.exact, solution.residual)
@@ -348,7 +348,7 @@ pub fn deform_with_fields_and_terms(
     };
     // `finish` adds its own time to the deformation stage: only the height solve is added here.
     let height_time = stage.elapsed();
-    let mut deformation = plan.finish_with(mesh, bulge_height, params.object.bulge * bulge_height, &mut terms);
+    let mut deformation = plan.finish(mesh, bulge_height, params.object.bulge * bulge_height, &mut terms);
     let stats = &mut deformation.stats;
     stats.volume_exact = volume_exact;
     stats.volume_residual = volume_residual;
@@ -407,14 +407,10 @@ pub struct RegionPlan {
 
 impl RegionPlan {
     /// ΔV(h) of the volume swept by the region's displacement ([`VolumeCubic::swept`], relative
-    /// to the region's vertex centroid): the enclosed volume's change for a closed object.
-    pub fn volume_cubic(&self, mesh: &TriMesh, topology: &Topology) -> Result<VolumeCubic, DeformError> {
-        self.volume_cubic_with(mesh, topology, &mut SweptTerms::default())
-    }
-
-    /// [`Self::volume_cubic`], leaving its terms in `terms` (reused where they are of the same
-    /// displacement, [`VolumeCubic::swept_with`]).
-    pub fn volume_cubic_with(
+    /// to the region's vertex centroid): the enclosed volume's change for a closed object. Its
+    /// terms are left in `terms` (reused where they are of the same displacement,
+    /// [`VolumeCubic::swept_with`]) for [`Self::finish`] and the corrections after.
+    pub fn volume_cubic(
         &self,
         mesh: &TriMesh,
         topology: &Topology,
@@ -438,19 +434,8 @@ impl RegionPlan {
 
     /// The deformation for the bulge height `bulge_height` (h_v) applied as `applied` (γ·h_v).
     /// The caller sets the volume figures of the stats that depend on how h_v was chosen.
-    pub fn finish(self, mesh: &TriMesh, bulge_height: f64, applied: f64) -> RegionDeformation {
-        self.finish_with(mesh, bulge_height, applied, &mut SweptTerms::default())
-    }
-
-    /// [`Self::finish`] with the terms of this plan's volume cubic
-    /// ([`Self::volume_cubic_with`]), which keep the input's cones for the corrections after.
-    pub fn finish_with(
-        self,
-        mesh: &TriMesh,
-        bulge_height: f64,
-        applied: f64,
-        terms: &mut SweptTerms,
-    ) -> RegionDeformation {
+    /// `terms`: those of [`Self::volume_cubic`] (or empty), which keep the input's cones.
+    pub fn finish(self, mesh: &TriMesh, bulge_height: f64, applied: f64, terms: &mut SweptTerms) -> RegionDeformation {
         let stage = Instant::now();
         let positions = self.positions(mesh, applied);
         let heights = (0..positions.len())
