@@ -1,6 +1,7 @@
 //! Repeats the bench's edit (`bulge` 1 → 1.2 on every deformable object of the middle frame) on
 //! one deformer, for profiling (`cargo run --release -p squish-scenes --example edit_profile --
-//! SCENE [EDITS] [full]`; `full`: repeat the full frame instead), with its mean stage times.
+//! SCENE [EDITS] [full]`; `full`: repeat the full frame instead), with its mean stage times, on
+//! `RAYON_NUM_THREADS` threads (1 by default).
 #![allow(clippy::unwrap_used)]
 
 use std::path::PathBuf;
@@ -10,6 +11,13 @@ use squish::pipeline::Deformer;
 use squish_scenes::bench::{self, BenchScene, BenchSize};
 
 fn main() {
+    // Inside a pool, as `squish bench` times: a parallel map started from outside one waits on
+    // another thread, which a profile would count as the frame's.
+    let threads = std::env::var("RAYON_NUM_THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(profile);
+}
+
+fn profile() {
     let args: Vec<String> = std::env::args().collect();
     let name = args.get(1).cloned().unwrap_or_else(|| "fingers-ball".into());
     let edits: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(50);
