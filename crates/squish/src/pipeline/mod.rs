@@ -66,6 +66,7 @@ pub use part_contact::{MARGIN_RINGS, PartPairStats, Untangled};
 pub use plan::{JobKind, JobLevel, JobRecord};
 pub use quality::PairQuality;
 pub use self_contact::SelfContactResult;
+pub use separation::STOP_FRACTION;
 pub use stats::{FrameStats, ObjectStats, PairStats, RegionStats, RegionSummary};
 pub use warnings::{FrameWarning, RESIDUAL_PENETRATION_TOLERANCE, WarningKind, pair_warnings};
 

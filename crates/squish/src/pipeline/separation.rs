@@ -71,8 +71,10 @@ use crate::stage::{SharedWork, Work};
 
 /// Most rounds of moves and height solves per frame.
 pub const MAX_ROUNDS: usize = 8;
-/// The pass stops when no vertex is asked to move by more than this fraction of the gap.
-pub const STOP_FRACTION: f64 = 0.01;
+/// The pass stops when no vertex is asked to move by more than this fraction of the gap: at the
+/// default gap (a tenth of a mean edge) half a hundredth of an edge, what a round more or less
+/// changes between two frames (docs/decisions.md, "Separation pass").
+pub const STOP_FRACTION: f64 = 0.05;
 /// Radius of the spread of a move, in mean edge lengths of the moved object.
 pub const SPREAD_EDGES: f64 = 2.0;
 /// Depth, in mean edge lengths of the pair, beyond which a point behind an open surface is not
