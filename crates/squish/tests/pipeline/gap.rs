@@ -275,8 +275,9 @@ fn the_pass_stops_with_every_vertex_within_its_tolerance_of_the_gap() {
     // When the pass stops, no vertex is asked to move by more than `STOP_FRACTION`·g: each
     // output vertex near the other object is about (1 − `STOP_FRACTION`)·g or more out of it; a
     // side's share of the gap, the blend of a vertex's asks and the spread of its neighbours'
-    // moves allow twice that. Two bench scenes whose pass takes two rounds (measured: 0.979 g and
-    // 0.982 g; stopped after one round, 0.818 g and 0.877 g).
+    // moves allow twice that. Two bench scenes whose pass takes at least two rounds, so that a
+    // pass stopped early fails (the figures are in docs/speed.md, "The separation pass stops at
+    // 5% of the gap").
     use squish::pipeline::STOP_FRACTION;
     use squish_scenes::bench::{BenchSize, fingers_ball, hat_egg};
     for scene in [fingers_ball(BenchSize::Full), hat_egg(BenchSize::Full)] {
