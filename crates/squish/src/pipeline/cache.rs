@@ -33,6 +33,10 @@ pub(super) struct ObjectCache {
     pub bvh: Arc<TriangleBvh>,
     pub components: Arc<Components>,
     pub regions: Vec<RegionCache>,
+    /// The separation pass's tree of the whole object, for the inside of its cut regions when it
+    /// is closed (see [`SideTrees`]): kept between frames and refitted, whatever its regions'
+    /// face sets do, so that a region cut again does not copy and refit the whole tree again.
+    pub separation_whole: Option<Box<TriangleBvh>>,
     /// The last frame's component figures and the positions they were computed from: an object
     /// that has not moved since, bit for bit (a static ground, a prop at rest), reuses them, which
     /// gives the same bits as computing them again.
@@ -54,6 +58,7 @@ impl ObjectCache {
             bvh: Arc::new(bvh),
             components: Arc::new(components),
             regions: Vec::new(),
+            separation_whole: None,
             figures: None,
         })
     }
@@ -69,6 +74,7 @@ impl ObjectCache {
             bvh: Arc::clone(&self.bvh),
             components: Arc::clone(&self.components),
             regions: Vec::new(),
+            separation_whole: None,
             figures: None,
         }
     }
@@ -330,8 +336,11 @@ impl RegionCache {
         }
     }
 
+    /// The region of `parent`'s `faces`; its tree is `parent_tree` (the whole object's, any
+    /// positions) pruned to them and fitted to the region.
     pub fn cut(
         parent: &TriMesh,
+        parent_tree: &TriangleBvh,
         topology: &Topology,
         components: &Components,
         faces: Vec<u32>,
@@ -339,7 +348,10 @@ impl RegionCache {
         let sub = SubMesh::from_faces(parent, faces.iter().copied());
         let sub_topology = Topology::new(&sub.mesh);
         sub_topology.check_manifold(&sub.mesh).map_err(|e| format!("the region's mesh is invalid: {e}"))?;
-        let bvh = TriangleBvh::new(&sub.mesh).map_err(|e| e.to_string())?;
+        let bvh = match parent_tree.restricted(&sub.mesh, &sub.parent_face).map_err(|e| e.to_string())? {
+            Some(tree) => tree,
+            None => TriangleBvh::new(&sub.mesh).map_err(|e| e.to_string())?,
+        };
         let mut in_region = vec![false; parent.num_triangles()];
         for &f in &faces {
             in_region[f as usize] = true;
@@ -393,12 +405,10 @@ impl RegionCache {
 /// queried by the separation pass (`separation`).
 #[derive(Debug)]
 pub(super) struct SideTrees {
-    /// The region's faces (object face ids) at the current positions.
+    /// The region's faces (object face ids) at the current positions. A region cut out of a
+    /// closed object and paired with another object has its inside from the whole object's
+    /// tree, kept by the object ([`ObjectCache::separation_whole`]).
     pub bvh: TriangleBvh,
-    /// The whole object's tree when the region is cut out of a closed object and paired with
-    /// another object (its inside is the object's); `None` for a side paired with its own
-    /// object only, whose inside is the region's own.
-    pub whole: Option<TriangleBvh>,
     /// Vertices of the side (sorted, object ids).
     pub vertices: Vec<u32>,
     /// The far-field clusters of `bvh` for the inside of an open side, refreshed each round

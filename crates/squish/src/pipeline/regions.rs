@@ -307,6 +307,7 @@ fn update_regions(
     regions: &mut Vec<RegionCache>,
     selection: Selection,
     parent: &TriMesh,
+    parent_tree: &TriangleBvh,
     topology: &Topology,
     components: &Components,
 ) -> Result<(), String> {
@@ -330,7 +331,7 @@ fn update_regions(
             kept.into_par_iter()
                 .map(|(faces, cache)| match cache {
                     Some(cache) => Ok(cache),
-                    None => RegionCache::cut(parent, topology, components, faces),
+                    None => RegionCache::cut(parent, parent_tree, topology, components, faces),
                 })
                 .collect()
         }
@@ -383,8 +384,8 @@ pub(super) fn update_working_regions(
                     .refit(&object.mesh.positions)
                     .map_err(|source| PipelineError::Spatial { object: object.name.to_string(), source })?;
             }
-            let ObjectCache { regions, topology, components, .. } = cache;
-            update_regions(regions, selection, object.mesh, topology, components)
+            let ObjectCache { regions, topology, components, bvh, .. } = cache;
+            update_regions(regions, selection, object.mesh, bvh, topology, components)
                 .map_err(|reason| PipelineError::invalid_region(object.name, reason))?;
             let open = object.params.contact_open_border.as_deref();
             for sub in regions.iter_mut().filter_map(|r| r.sub.as_deref_mut()) {

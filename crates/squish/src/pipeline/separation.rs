@@ -66,7 +66,7 @@ use super::{Frame, PipelineError};
 use crate::contact::PairContact;
 use crate::deform::{HeightChoice, SweptTerms};
 use crate::mesh::{Aabb3, Topology, TriMesh, face_normal_unnormalized};
-use crate::spatial::{FastWinding, SpatialError, TriangleBvh, WindingClusters, closest_point_on_triangle};
+use crate::spatial::{FastWinding, TriangleBvh, WindingClusters, closest_point_on_triangle};
 use crate::stage::{SharedWork, Work};
 
 /// Most rounds of moves and height solves per frame.
@@ -145,39 +145,25 @@ fn mean_edge_length(cache: &ObjectCache, positions: &[DVec3]) -> f64 {
 }
 
 impl SideTrees {
-    /// The trees of region `region` of an object at `positions`; `with_whole`: a cut region
-    /// also gets the whole object's tree (its inside is its closed object's).
-    fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh, with_whole: bool) -> Option<Self> {
+    /// The trees of region `region` of an object at `positions`.
+    fn new(cache: &ObjectCache, region: usize, positions: &[DVec3], mesh: &TriMesh) -> Option<Self> {
         let region_cache = cache.regions.get(region)?;
-        let whole = || with_whole.then(|| TriangleBvh::clone(&cache.bvh));
-        let (mut bvh, vertices, mut whole) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
-            (None, _) => (TriangleBvh::clone(&cache.bvh), (0..positions.len() as u32).collect(), None),
+        let (mut bvh, vertices) = match (region_cache.faces.as_ref(), region_cache.sub.as_deref()) {
+            (None, _) => (TriangleBvh::clone(&cache.bvh), (0..positions.len() as u32).collect()),
             (Some(_), Some(sub)) => {
                 let bvh = sub.bvh.relabeled(&sub.sub.parent_face, &sub.sub.parent_vertex, positions.len())?;
-                (bvh, sub.sub.parent_vertex.clone(), whole())
+                (bvh, sub.sub.parent_vertex.clone())
             }
             (Some(faces), None) => {
                 let mut vertices: Vec<u32> = faces.iter().flat_map(|&f| mesh.triangles[f as usize]).collect();
                 vertices.sort_unstable();
                 vertices.dedup();
                 let bvh = TriangleBvh::with_faces(mesh, faces.iter().copied()).ok()?;
-                (bvh, vertices, whole())
+                (bvh, vertices)
             }
         };
         bvh.refit(positions).ok()?;
-        if let Some(whole) = whole.as_mut() {
-            whole.refit(positions).ok()?;
-        }
-        Some(Self { bvh, whole, vertices, clusters: WindingClusters::default() })
-    }
-
-    /// Moves the trees to new positions of the object.
-    fn refit(&mut self, positions: &[DVec3]) -> Result<(), SpatialError> {
-        self.bvh.refit(positions)?;
-        if let Some(whole) = self.whole.as_mut() {
-            whole.refit(positions)?;
-        }
-        Ok(())
+        Some(Self { bvh, vertices, clusters: WindingClusters::default() })
     }
 }
 
@@ -185,6 +171,10 @@ impl SideTrees {
 /// positions and how its inside is decided.
 struct Surface<'a> {
     trees: &'a SideTrees,
+    /// The whole object's tree at the same positions, for the inside of a region cut out of a
+    /// closed object (`None`: the side's own tree is the whole object's, or its inside is not
+    /// the object's).
+    whole: Option<&'a TriangleBvh>,
     positions: &'a [DVec3],
     triangles: &'a [[u32; 3]],
     /// The object's connectivity.
@@ -248,7 +238,7 @@ impl Surface<'_> {
         if !self.closed {
             return vec![false; candidates.len()];
         }
-        let tree = self.trees.whole.as_ref().unwrap_or(&self.trees.bvh);
+        let tree = self.whole.unwrap_or(&self.trees.bvh);
         // Candidate index of each vertex (u32::MAX: not a candidate).
         let mut index = vec![u32::MAX; positions.len()];
         for (k, &v) in candidates.iter().enumerate() {
@@ -576,13 +566,17 @@ pub(super) fn separate(
                 .map_or(Vec::new(), |c| c.regions.iter_mut().map(|r| r.separation_trees.take().map(|t| *t)).collect())
         })
         .collect();
+    let mut wholes: Vec<Option<TriangleBvh>> =
+        caches.iter_mut().map(|c| c.as_mut().and_then(|c| c.separation_whole.take()).map(|t| *t)).collect();
     let pairs = PassPairs { region_pairs, contacts, active: &active };
-    let result = separate_with(frame, caches, pairs, outcomes, &mut trees, seeds);
-    for (cache, trees) in caches.iter_mut().zip(trees) {
+    let result =
+        separate_with(frame, caches, pairs, outcomes, PassTrees { sides: &mut trees, wholes: &mut wholes }, seeds);
+    for ((cache, trees), whole) in caches.iter_mut().zip(trees).zip(wholes) {
         if let Some(cache) = cache.as_mut() {
             for (region, side) in cache.regions.iter_mut().zip(trees) {
                 region.separation_trees = side.map(Box::new);
             }
+            cache.separation_whole = whole.map(Box::new);
         }
     }
     result
@@ -596,16 +590,24 @@ struct PassPairs<'a> {
     active: &'a [usize],
 }
 
-/// [`separate`] with the trees of every region (`trees[object][region]`, built where missing).
+/// The trees of one pass: every region's (`sides[object][region]`) and every object's whole tree
+/// (`wholes[object]`), built where missing.
+struct PassTrees<'a> {
+    sides: &'a mut [Vec<Option<SideTrees>>],
+    wholes: &'a mut [Option<TriangleBvh>],
+}
+
+/// [`separate`] with the trees of every region and object (built where missing).
 fn separate_with(
     frame: &Frame,
     caches: &[Option<ObjectCache>],
     pairs: PassPairs<'_>,
     outcomes: &mut [Vec<Option<RegionOutcome>>],
-    trees: &mut [Vec<Option<SideTrees>>],
+    pass_trees: PassTrees<'_>,
     mut seeds: Seeds<'_>,
 ) -> Result<(Vec<PairSeparation>, Vec<FrameWarning>), PipelineError> {
     let PassPairs { region_pairs, contacts, active } = pairs;
+    let PassTrees { sides: trees, wholes } = pass_trees;
     let mut report = vec![PairSeparation::default(); region_pairs.len()];
     let count = frame.objects.len();
     let slots: Vec<Vec<Option<(u32, u32)>>> = (0..count)
@@ -644,8 +646,11 @@ fn separate_with(
         }
     }
     // The trees of every side of an active pair: the region's kept trees or new ones, refitted
-    // to this frame's outputs and after each round.
+    // to this frame's outputs and after each round; and the whole object's tree of an object
+    // with a cut region whose inside is the object's (a whole region's own tree is the whole
+    // object's), kept by the object whatever its regions do.
     let mut fitted: Vec<Vec<bool>> = trees.iter().map(|t| vec![false; t.len()]).collect();
+    let mut needs_whole = vec![false; count];
     for &k in active {
         let Some(regions) = region_pairs[k].regions else { continue };
         let objects = frame.pairs[region_pairs[k].pair].objects;
@@ -653,20 +658,23 @@ fn separate_with(
             let (i, r) = (objects[l], regions[l]);
             let (Some(cache), Some(false)) = (caches[i].as_ref(), fitted[i].get(r).copied()) else { continue };
             fitted[i][r] = true;
-            // (A whole region's own tree is the whole object's.)
             let cut = cache.regions.get(r).is_some_and(|region| region.faces.is_some());
-            let needs_whole = cache.closed && closed_inside[i][r] && cut;
+            needs_whole[i] |= cache.closed && closed_inside[i][r] && cut;
             let side = &mut trees[i][r];
-            if let Some(kept) = side.as_mut()
-                && !needs_whole
-            {
-                kept.whole = None;
-            }
-            let refitted =
-                side.as_mut().is_some_and(|t| (t.whole.is_some() || !needs_whole) && t.refit(&positions[i]).is_ok());
+            let refitted = side.as_mut().is_some_and(|t| t.bvh.refit(&positions[i]).is_ok());
             if !refitted {
-                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh, needs_whole);
+                *side = SideTrees::new(cache, r, &positions[i], frame.objects[i].mesh);
             }
+        }
+    }
+    for (i, whole) in wholes.iter_mut().enumerate() {
+        let Some(cache) = caches[i].as_ref().filter(|_| needs_whole[i]) else {
+            *whole = None;
+            continue;
+        };
+        if whole.as_mut().is_none_or(|t| t.refit(&positions[i]).is_err()) {
+            let mut tree = TriangleBvh::clone(&cache.bvh);
+            *whole = tree.refit(&positions[i]).is_ok().then_some(tree);
         }
     }
     // Per active region pair and direction l (side l's vertices against side 1 − l): bounds of
@@ -731,7 +739,8 @@ fn separate_with(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
+            let surfaces =
+                [0, 1].map(|l| surface(frame, caches, (trees, wholes), &positions, objects[l], regions[l], objects));
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| {
@@ -825,7 +834,8 @@ fn separate_with(
             .zip(volume_terms.par_iter_mut())
             .zip(positions.par_iter_mut())
             .zip(trees.par_iter_mut())
-            .map(|(((((i, outcomes), correction), terms), positions), trees)| {
+            .zip(wholes.par_iter_mut())
+            .map(|((((((i, outcomes), correction), terms), positions), trees), whole)| {
                 work.measure(|| {
                     if moves[i].iter().all(|m| *m == DVec3::ZERO) {
                         return Ok(None);
@@ -839,8 +849,8 @@ fn separate_with(
                     let new_positions = object_positions(&frame.objects[i].mesh.positions, cache, outcomes);
                     let round_moves = RoundMoves::new(&cache.topology, positions, &new_positions);
                     *positions = new_positions;
-                    for side in trees.iter_mut().flatten() {
-                        side.refit(positions).map_err(|source| PipelineError::Spatial {
+                    for tree in trees.iter_mut().flatten().map(|side| &mut side.bvh).chain(whole.as_mut()) {
+                        tree.refit(positions).map_err(|source| PipelineError::Spatial {
                             object: frame.objects[i].name.to_string(),
                             source,
                         })?;
@@ -857,7 +867,8 @@ fn separate_with(
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces = [0, 1].map(|l| surface(frame, caches, trees, &positions, objects[l], regions[l], objects));
+        let surfaces =
+            [0, 1].map(|l| surface(frame, caches, (trees, wholes), &positions, objects[l], regions[l], objects));
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
         let distinct = |side: usize| {
@@ -892,15 +903,17 @@ fn separate_with(
 fn surface<'a>(
     frame: &'a Frame,
     caches: &'a [Option<ObjectCache>],
-    trees: &'a [Vec<Option<SideTrees>>],
+    (trees, wholes): (&'a [Vec<Option<SideTrees>>], &'a [Option<TriangleBvh>]),
     positions: &'a [Vec<DVec3>],
     object: usize,
     region: usize,
     objects: [usize; 2],
 ) -> Option<Surface<'a>> {
     let cache = caches[object].as_ref()?;
+    let cut = cache.regions.get(region).is_some_and(|r| r.faces.is_some());
     Some(Surface {
         trees: trees.get(object)?.get(region)?.as_ref()?,
+        whole: wholes.get(object).and_then(Option::as_ref).filter(|_| cut),
         positions: &positions[object],
         triangles: &frame.objects[object].mesh.triangles,
         topology: &cache.topology,
@@ -1151,9 +1164,10 @@ mod tests {
         let bvh = TriangleBvh::new(&mesh).unwrap();
         let mut clusters = WindingClusters::default();
         clusters.refresh(&bvh);
-        let trees = SideTrees { bvh, whole: None, vertices: (0..mesh.num_vertices() as u32).collect(), clusters };
+        let trees = SideTrees { bvh, vertices: (0..mesh.num_vertices() as u32).collect(), clusters };
         let surface = Surface {
             trees: &trees,
+            whole: None,
             positions: &mesh.positions,
             triangles: &mesh.triangles,
             topology: &topology,

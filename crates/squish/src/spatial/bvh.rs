@@ -100,10 +100,49 @@ impl TriangleBvh {
         Self::with_faces(mesh, 0..mesh.triangles.len() as u32)
     }
 
+    /// The tree of `mesh`, a part cut out of the mesh this tree holds (its face `k` is this
+    /// tree's face `parent_face[k]`), in this tree's shape ([`FlatBvh::pruned`]) instead of a new
+    /// build: a pruned tree is as deep as this one at most and its boxes are `mesh`'s, so every
+    /// query answers as on a tree built anew (they do not depend on the shape: closest points by
+    /// (distance, face id), crossings and winding numbers exactly); only how many boxes they
+    /// visit differs. `None` if a face of `parent_face` is not in this tree once.
+    pub fn restricted(&self, mesh: &TriMesh, parent_face: &[u32]) -> Result<Option<Self>, SpatialError> {
+        if parent_face.len() != mesh.triangles.len() {
+            return Ok(None);
+        }
+        let mut local = vec![u32::MAX; self.faces.iter().map(|&f| f as usize + 1).max().unwrap_or(0)];
+        for (k, &f) in parent_face.iter().enumerate() {
+            match local.get_mut(f as usize) {
+                Some(slot) if *slot == u32::MAX => *slot = k as u32,
+                _ => return Ok(None),
+            }
+        }
+        let mut bvh =
+            self.bvh.pruned(|leaf| local.get(self.faces[leaf as usize] as usize).copied().filter(|&k| k != u32::MAX));
+        if bvh.nodes().len() != (2 * mesh.triangles.len()).saturating_sub(1) {
+            return Ok(None);
+        }
+        let faces = (0..mesh.triangles.len() as u32).collect();
+        Self::with_tree(mesh, faces, |boxes| {
+            bvh.refit(|leaf| boxes[leaf as usize]);
+            bvh
+        })
+        .map(Some)
+    }
+
     /// Builds the tree over the given faces of `mesh` (e.g. a working region), reporting results
     /// with these face ids. Duplicate ids are kept (and reported twice).
     pub fn with_faces(mesh: &TriMesh, faces: impl IntoIterator<Item = u32>) -> Result<Self, SpatialError> {
-        let faces: Vec<u32> = faces.into_iter().collect();
+        Self::with_tree(mesh, faces.into_iter().collect(), FlatBvh::new)
+    }
+
+    /// The tree over `faces` of `mesh` whose hierarchy `tree` makes from the faces' boxes (in the
+    /// order of `faces`): a new build, or a pruned tree refitted to them.
+    fn with_tree(
+        mesh: &TriMesh,
+        faces: Vec<u32>,
+        tree: impl FnOnce(&[(DVec3, DVec3)]) -> FlatBvh,
+    ) -> Result<Self, SpatialError> {
         let nv = mesh.positions.len();
         let mut indices = Vec::with_capacity(faces.len());
         for &f in &faces {
@@ -123,11 +162,14 @@ impl TriangleBvh {
         check_finite(&mesh.positions)?;
         let corners: Vec<[DVec3; 3]> = indices.iter().map(|t| t.map(|i| mesh.positions[i as usize])).collect();
         let boxes: Vec<(DVec3, DVec3)> = corners.iter().map(triangle_aabb).collect();
-        let bvh = FlatBvh::new(&boxes);
+        let bvh = tree(&boxes);
         let bounds = bounds_of(&corners);
-        let mut fitted_vertices: Vec<u32> = indices.iter().flatten().copied().collect();
-        fitted_vertices.sort_unstable();
-        fitted_vertices.dedup();
+        // The vertices of the faces, sorted: marked, then read in order (no sort of 3 per face).
+        let mut used = vec![false; nv];
+        for &i in indices.iter().flatten() {
+            used[i as usize] = true;
+        }
+        let fitted_vertices: Vec<u32> = (0..nv as u32).filter(|&v| used[v as usize]).collect();
         let fitted = fitted_vertices.iter().map(|&v| mesh.positions[v as usize]).collect();
         Ok(Self { bvh, faces, indices, corners, num_vertices: nv, bounds, fitted_vertices, fitted, links: None })
     }
@@ -389,6 +431,42 @@ mod tests {
 
     fn leaf_node(tree: &TriangleBvh, leaf: usize) -> super::super::flat_bvh::Node {
         *tree.bvh.nodes().iter().find(|n| n.item() == Some(leaf as u32)).unwrap()
+    }
+
+    /// A cap cut out of a sphere whose tree was built at other positions: the tree pruned from
+    /// the sphere's answers closest points, segment crossings and faces in boxes as a tree built
+    /// on the cap, bit for bit.
+    #[test]
+    fn a_tree_restricted_to_a_cut_answers_as_a_new_one() {
+        let mut sphere = shapes::icosphere(1.0, 4);
+        let whole = TriangleBvh::new(&sphere).unwrap();
+        for p in &mut sphere.positions {
+            *p = DVec3::new(p.x * 1.3, p.y, p.z * 0.8 + 0.1 * p.x * p.x);
+        }
+        let faces: Vec<u32> =
+            (0..sphere.num_triangles() as u32).filter(|&f| sphere.corners(f as usize)[0].z > 0.2).collect();
+        let cap = crate::mesh::SubMesh::from_faces(&sphere, faces.iter().copied());
+        let restricted = whole.restricted(&cap.mesh, &cap.parent_face).unwrap().unwrap();
+        let built = TriangleBvh::new(&cap.mesh).unwrap();
+        assert_ne!(restricted.bvh, built.bvh, "another shape");
+        let mut rng = Lcg::from_state(3);
+        let mut next = || 2.0 * rng.next_unit() - 1.0;
+        let (mut a_faces, mut b_faces) = (Vec::new(), Vec::new());
+        for _ in 0..400 {
+            let (p, q) = (DVec3::new(next(), next(), next()) * 1.5, DVec3::new(next(), next(), next()) * 1.5);
+            let key = |c: Option<crate::spatial::ClosestPoint>| {
+                c.map(|c| (c.face, c.bary.map(f64::to_bits), c.distance.to_bits()))
+            };
+            assert_eq!(key(restricted.closest_point(p)), key(built.closest_point(p)));
+            assert_eq!(key(restricted.closest_point_within(p, 0.3)), key(built.closest_point_within(p, 0.3)));
+            assert_eq!(restricted.segment_crosses(p, q), built.segment_crosses(p, q));
+            let query = Aabb3::from_points([p, p + DVec3::splat(0.4)]);
+            restricted.faces_in_box(&query, &mut a_faces);
+            built.faces_in_box(&query, &mut b_faces);
+            assert_eq!(a_faces, b_faces);
+        }
+        // Faces it does not hold: no tree.
+        assert!(built.restricted(&cap.mesh, &cap.parent_face).unwrap().is_none());
     }
 
     #[test]

@@ -12,7 +12,10 @@
 //! **Build.** Top-down binned surface-area heuristic (16 bins along the longest axis of the
 //! centroids), a median split when the heuristic cannot separate the items, and always a median
 //! split below depth [`MEDIAN_DEPTH`], which bounds the depth by `MEDIAN_DEPTH + log₂ n` (the fixed
-//! traversal stacks rely on it). Deterministic: the same boxes give the same tree.
+//! traversal stacks rely on it). Deterministic: the same boxes give the same tree. A subtree over
+//! m items has 2m − 1 nodes, so every subtree's place in the array is known once its node is
+//! split: subtrees over at least [`PARALLEL_BUILD`] items are built side by side (`rayon::join`)
+//! into their own ranges, the same tree whatever the thread count.
 //!
 //! **Refit.** New item boxes, then every inner box as the union of its children's, children
 //! before parents (reverse storage order); or, when few items moved, the boxes of their leaves
@@ -26,6 +29,10 @@ const MEDIAN_DEPTH: usize = 48;
 
 /// Bins of the surface-area heuristic.
 const BINS: usize = 16;
+
+/// Items below which a node's two subtrees are built one after the other rather than side by
+/// side (below it the fork costs more than it saves).
+const PARALLEL_BUILD: usize = 4096;
 
 /// Capacity of the fixed traversal stacks before they spill to the heap. A depth-first stack holds
 /// at most one pending node per level plus one, and our meshes' trees are 20–40 deep (the depth is
@@ -137,10 +144,11 @@ impl FlatBvh {
             .enumerate()
             .map(|(i, &(min, max))| Item { index: i as u32, min, max, centroid: 0.5 * (min + max) })
             .collect();
-        let mut nodes = Vec::with_capacity((2 * items.len()).saturating_sub(1));
+        let placeholder = Node { min: DVec3::ZERO, max: DVec3::ZERO, link: 0, leaf: true };
+        let mut nodes = vec![placeholder; (2 * items.len()).saturating_sub(1)];
         if !items.is_empty() {
             let mut bins = vec![0u8; items.len()];
-            build(&mut nodes, &mut items, &mut bins, 0);
+            build(&mut nodes, 0, &mut items, &mut bins, 0);
         }
         Self { nodes }
     }
@@ -162,6 +170,45 @@ impl FlatBvh {
             };
         }
         end
+    }
+
+    /// The tree of the items `new_item` keeps (`Some(new id)`), in this tree's shape: an inner
+    /// node with one kept side is replaced by that side, one with none dropped. Depth first as
+    /// built, so a subtree is still a contiguous range; the depth is at most this tree's. Boxes
+    /// are copied and must be refitted ([`Self::refit`]) to the kept items' boxes.
+    pub fn pruned(&self, new_item: impl Fn(u32) -> Option<u32>) -> Self {
+        // Per node, its kept items (a leaf: its new id, u32::MAX if dropped) and how many: a
+        // subtree of k kept items becomes 2k − 1 nodes, so every link is known when written.
+        let n = self.nodes.len();
+        let mut leaf_item = vec![u32::MAX; n];
+        let mut kept = vec![0usize; n];
+        for i in (0..n).rev() {
+            kept[i] = match self.nodes[i].children(i) {
+                Some([left, right]) => kept[left] + kept[right],
+                None => {
+                    leaf_item[i] = new_item(self.nodes[i].link).unwrap_or(u32::MAX);
+                    usize::from(leaf_item[i] != u32::MAX)
+                }
+            };
+        }
+        fn emit(tree: &FlatBvh, i: usize, kept: &[usize], leaf_item: &[u32], out: &mut Vec<Node>) {
+            let node = tree.nodes[i];
+            match node.children(i) {
+                None => out.push(Node { link: leaf_item[i], ..node }),
+                Some([left, right]) if kept[right] == 0 => emit(tree, left, kept, leaf_item, out),
+                Some([left, right]) if kept[left] == 0 => emit(tree, right, kept, leaf_item, out),
+                Some([left, right]) => {
+                    out.push(Node { link: (out.len() + 2 * kept[left]) as u32, ..node });
+                    emit(tree, left, kept, leaf_item, out);
+                    emit(tree, right, kept, leaf_item, out);
+                }
+            }
+        }
+        let mut nodes = Vec::with_capacity((2 * kept.first().copied().unwrap_or(0)).saturating_sub(1));
+        if kept.first().is_some_and(|&k| k > 0) {
+            emit(self, 0, &kept, &leaf_item, &mut nodes);
+        }
+        Self { nodes }
     }
 
     /// New boxes for the items (`item_box(i)` = (min, max)); inner boxes are recomputed.
@@ -387,10 +434,10 @@ fn upper(a: DVec3, b: DVec3) -> DVec3 {
     DVec3::new(if b.x > a.x { b.x } else { a.x }, if b.y > a.y { b.y } else { a.y }, if b.z > a.z { b.z } else { a.z })
 }
 
-/// Appends the subtree over `items` to `nodes` in depth-first order; returns its root index.
-/// `bins` is scratch of the same length (each item's bin during a split).
-fn build(nodes: &mut Vec<Node>, items: &mut [Item], bins: &mut [u8], depth: usize) -> usize {
-    let index = nodes.len();
+/// Writes the subtree over `items` into `nodes` (its 2·`items.len()` − 1 nodes, in depth-first
+/// order, the first at index `base` of the whole array). `bins` is scratch of the same length
+/// (each item's bin during a split).
+fn build(nodes: &mut [Node], base: usize, items: &mut [Item], bins: &mut [u8], depth: usize) {
     // The node's box and the bounds of the centroids, in one pass.
     let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -401,17 +448,25 @@ fn build(nodes: &mut Vec<Node>, items: &mut [Item], bins: &mut [u8], depth: usiz
         hi = upper(hi, item.centroid);
     }
     if let [item] = items {
-        nodes.push(Node { min, max, link: item.index, leaf: true });
-        return index;
+        nodes[0] = Node { min, max, link: item.index, leaf: true };
+        return;
     }
-    nodes.push(Node { min, max, link: 0, leaf: false });
     let middle = split(items, bins, [lo, hi], depth);
+    // The left subtree's 2·middle − 1 nodes follow this one; the right one starts after them.
+    let (node, children) = nodes.split_at_mut(1);
+    node[0] = Node { min, max, link: (base + 2 * middle) as u32, leaf: false };
+    let (left_nodes, right_nodes) = children.split_at_mut(2 * middle - 1);
+    let parallel = middle.min(items.len() - middle) >= PARALLEL_BUILD;
     let (left, right) = items.split_at_mut(middle);
     let (left_bins, right_bins) = bins.split_at_mut(middle);
-    build(nodes, left, left_bins, depth + 1);
-    let right_index = build(nodes, right, right_bins, depth + 1);
-    nodes[index].link = right_index as u32;
-    index
+    let mut left_build = move || build(left_nodes, base + 1, left, left_bins, depth + 1);
+    let mut right_build = move || build(right_nodes, base + 2 * middle, right, right_bins, depth + 1);
+    if parallel {
+        rayon::join(left_build, right_build);
+    } else {
+        left_build();
+        right_build();
+    }
 }
 
 /// Reorders `items` (whose centroids lie within `[lo, hi]`) and returns the size of the left
@@ -582,5 +637,52 @@ mod tests {
     fn the_same_boxes_give_the_same_tree() {
         let boxes = random_boxes(700, 9);
         assert_eq!(FlatBvh::new(&boxes), FlatBvh::new(&boxes));
+    }
+
+    /// A pruned tree holds every kept item once, under its new id, in exact boxes once refitted,
+    /// 2k − 1 nodes for k items, and is no deeper than the tree it came from.
+    #[test]
+    fn a_pruned_tree_holds_the_kept_items_once() {
+        let boxes = random_boxes(3000, 5);
+        let tree = FlatBvh::new(&boxes);
+        let depth = |t: &FlatBvh| {
+            let mut d = vec![0usize; t.nodes().len()];
+            for i in 0..t.nodes().len() {
+                if let Some([l, r]) = t.nodes()[i].children(i) {
+                    d[l] = d[i] + 1;
+                    d[r] = d[i] + 1;
+                }
+            }
+            d.into_iter().max().unwrap_or(0)
+        };
+        for keep_every in [1, 2, 3, 7, 2999, 5000] {
+            // Kept items renumbered in reverse, so that new ids differ from old ones.
+            let kept: Vec<u32> = (0..3000).filter(|i| i % keep_every == 0).collect();
+            let new_id = |i: u32| kept.iter().position(|&k| k == i).map(|p| (kept.len() - 1 - p) as u32);
+            let mut pruned = tree.pruned(new_id);
+            let new_boxes: Vec<(DVec3, DVec3)> = kept.iter().rev().map(|&i| boxes[i as usize]).collect();
+            assert_eq!(pruned.nodes().len(), 2 * kept.len() - 1, "every {keep_every}");
+            pruned.refit(|i| new_boxes[i as usize]);
+            check_boxes(&pruned, &new_boxes);
+            assert!(depth(&pruned) <= depth(&tree));
+        }
+        assert!(tree.pruned(|_| None).nodes().is_empty());
+    }
+
+    /// Enough items that the top splits build their subtrees side by side: the same nodes on one
+    /// thread and on four, every item once in exact boxes.
+    #[test]
+    fn subtrees_built_side_by_side_give_the_tree_of_one_thread() {
+        let boxes = random_boxes(8 * PARALLEL_BUILD + 3, 41);
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| FlatBvh::new(&boxes))
+        };
+        let (one, four) = (on(1), on(4));
+        assert_eq!(one, four);
+        check_boxes(&four, &boxes);
+        // The root's children are both large enough to have been built apart.
+        let [left, right] = four.nodes()[0].children(0).unwrap();
+        let ends = four.subtree_ends();
+        assert!((ends[left] - left).min(ends[right] - right) >= 2 * PARALLEL_BUILD - 1);
     }
 }
