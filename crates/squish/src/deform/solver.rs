@@ -69,13 +69,26 @@ impl RegionSolver {
         Self::with_fill_order(mesh, topology, FillOrder::FewerFlops)
     }
 
-    /// [`Self::new`] with the given kind of fill-reducing order ([`FillOrder::Amd`] for regions
-    /// analyzed again often).
+    /// [`Self::new`] with the given kind of fill-reducing order.
     pub fn with_fill_order(mesh: &TriMesh, topology: &Topology, fill_order: FillOrder) -> Result<Self, DeformError> {
+        Self::with_analysis(mesh, topology, |pattern| SymbolicFactor::analyze_in(pattern, fill_order))
+    }
+
+    /// [`Self::new`] in the order of `rank` (per region vertex; see
+    /// [`SymbolicFactor::analyze_in_rank_order`]): a region cut out of an object, in the object's
+    /// order.
+    pub fn with_rank_order(mesh: &TriMesh, topology: &Topology, rank: &[usize]) -> Result<Self, DeformError> {
+        Self::with_analysis(mesh, topology, |pattern| SymbolicFactor::analyze_in_rank_order(pattern, rank))
+    }
+
+    fn with_analysis(
+        mesh: &TriMesh,
+        topology: &Topology,
+        analyze: impl FnOnce(&Arc<SparsePattern>) -> Result<Arc<SymbolicFactor>, SolveError>,
+    ) -> Result<Self, DeformError> {
         check_topology(mesh, topology)?;
         let pattern = SparsePattern::shared(mesh, topology).map_err(DeformError::solve("symbolic analysis"))?;
-        let symbolic =
-            SymbolicFactor::analyze_in(&pattern, fill_order).map_err(DeformError::solve("symbolic analysis"))?;
+        let symbolic = analyze(&pattern).map_err(DeformError::solve("symbolic analysis"))?;
         Ok(Self {
             pattern,
             symbolic,

@@ -37,6 +37,10 @@ pub(super) struct ObjectCache {
     /// is closed (see [`SideTrees`]): kept between frames and refitted, whatever its regions'
     /// face sets do, so that a region cut again does not copy and refit the whole tree again.
     pub separation_whole: Option<Box<TriangleBvh>>,
+    /// Each vertex's place in AMD's order of the whole object (its connectivity only), computed
+    /// at the first automatic region's analysis: a region cut out again takes its order
+    /// restricted to its rows instead of an ordering of its own.
+    pub fill_ranks: std::sync::OnceLock<Result<Vec<usize>, crate::linalg::SolveError>>,
     /// The last frame's component figures and the positions they were computed from: an object
     /// that has not moved since, bit for bit (a static ground, a prop at rest), reuses them, which
     /// gives the same bits as computing them again.
@@ -59,6 +63,7 @@ impl ObjectCache {
             components: Arc::new(components),
             regions: Vec::new(),
             separation_whole: None,
+            fill_ranks: std::sync::OnceLock::new(),
             figures: None,
         })
     }
@@ -75,6 +80,7 @@ impl ObjectCache {
             components: Arc::clone(&self.components),
             regions: Vec::new(),
             separation_whole: None,
+            fill_ranks: std::sync::OnceLock::new(),
             figures: None,
         }
     }

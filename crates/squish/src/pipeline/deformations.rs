@@ -33,7 +33,7 @@ use crate::deform::{
     DeformError, DeformParams, DeformStats, RegionDeformation, RegionFields, RegionOverrides, RegionSolver, SweptTerms,
     automatic_extent, deform_with_fields_and_terms, region_fields, swept_volume_change,
 };
-use crate::linalg::FillOrder;
+use crate::linalg::{FillOrder, SolveError, SparsePattern, SymbolicFactor};
 use crate::mesh::{Topology, signed_volume, signed_volume_of};
 use crate::stage::{Stage, Work};
 
@@ -99,8 +99,9 @@ pub(super) fn deform_regions(
         .enumerate()
         .map(|(i, ((cache, object), zones))| -> Result<Vec<Option<RegionOutcome>>, PipelineError> {
             let Some(cache) = cache.as_mut() else { return Ok(Vec::new()) };
-            let ObjectCache { regions, topology, .. } = cache;
+            let ObjectCache { regions, topology, fill_ranks, .. } = cache;
             let topology = &*topology;
+            let fill_ranks = &*fill_ranks;
             regions
                 .par_iter_mut()
                 .zip(zones)
@@ -115,7 +116,8 @@ pub(super) fn deform_regions(
                         .extent
                         .unwrap_or_else(|| automatic_extent(sizes[i][r], contact_area[i][r], edge_length));
                     let scale = Scale { extent, edge_length };
-                    deform_one(object, topology, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
+                    let object_parts = ObjectParts { object, topology, fill_ranks };
+                    deform_one(object_parts, region, r, zones, normals[i].as_deref(), scale, keep).map(Some)
                 })
                 .collect()
         })
@@ -128,6 +130,15 @@ pub(super) fn record(outcomes: &[Vec<Option<RegionOutcome>>], trace: &mut Trace)
         trace.add(&outcome.deformation.stats.timings, &outcome.deformation.stats.work);
         trace.time(Stage::Regions, outcome.analysis_time);
     }
+}
+
+/// What a region's deformation reads of its object: the frame's object, its connectivity and
+/// its fill order for automatic regions ([`ObjectCache::fill_ranks`]).
+#[derive(Clone, Copy)]
+struct ObjectParts<'a> {
+    object: &'a FrameObject<'a>,
+    topology: &'a Topology,
+    fill_ranks: &'a std::sync::OnceLock<Result<Vec<usize>, SolveError>>,
 }
 
 /// Fraction of the smallest φ on a region's cut border that a clamped extent keeps.
@@ -144,10 +155,8 @@ struct Scale {
 /// Runs chapter 5 on one region, clamping its extent when 𝒟 would reach the cut (see the
 /// module doc). `object_normals`: the object's vertex normals when the contact stage computed
 /// them (it does for objects with a region processed whole); `keep`: return the region's fields.
-#[allow(clippy::too_many_arguments)]
 fn deform_one(
-    object: &FrameObject,
-    topology: &Topology,
+    ObjectParts { object, topology: object_topology, fill_ranks }: ObjectParts<'_>,
     region: &mut RegionCache,
     index: usize,
     zones: &[&ContactZone],
@@ -161,7 +170,7 @@ fn deform_one(
     let too_small =
         |reason: String| PipelineError::RegionTooSmall { object: object.name.to_string(), region: index, reason };
     let (mesh, topology, border) = match region.sub.as_deref() {
-        None => (object.mesh, topology, None),
+        None => (object.mesh, object_topology, None),
         // The contact stage's border: an open seam (ObjectParams::contact_open_border) may move
         // like the region's inside; the part contacts restore the object's volume over it.
         Some(sub) => (&sub.sub.mesh, &sub.topology, sub.contact_border()),
@@ -174,10 +183,22 @@ fn deform_one(
     let mut analysis_time = Duration::ZERO;
     if new_solver {
         // An automatic region is cut again whenever its faces change: its analysis, then paid
-        // every few frames, stays AMD's alone; the others are analyzed once per shot.
-        let fill_order = if object.params.region.is_automatic() { FillOrder::Amd } else { FillOrder::FewerFlops };
+        // every few frames, takes the order of AMD on the whole object (computed once)
+        // restricted to its rows; the others are analyzed once per shot, in their own order.
         let analysis = Instant::now();
-        region.solver = Some(RegionSolver::with_fill_order(mesh, topology, fill_order).map_err(err)?);
+        let solver = match region.sub.as_deref().filter(|_| object.params.region.is_automatic()) {
+            Some(sub) => {
+                let ranks = fill_ranks.get_or_init(|| {
+                    SparsePattern::new(object.mesh, object_topology)
+                        .and_then(|pattern| SymbolicFactor::amd_ranks(&pattern))
+                });
+                let ranks = ranks.as_ref().map_err(|e| err(DeformError::solve("symbolic analysis")(e.clone())))?;
+                let rank: Vec<usize> = sub.sub.parent_vertex.iter().map(|&v| ranks[v as usize]).collect();
+                RegionSolver::with_rank_order(mesh, topology, &rank)
+            }
+            None => RegionSolver::with_fill_order(mesh, topology, FillOrder::FewerFlops),
+        };
+        region.solver = Some(solver.map_err(err)?);
         analysis_time = analysis.elapsed();
     }
     let Some(solver) = region.solver.as_mut() else {
