@@ -5,7 +5,9 @@
 //! calling thread watches for Ctrl-C (`Python::check_signals`, every 50 ms): a `KeyboardInterrupt`
 //! asks the run to stop scheduling frames, the frames in progress finish and are written, the
 //! report lists the missing frames, and then the `KeyboardInterrupt` is raised with the command
-//! line's message (how many frames were done and the frames to run again).
+//! line's message (how many frames were done and the frames to run again). A Ctrl-C that comes
+//! while the last frames finish stops nothing (every frame is written and the report is
+//! complete), but it is still raised, never dropped.
 
 use std::collections::BTreeMap;
 use std::ops::RangeInclusive;
@@ -223,6 +225,17 @@ impl Scene {
             return Err(match keyboard {
                 Some(error) if !error.is_instance_of::<PyKeyboardInterrupt>(py) => error,
                 _ => shot_error(stopped),
+            });
+        }
+        if let Some(error) = keyboard {
+            // Caught while the last frames were finishing: nothing was left to stop.
+            return Err(if error.is_instance_of::<PyKeyboardInterrupt>(py) {
+                PyKeyboardInterrupt::new_err(format!(
+                    "interrupted after the last frame: every frame was done (report: {})",
+                    run.report.display()
+                ))
+            } else {
+                error
             });
         }
         let report_text = std::fs::read_to_string(&run.report)
