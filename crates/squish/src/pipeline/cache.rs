@@ -420,4 +420,7 @@ pub(super) struct SideTrees {
     /// The far-field clusters of `bvh` for the inside of an open side, refreshed each round
     /// where a pair needs them (buffers kept).
     pub clusters: WindingClusters,
+    /// The side's rim ([`super::rim::RimEdge`]), found the first time a pass decides
+    /// inside the side by its winding number.
+    pub rim: std::sync::OnceLock<Vec<super::rim::RimEdge>>,
 }

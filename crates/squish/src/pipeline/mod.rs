@@ -48,6 +48,7 @@ mod plan;
 mod quality;
 mod regions;
 mod results;
+mod rim;
 mod self_contact;
 mod separation;
 mod setup;

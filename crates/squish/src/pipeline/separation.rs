@@ -29,7 +29,9 @@
 //! two regions of one object), and the generalized winding number of O above ¼ otherwise
 //! ([`FastWinding`]: ½ behind a flat sheet, −½ in front); points farther than [`DEPTH_EDGES`]
 //! edge lengths inside an open surface are left alone (they are behind it, not near the
-//! contact). Only vertices of deformed regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
+//! contact). What a vertex learns of its winding number about an open surface is carried to the
+//! next rounds and passes with a bound on how far it can move ([`super::rim`]): it is evaluated
+//! again only when that no longer settles the side. Only vertices of deformed regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
 //! cut border (their faces outside would move out of the volume balance).
 //!
 //! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
@@ -61,6 +63,7 @@ use rayon::prelude::*;
 use super::cache::{ObjectCache, SideTrees};
 use super::contacts::RegionPair;
 use super::deformations::RegionOutcome;
+use super::rim::{RimMove, RimTree, WINDING_ALLOWANCE, WindingKnown, rim_of};
 use super::warnings::{FrameWarning, WarningKind};
 use super::{Frame, PipelineError};
 use crate::contact::PairContact;
@@ -163,7 +166,7 @@ impl SideTrees {
             }
         };
         bvh.refit(positions).ok()?;
-        Some(Self { bvh, vertices, clusters: WindingClusters::default() })
+        Some(Self { bvh, vertices, clusters: WindingClusters::default(), rim: Default::default() })
     }
 }
 
@@ -182,6 +185,9 @@ struct Surface<'a> {
     /// Inside/outside by the object's winding number (a closed object) rather than by the
     /// generalized one of the surface.
     closed: bool,
+    /// The rim of an open surface at the same positions (`None`: closed, or not known; what a
+    /// point learns of its winding number is then not kept).
+    rim: Option<&'a RimTree>,
 }
 
 /// A point of a surface near a query: its face, its barycentric coordinates there, the query's
@@ -206,19 +212,32 @@ const WINDING_ACCURACY: f64 = 4.0;
 /// Within this of [`OPEN_INSIDE_WINDING`], the exact generalized winding number decides: far
 /// above the far field's error at [`WINDING_ACCURACY`] (8·10⁻³ at worst on a sphere, see
 /// [`FastWinding`]).
-const WINDING_MARGIN: f64 = 0.05;
+const WINDING_MARGIN: f64 = WINDING_ALLOWANCE;
 
 impl Surface<'_> {
-    /// True if `q` is behind the open surface: its generalized winding number above
-    /// [`OPEN_INSIDE_WINDING`], the fast approximation's unless it is within
-    /// [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the answer
-    /// does not depend on the tree's clusters).
-    fn behind_open(&self, winding: &FastWinding, q: DVec3) -> bool {
+    /// Whether `q` is behind the open surface, with the winding number that decided it: its
+    /// generalized winding number above [`OPEN_INSIDE_WINDING`], the fast approximation's unless
+    /// it is within [`WINDING_MARGIN`] of the threshold, where the exact sum decides (so that the
+    /// answer does not depend on the tree's clusters).
+    fn winding_side(&self, winding: &FastWinding, q: DVec3) -> (bool, f64) {
         let w = winding.winding_number(q);
         if (w - OPEN_INSIDE_WINDING).abs() > WINDING_MARGIN {
-            return w > OPEN_INSIDE_WINDING;
+            return (w > OPEN_INSIDE_WINDING, w);
         }
-        self.trees.bvh.generalized_winding_number(q) > OPEN_INSIDE_WINDING
+        let exact = self.trees.bvh.generalized_winding_number(q);
+        (exact > OPEN_INSIDE_WINDING, exact)
+    }
+
+    /// Whether `q` is behind the open surface ([`Self::winding_side`]), from what is known of `q`'s winding number when that settles it
+    /// ([`WindingKnown`]), else evaluated and `known` set to what was learnt (`None` without the
+    /// surface's rim).
+    fn behind_open_known(&self, winding: &FastWinding, q: DVec3, known: &mut Option<WindingKnown>) -> bool {
+        if let Some(behind) = known.and_then(|k| k.settled(OPEN_INSIDE_WINDING)) {
+            return behind;
+        }
+        let (behind, value) = self.winding_side(winding, q);
+        *known = self.rim.map(|rim| WindingKnown { value, drift: 0.0, rim: rim.distance(q) });
+        behind
     }
 
     /// Per vertex of `candidates` (sorted object vertex ids of a mesh with `topology`, at
@@ -315,9 +334,12 @@ impl Surface<'_> {
         let Reach { gap: reach, depth } = reach;
         let open_winding = winding.filter(|_| !self.closed);
         let in_band = known.lower > reach * (1.0 + BOUND_SLACK) && known.upper < depth * (1.0 - BOUND_SLACK);
+        let mut learnt = known.winding;
         // True once this point is known to be behind the open surface.
         let known_behind = match open_winding.filter(|_| in_band) {
-            Some(winding) if !self.behind_open(winding, q) => return (Vec::new(), known),
+            Some(winding) if !self.behind_open_known(winding, q, &mut learnt) => {
+                return (Vec::new(), DistanceBounds { winding: learnt, ..known });
+            }
             Some(_) => true,
             None => false,
         };
@@ -331,17 +353,17 @@ impl Surface<'_> {
         // Searched a little farther than needed: the distance found bounds the next rounds'.
         let search = limit + reach;
         let Some(cp) = bvh.closest_point_within(q, search) else {
-            return (Vec::new(), DistanceBounds { lower: search, upper: f64::INFINITY });
+            return (Vec::new(), DistanceBounds { lower: search, upper: f64::INFINITY, winding: learnt });
         };
         let lower = if self.closed && inside_closed { 0.0 } else { cp.distance };
-        let bound = DistanceBounds { lower, upper: cp.distance };
         if cp.distance > limit {
-            return (Vec::new(), bound);
+            return (Vec::new(), DistanceBounds { lower, upper: cp.distance, winding: learnt });
         }
         let inside = match open_winding {
-            Some(winding) => known_behind || self.behind_open(winding, q),
+            Some(winding) => known_behind || self.behind_open_known(winding, q, &mut learnt),
             None => inside_closed,
         };
+        let bound = DistanceBounds { lower, upper: cp.distance, winding: learnt };
         let d0 = cp.distance;
         if (inside && !self.closed && d0 > depth) || (!inside && d0 > reach) {
             return (Vec::new(), bound);
@@ -371,15 +393,18 @@ impl Surface<'_> {
 
 /// What a querying vertex knows of its distance to a surface between rounds: a lower bound while
 /// it is outside (0 when unknown or inside a closed surface) and an upper bound (infinite when
-/// unknown), each moved after a round by how far the vertex and the surface moved.
+/// unknown), each moved after a round by how far the vertex and the surface moved; and, about an
+/// open surface, what it knows of its winding number ([`WindingKnown`], carried by
+/// [`RimMove::carry`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DistanceBounds {
     lower: f64,
     upper: f64,
+    winding: Option<WindingKnown>,
 }
 
 impl DistanceBounds {
-    const UNKNOWN: Self = Self { lower: 0.0, upper: f64::INFINITY };
+    const UNKNOWN: Self = Self { lower: 0.0, upper: f64::INFINITY, winding: None };
 }
 
 /// What a pass leaves for the next pass on the same deformer (an edit of its frame, or the next
@@ -478,19 +503,30 @@ fn lower_bounds(
     frame: &Frame,
     region_pairs: &[RegionPair],
     active: &[usize],
+    trees: &[Vec<Option<SideTrees>>],
     bounds: &mut [[Vec<DistanceBounds>; 2]],
     moved: &[Option<RoundMoves>],
     positions: &[Vec<DVec3>],
 ) {
     for (&k, pair_bounds) in active.iter().zip(bounds) {
         let objects = frame.pairs[region_pairs[k].pair].objects;
+        let regions = region_pairs[k].regions;
         for (l, direction) in pair_bounds.iter_mut().enumerate() {
             let (querying, target) = (objects[l], objects[1 - l]);
             let surface = moved[target].as_ref();
             let vertex_moved = moved[querying].as_ref().map(|m| &m.by_vertex);
             let at = &positions[querying];
+            // How the target side's rim moved, for what the vertices know of their winding
+            // numbers about it (`None`: no rim known, nothing is carried).
+            let rim = regions.and_then(|r| trees.get(target)?.get(r[1 - l])?.as_ref()?.rim.get()).map(|rim| {
+                let by_vertex = surface.map(|s| s.by_vertex.as_slice());
+                RimMove::new(rim, &positions[target], by_vertex, surface.map_or(0.0, |s| s.largest))
+            });
             for (v, bound) in direction.iter_mut().enumerate() {
                 let own = vertex_moved.map_or(0.0, |m| m[v]);
+                if let Some(known) = bound.winding {
+                    bound.winding = rim.and_then(|rim| rim.carry(known, bound.lower, own));
+                }
                 if bound.lower > 0.0 {
                     bound.lower = match surface {
                         Some(surface) => surface.lowered(bound.lower, own, at[v]),
@@ -700,7 +736,7 @@ fn separate_with(
             .map(|i| caches[i].as_ref().map(|c| RoundMoves::new(&c.topology, &seed.positions[i], &positions[i])))
             .collect();
         bounds.clone_from(&seed.bounds);
-        lower_bounds(frame, region_pairs, active, &mut bounds, &moved, &positions);
+        lower_bounds(frame, region_pairs, active, trees, &mut bounds, &moved, &positions);
     }
     let mut start_positions = seeds.kept.is_some().then(|| positions.clone());
     // Per object and region: the volume terms of its last correction, at first chapter 5's.
@@ -724,9 +760,12 @@ fn separate_with(
     }
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
+        let mut rims = Vec::new();
         for &(i, r) in &open_sides {
             if let Some(side) = trees[i].get_mut(r).and_then(Option::as_mut) {
                 side.clusters.refresh(&side.bvh);
+                let rim = side.rim.get_or_init(|| rim_of(&frame.objects[i].mesh.triangles, side.bvh.faces()));
+                rims.push(RimAt { side: (i, r), tree: RimTree::new(rim, &positions[i]) });
             }
         }
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
@@ -739,8 +778,17 @@ fn separate_with(
             let objects = frame.pairs[rp.pair].objects;
             let gap = contact.gap;
             stop_below = stop_below.min(STOP_FRACTION * gap);
-            let surfaces =
-                [0, 1].map(|l| surface(frame, caches, (trees, wholes), &positions, objects[l], regions[l], objects));
+            let surfaces = [0, 1].map(|l| {
+                surface(
+                    frame,
+                    caches,
+                    Surfaces { trees, wholes, rims: &rims },
+                    &positions,
+                    objects[l],
+                    regions[l],
+                    objects,
+                )
+            });
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
             let windings = [0, 1].map(|l| {
@@ -860,15 +908,16 @@ fn separate_with(
             })
             .collect::<Result<_, PipelineError>>()?;
         work.record();
-        lower_bounds(frame, region_pairs, active, &mut bounds, &moved, &positions);
+        lower_bounds(frame, region_pairs, active, trees, &mut bounds, &moved, &positions);
     }
     let mut warnings = Vec::new();
     for &k in active {
         let rp = &region_pairs[k];
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
-        let surfaces =
-            [0, 1].map(|l| surface(frame, caches, (trees, wholes), &positions, objects[l], regions[l], objects));
+        let surfaces = [0, 1].map(|l| {
+            surface(frame, caches, Surfaces { trees, wholes, rims: &[] }, &positions, objects[l], regions[l], objects)
+        });
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
         let distinct = |side: usize| {
@@ -903,7 +952,7 @@ fn separate_with(
 fn surface<'a>(
     frame: &'a Frame,
     caches: &'a [Option<ObjectCache>],
-    (trees, wholes): (&'a [Vec<Option<SideTrees>>], &'a [Option<TriangleBvh>]),
+    Surfaces { trees, wholes, rims }: Surfaces<'a>,
     positions: &'a [Vec<DVec3>],
     object: usize,
     region: usize,
@@ -911,14 +960,32 @@ fn surface<'a>(
 ) -> Option<Surface<'a>> {
     let cache = caches[object].as_ref()?;
     let cut = cache.regions.get(region).is_some_and(|r| r.faces.is_some());
+    let closed = cache.closed && objects[0] != objects[1];
+    let rim = rims.iter().find(|r| r.side == (object, region)).map(|r| &r.tree).filter(|_| !closed);
     Some(Surface {
         trees: trees.get(object)?.get(region)?.as_ref()?,
         whole: wholes.get(object).and_then(Option::as_ref).filter(|_| cut),
         positions: &positions[object],
         triangles: &frame.objects[object].mesh.triangles,
         topology: &cache.topology,
-        closed: cache.closed && objects[0] != objects[1],
+        closed,
+        rim,
     })
+}
+
+/// What the sides' surfaces are made of in one round: the sides' trees, the whole objects' trees
+/// and the open sides' rims.
+#[derive(Clone, Copy)]
+struct Surfaces<'a> {
+    trees: &'a [Vec<Option<SideTrees>>],
+    wholes: &'a [Option<TriangleBvh>],
+    rims: &'a [RimAt],
+}
+
+/// The rim of an open side (object, region) at the current round's positions.
+struct RimAt {
+    side: (usize, usize),
+    tree: RimTree,
 }
 
 /// The distances of one region pair: its gap (the reach of the moves outside a surface) and the
@@ -1164,7 +1231,8 @@ mod tests {
         let bvh = TriangleBvh::new(&mesh).unwrap();
         let mut clusters = WindingClusters::default();
         clusters.refresh(&bvh);
-        let trees = SideTrees { bvh, vertices: (0..mesh.num_vertices() as u32).collect(), clusters };
+        let trees =
+            SideTrees { bvh, vertices: (0..mesh.num_vertices() as u32).collect(), clusters, rim: Default::default() };
         let surface = Surface {
             trees: &trees,
             whole: None,
@@ -1172,6 +1240,7 @@ mod tests {
             triangles: &mesh.triangles,
             topology: &topology,
             closed: false,
+            rim: None,
         };
         let winding = FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY);
         let reach = Reach { gap: 0.05, depth: 0.3 };
@@ -1191,13 +1260,13 @@ mod tests {
             }
             let lower = least + (distance - least) * 0.5 * (rng.next_signed() + 1.0);
             let upper = distance + 0.1 * (rng.next_signed() + 1.0);
-            let bounds = DistanceBounds { lower, upper };
+            let bounds = DistanceBounds { lower, upper, winding: None };
             let unknown = DistanceBounds::UNKNOWN;
             let (asked, _) = surface.near(Some(&winding), q, false, unknown, reach, &mut leaves);
             let (known, kept) = surface.near(Some(&winding), q, false, bounds, reach, &mut leaves);
             assert_eq!(key(&asked), key(&known), "at {q}, {distance} from the bowl");
             assert!(kept.lower <= distance * (1.0 + 1e-12) && kept.upper >= distance * (1.0 - 1e-12));
-            if surface.behind_open(&winding, q) {
+            if surface.winding_side(&winding, q).0 {
                 behind += usize::from(!asked.is_empty());
             } else {
                 skipped += usize::from(upper < reach.depth);

@@ -43,7 +43,7 @@ pub use aabb_tree::{AabbTree, PointTree, ProjectionPlane, Segment2Hit, SegmentTr
 pub use batch::{Batch, BatchHits};
 pub use bvh::TriangleBvh;
 pub use closest::closest_point_on_triangle;
-pub(crate) use flat_bvh::Visit;
+pub(crate) use flat_bvh::{FlatBvh, Visit};
 pub use joint::{EdgeCrossings, EdgeSource, mutual_edge_crossings};
 pub use queries::{ClosestPoint, CrossingHint, Hit, Ray};
 pub use segment_slabs::SegmentSlabs;

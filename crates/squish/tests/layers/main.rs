@@ -153,7 +153,8 @@ fn the_submodules_of_a_module_do_not_use_each_other_in_a_circle() {
 
 /// The submodules of `pipeline`, bottom first (`docs/architecture.md`, "Layers"): the frame plan's
 /// stages point down to the stages and stores they run on, the driver (`mod.rs`) is above all.
-const PIPELINE_ORDER: [&[&str]; 8] = [
+const PIPELINE_ORDER: [&[&str]; 9] = [
+    &["rim"],
     &["error", "stats", "plan", "cache", "untangle"],
     &["store", "regions"],
     &["setup", "contacts"],
