@@ -55,7 +55,7 @@
 //! more or less moves a vertex by at most ~[`STOP_FRACTION`]·g). Its time is its own stage,
 //! [`crate::stage::Stage::Separation`]. It extends the thesis' §4.3–§5.4 (not in it).
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -185,9 +185,8 @@ struct Surface<'a> {
     /// Inside/outside by the object's winding number (a closed object) rather than by the
     /// generalized one of the surface.
     closed: bool,
-    /// The rim of an open surface at the same positions (`None`: closed, or not known; what a
-    /// point learns of its winding number is then not kept).
-    rim: Option<&'a RimTree>,
+    /// The inside of an open surface in this round (`None` for a closed one).
+    open: Option<&'a OpenSide>,
 }
 
 /// A point of a surface near a query: its face, its barycentric coordinates there, the query's
@@ -231,12 +230,12 @@ impl Surface<'_> {
     /// Whether `q` is behind the open surface ([`Self::winding_side`]), from what is known of `q`'s winding number when that settles it
     /// ([`WindingKnown`]), else evaluated and `known` set to what was learnt (`None` without the
     /// surface's rim).
-    fn behind_open_known(&self, winding: &FastWinding, q: DVec3, known: &mut Option<WindingKnown>) -> bool {
+    fn behind_open_known(&self, open: &OpenSide, q: DVec3, known: &mut Option<WindingKnown>) -> bool {
         if let Some(behind) = known.and_then(|k| k.settled(OPEN_INSIDE_WINDING)) {
             return behind;
         }
-        let (behind, value) = self.winding_side(winding, q);
-        *known = self.rim.map(|rim| WindingKnown { value, drift: 0.0, rim: rim.distance(q) });
+        let (behind, value) = self.winding_side(&open.winding(&self.trees.bvh), q);
+        *known = Some(WindingKnown { value, drift: 0.0, rim: open.rim.distance(q) });
         behind
     }
 
@@ -324,7 +323,6 @@ impl Surface<'_> {
     /// returned).
     fn near(
         &self,
-        winding: Option<&FastWinding>,
         q: DVec3,
         inside_closed: bool,
         known: DistanceBounds,
@@ -332,12 +330,12 @@ impl Surface<'_> {
         leaves: &mut Vec<u32>,
     ) -> (Vec<Near>, DistanceBounds) {
         let Reach { gap: reach, depth } = reach;
-        let open_winding = winding.filter(|_| !self.closed);
+        let open = self.open.filter(|_| !self.closed);
         let in_band = known.lower > reach * (1.0 + BOUND_SLACK) && known.upper < depth * (1.0 - BOUND_SLACK);
         let mut learnt = known.winding;
         // True once this point is known to be behind the open surface.
-        let known_behind = match open_winding.filter(|_| in_band) {
-            Some(winding) if !self.behind_open_known(winding, q, &mut learnt) => {
+        let known_behind = match open.filter(|_| in_band) {
+            Some(open) if !self.behind_open_known(open, q, &mut learnt) => {
                 return (Vec::new(), DistanceBounds { winding: learnt, ..known });
             }
             Some(_) => true,
@@ -359,8 +357,8 @@ impl Surface<'_> {
         if cp.distance > limit {
             return (Vec::new(), DistanceBounds { lower, upper: cp.distance, winding: learnt });
         }
-        let inside = match open_winding {
-            Some(winding) => known_behind || self.behind_open_known(winding, q, &mut learnt),
+        let inside = match open {
+            Some(open) => known_behind || self.behind_open_known(open, q, &mut learnt),
             None => inside_closed,
         };
         let bound = DistanceBounds { lower, upper: cp.distance, winding: learnt };
@@ -760,12 +758,16 @@ fn separate_with(
     }
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
-        let mut rims = Vec::new();
+        let mut opens = Vec::new();
         for &(i, r) in &open_sides {
             if let Some(side) = trees[i].get_mut(r).and_then(Option::as_mut) {
-                side.clusters.refresh(&side.bvh);
                 let rim = side.rim.get_or_init(|| rim_of(&frame.objects[i].mesh.triangles, side.bvh.faces()));
-                rims.push(RimAt { side: (i, r), tree: RimTree::new(rim, &positions[i]) });
+                opens.push(OpenSide {
+                    side: (i, r),
+                    rim: RimTree::new(rim, &positions[i]),
+                    buffers: Mutex::new(Some(std::mem::take(&mut side.clusters))),
+                    clusters: OnceLock::new(),
+                });
             }
         }
         let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
@@ -782,7 +784,7 @@ fn separate_with(
                 surface(
                     frame,
                     caches,
-                    Surfaces { trees, wholes, rims: &rims },
+                    Surfaces { trees, wholes, opens: &opens },
                     &positions,
                     objects[l],
                     regions[l],
@@ -791,12 +793,6 @@ fn separate_with(
             });
             let [Some(sa), Some(sb)] = surfaces else { continue };
             let surfaces = [sa, sb];
-            let windings = [0, 1].map(|l| {
-                (!surfaces[l].closed).then(|| {
-                    let trees = surfaces[l].trees;
-                    FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY)
-                })
-            });
             let movable = |l: usize| outcomes[objects[l]].get(regions[l]).is_some_and(Option::is_some);
             // A side moves the share of δ its partner's relative stiffness gives it (§4.3).
             let k_bar = [contact.sides[0].relative_stiffness, contact.sides[1].relative_stiffness];
@@ -820,8 +816,7 @@ fn separate_with(
                 }
                 let object = objects[l];
                 let filter = |v: u32| poking || slots[object][v as usize].is_some();
-                let target_winding = windings[1 - l].as_ref();
-                query_direction(&surfaces[l], filter, &surfaces[1 - l], target_winding, reach, &mut pair_bounds[l])
+                query_direction(&surfaces[l], filter, &surfaces[1 - l], reach, &mut pair_bounds[l])
             });
             for l in 0..2 {
                 if shares[l] == 0.0 {
@@ -855,6 +850,13 @@ fn separate_with(
                         }
                     }
                 }
+            }
+        }
+        for open in opens {
+            let (i, r) = open.side;
+            let clusters = open.into_clusters();
+            if let Some(side) = trees[i].get_mut(r).and_then(Option::as_mut) {
+                side.clusters = clusters;
             }
         }
         if rounds == 0
@@ -916,7 +918,7 @@ fn separate_with(
         let Some(regions) = rp.regions else { continue };
         let objects = frame.pairs[rp.pair].objects;
         let surfaces = [0, 1].map(|l| {
-            surface(frame, caches, Surfaces { trees, wholes, rims: &[] }, &positions, objects[l], regions[l], objects)
+            surface(frame, caches, Surfaces { trees, wholes, opens: &[] }, &positions, objects[l], regions[l], objects)
         });
         let [Some(sa), Some(sb)] = surfaces else { continue };
         let pairs = sa.trees.bvh.intersections_with(&sb.trees.bvh);
@@ -952,7 +954,7 @@ fn separate_with(
 fn surface<'a>(
     frame: &'a Frame,
     caches: &'a [Option<ObjectCache>],
-    Surfaces { trees, wholes, rims }: Surfaces<'a>,
+    Surfaces { trees, wholes, opens }: Surfaces<'a>,
     positions: &'a [Vec<DVec3>],
     object: usize,
     region: usize,
@@ -961,7 +963,7 @@ fn surface<'a>(
     let cache = caches[object].as_ref()?;
     let cut = cache.regions.get(region).is_some_and(|r| r.faces.is_some());
     let closed = cache.closed && objects[0] != objects[1];
-    let rim = rims.iter().find(|r| r.side == (object, region)).map(|r| &r.tree).filter(|_| !closed);
+    let open = opens.iter().find(|o| o.side == (object, region)).filter(|_| !closed);
     Some(Surface {
         trees: trees.get(object)?.get(region)?.as_ref()?,
         whole: wholes.get(object).and_then(Option::as_ref).filter(|_| cut),
@@ -969,23 +971,48 @@ fn surface<'a>(
         triangles: &frame.objects[object].mesh.triangles,
         topology: &cache.topology,
         closed,
-        rim,
+        open,
     })
 }
 
 /// What the sides' surfaces are made of in one round: the sides' trees, the whole objects' trees
-/// and the open sides' rims.
+/// and the open sides' insides.
 #[derive(Clone, Copy)]
 struct Surfaces<'a> {
     trees: &'a [Vec<Option<SideTrees>>],
     wholes: &'a [Option<TriangleBvh>],
-    rims: &'a [RimAt],
+    opens: &'a [OpenSide],
 }
 
-/// The rim of an open side (object, region) at the current round's positions.
-struct RimAt {
+/// The inside of an open side (object, region) in one round: its rim at the round's positions,
+/// and its far-field clusters, refreshed the first time a point's side must be evaluated (most
+/// rounds settle every point from what it knows, [`super::rim`]).
+struct OpenSide {
     side: (usize, usize),
-    tree: RimTree,
+    rim: RimTree,
+    /// The side's cluster buffers, taken for the round and given back by [`Self::into_clusters`].
+    buffers: Mutex<Option<WindingClusters>>,
+    clusters: OnceLock<WindingClusters>,
+}
+
+impl OpenSide {
+    /// The side's fast winding numbers, `tree` being the side's tree at the round's positions.
+    fn winding<'a>(&'a self, tree: &'a TriangleBvh) -> FastWinding<'a> {
+        let clusters = self.clusters.get_or_init(|| {
+            let mut clusters = self.buffers.lock().ok().and_then(|mut b| b.take()).unwrap_or_default();
+            clusters.refresh(tree);
+            clusters
+        });
+        FastWinding::with_clusters(tree, clusters, WINDING_ACCURACY)
+    }
+
+    /// The cluster buffers, for the next round.
+    fn into_clusters(self) -> WindingClusters {
+        match self.clusters.into_inner() {
+            Some(clusters) => clusters,
+            None => self.buffers.into_inner().ok().flatten().unwrap_or_default(),
+        }
+    }
 }
 
 /// The distances of one region pair: its gap (the reach of the moves outside a surface) and the
@@ -1069,7 +1096,6 @@ fn query_direction(
     querying: &Surface,
     filter: impl Fn(u32) -> bool,
     target: &Surface,
-    winding: Option<&FastWinding>,
     reach: Reach,
     bounds: &mut [DistanceBounds],
 ) -> Vec<(u32, Vec<Near>)> {
@@ -1098,7 +1124,7 @@ fn query_direction(
         .map_init(Vec::new, |leaves, (&v, &inside)| {
             let q = querying.positions[v as usize];
             let known = bounds[v as usize];
-            work.measure(|| target.near(winding, q, inside, known, reach, leaves))
+            work.measure(|| target.near(q, inside, known, reach, leaves))
         })
         .collect();
     work.record();
@@ -1229,10 +1255,19 @@ mod tests {
         }
         let topology = Topology::new(&mesh);
         let bvh = TriangleBvh::new(&mesh).unwrap();
-        let mut clusters = WindingClusters::default();
-        clusters.refresh(&bvh);
-        let trees =
-            SideTrees { bvh, vertices: (0..mesh.num_vertices() as u32).collect(), clusters, rim: Default::default() };
+        let trees = SideTrees {
+            bvh,
+            vertices: (0..mesh.num_vertices() as u32).collect(),
+            clusters: WindingClusters::default(),
+            rim: Default::default(),
+        };
+        let all: Vec<u32> = (0..mesh.num_triangles() as u32).collect();
+        let open = OpenSide {
+            side: (0, 0),
+            rim: RimTree::new(&rim_of(&mesh.triangles, &all), &mesh.positions),
+            buffers: Mutex::new(None),
+            clusters: OnceLock::new(),
+        };
         let surface = Surface {
             trees: &trees,
             whole: None,
@@ -1240,9 +1275,9 @@ mod tests {
             triangles: &mesh.triangles,
             topology: &topology,
             closed: false,
-            rim: None,
+            open: Some(&open),
         };
-        let winding = FastWinding::with_clusters(&trees.bvh, &trees.clusters, WINDING_ACCURACY);
+        let winding = open.winding(&trees.bvh);
         let reach = Reach { gap: 0.05, depth: 0.3 };
         let key = |near: &[Near]| -> Vec<(u32, [u64; 3], u64, [u64; 3])> {
             near.iter()
@@ -1262,9 +1297,13 @@ mod tests {
             let upper = distance + 0.1 * (rng.next_signed() + 1.0);
             let bounds = DistanceBounds { lower, upper, winding: None };
             let unknown = DistanceBounds::UNKNOWN;
-            let (asked, _) = surface.near(Some(&winding), q, false, unknown, reach, &mut leaves);
-            let (known, kept) = surface.near(Some(&winding), q, false, bounds, reach, &mut leaves);
+            let (asked, learnt) = surface.near(q, false, unknown, reach, &mut leaves);
+            let (known, kept) = surface.near(q, false, bounds, reach, &mut leaves);
             assert_eq!(key(&asked), key(&known), "at {q}, {distance} from the bowl");
+            // What the first query learnt of the side settles it, with the same answer.
+            let (settled, _) =
+                surface.near(q, false, DistanceBounds { winding: learnt.winding, ..bounds }, reach, &mut leaves);
+            assert_eq!(key(&asked), key(&settled), "at {q}, from what was learnt");
             assert!(kept.lower <= distance * (1.0 + 1e-12) && kept.upper >= distance * (1.0 - 1e-12));
             if surface.winding_side(&winding, q).0 {
                 behind += usize::from(!asked.is_empty());
