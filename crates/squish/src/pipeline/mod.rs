@@ -396,7 +396,7 @@ impl ObjectContacts {
         }
 
         // The separation pass on the outputs (issue 29).
-        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, trace)?;
+        let unseparated = self.separate(frame, &region_pairs, &contacts, &mut outcomes, false, trace)?;
         let level = ObjectsLevel {
             region_pairs,
             contacts,
@@ -419,7 +419,7 @@ impl ObjectContacts {
         let mut outcomes = deformations::finish_kept_regions(&self.caches, frame, &zones, &state.regions)?;
         deformations::record(&outcomes, trace);
         let summary = zones.summary();
-        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, trace)?;
+        let unseparated = self.separate(frame, &state.region_pairs, &state.contacts, &mut outcomes, true, trace)?;
         Ok(ObjectsLevel {
             region_pairs: state.region_pairs.clone(),
             contacts: state.contacts.clone(),
@@ -432,13 +432,15 @@ impl ObjectContacts {
         })
     }
 
-    /// The separation pass (unless left out), timed as its own stage; its warnings.
+    /// The separation pass (unless left out), timed as its own stage; its warnings. `edit`: the
+    /// frame is an edit of the kept one, whose inputs are those of the last pass.
     fn separate(
         &mut self,
         frame: &Frame,
         region_pairs: &[RegionPair],
         contacts: &[Option<PairContact>],
         outcomes: &mut [Vec<Option<deformations::RegionOutcome>>],
+        edit: bool,
         trace: &mut Trace,
     ) -> Result<Vec<FrameWarning>, PipelineError> {
         if self.skip_separation {
@@ -447,7 +449,7 @@ impl ObjectContacts {
         // The last pass's seed, taken: a pass that fails leaves none.
         let last = self.separation_seed.take();
         let mut next = None;
-        let seeds = Seeds { from: last.as_ref(), kept: (!self.without_seeds).then_some(&mut next) };
+        let seeds = Seeds { from: last.as_ref(), kept: (!self.without_seeds).then_some(&mut next), same_inputs: edit };
         let (_, warnings) = trace.run(Stage::Separation, || {
             separation::separate(frame, &mut self.caches, region_pairs, contacts, outcomes, seeds)
         })?;

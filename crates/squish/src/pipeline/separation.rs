@@ -422,6 +422,8 @@ pub(super) struct SeparationSeed {
     positions: Vec<Vec<DVec3>>,
     /// Per active pair and direction: the bounds after the first round's queries.
     bounds: Vec<[Vec<DistanceBounds>; 2]>,
+    /// Per object: the mean edge length of its input (for a pass on the same inputs, an edit).
+    edge_lengths: Vec<f64>,
 }
 
 /// One side of an active pair in a [`SeparationSeed`]: what its surface is made of.
@@ -492,6 +494,8 @@ pub(super) struct Seeds<'a> {
     pub from: Option<&'a SeparationSeed>,
     /// Where to leave this pass's seed (`None`: it leaves none).
     pub kept: Option<&'a mut Option<SeparationSeed>>,
+    /// The objects' inputs are those of the last pass, bit for bit (an edit of its frame).
+    pub same_inputs: bool,
 }
 
 /// Lowers every active pair's distance bounds after its objects moved (`moved`, per object; `None`:
@@ -650,9 +654,12 @@ fn separate_with(
             None => Vec::new(),
         })
         .collect();
-    let edge_lengths: Vec<f64> = (0..count)
-        .map(|i| caches[i].as_ref().map_or(0.0, |c| mean_edge_length(c, &frame.objects[i].mesh.positions)))
-        .collect();
+    let edge_lengths: Vec<f64> = match seeds.from.filter(|s| seeds.same_inputs && s.edge_lengths.len() == count) {
+        Some(seed) => seed.edge_lengths.clone(),
+        None => (0..count)
+            .map(|i| caches[i].as_ref().map_or(0.0, |c| mean_edge_length(c, &frame.objects[i].mesh.positions)))
+            .collect(),
+    };
     // The whole correction so far, per object vertex.
     let mut corrections: Vec<Vec<DVec3>> =
         (0..count).map(|i| vec![DVec3::ZERO; frame.objects[i].mesh.num_vertices()]).collect();
@@ -756,6 +763,9 @@ fn separate_with(
             }
         }
     }
+    // Per object: the moves asked of its vertices in a round, and the spread's buffers.
+    let mut asks: Vec<Blends> = slots.iter().map(|s| Blends::new(s.len())).collect();
+    let mut spreads: Vec<Blends> = slots.iter().map(|s| Blends::new(s.len())).collect();
     let mut rounds = 0;
     while rounds < MAX_ROUNDS {
         let mut opens = Vec::new();
@@ -770,7 +780,6 @@ fn separate_with(
                 });
             }
         }
-        let mut blends: Vec<Vec<Blend>> = slots.iter().map(|s| vec![Blend::default(); s.len()]).collect();
         let mut largest = 0.0f64;
         let mut stop_below = f64::INFINITY;
         for (a, &k) in active.iter().enumerate() {
@@ -831,7 +840,7 @@ fn separate_with(
                         continue;
                     }
                     for n in near.iter().filter(|n| n.distance < gap) {
-                        blends[object][*v as usize].add(share * (gap - n.distance) * n.out);
+                        asks[object].add(*v, share * (gap - n.distance) * n.out);
                     }
                 }
                 // The other side's vertices near or inside this side move this side's faces.
@@ -845,7 +854,7 @@ fn separate_with(
                         }
                         for (&c, &b) in corners.iter().zip(&bary) {
                             if b > 0.0 && slots[object][c as usize].is_some() {
-                                blends[object][c as usize].add((b / norm) * m);
+                                asks[object].add(c, (b / norm) * m);
                             }
                         }
                     }
@@ -863,10 +872,16 @@ fn separate_with(
             && let (Some(kept), Some(positions), Some(sides)) =
                 (seeds.kept.as_deref_mut(), start_positions.take(), sides.take())
         {
-            *kept = Some(SeparationSeed { active: active.to_vec(), sides, positions, bounds: bounds.clone() });
+            *kept = Some(SeparationSeed {
+                active: active.to_vec(),
+                sides,
+                positions,
+                bounds: bounds.clone(),
+                edge_lengths: edge_lengths.clone(),
+            });
         }
-        let moves: Vec<Vec<DVec3>> = blends.iter().map(|b| b.iter().map(Blend::result).collect()).collect();
-        for m in moves.iter().flatten() {
+        let moves: Vec<Vec<(u32, DVec3)>> = asks.iter_mut().map(Blends::take).collect();
+        for (_, m) in moves.iter().flatten() {
             largest = largest.max(m.length());
         }
         if largest <= stop_below || largest == 0.0 {
@@ -885,15 +900,16 @@ fn separate_with(
             .zip(positions.par_iter_mut())
             .zip(trees.par_iter_mut())
             .zip(wholes.par_iter_mut())
-            .map(|((((((i, outcomes), correction), terms), positions), trees), whole)| {
+            .zip(spreads.par_iter_mut())
+            .map(|(((((((i, outcomes), correction), terms), positions), trees), whole), spread)| {
                 work.measure(|| {
-                    if moves[i].iter().all(|m| *m == DVec3::ZERO) {
+                    if moves[i].iter().all(|(_, m)| *m == DVec3::ZERO) {
                         return Ok(None);
                     }
                     let Some(cache) = caches[i].as_ref() else { return Ok(None) };
-                    let spread = spread_moves(cache, positions, &moves[i], &slots[i], SPREAD_EDGES * edge_lengths[i]);
-                    for (c, s) in correction.iter_mut().zip(&spread) {
-                        *c += *s;
+                    let radius = SPREAD_EDGES * edge_lengths[i];
+                    for (v, s) in spread_moves(cache, positions, &moves[i], &slots[i], radius, spread) {
+                        correction[v as usize] += s;
                     }
                     correct_regions(frame, i, cache, correction, outcomes, terms)?;
                     let new_positions = object_positions(&frame.objects[i].mesh.positions, cache, outcomes);
@@ -1142,47 +1158,97 @@ fn inside_box(b: &Aabb3, p: DVec3) -> bool {
     p.cmpge(b.min).all() && p.cmple(b.max).all()
 }
 
-/// Each non-zero move spread over the movable vertices within `radius` (edge paths, Euclidean
-/// distance at `positions`) with the weight `(1 − (r/R)²)²`, blended per vertex with its own
-/// ([`Blend`]).
+/// Each non-zero move of `moves` (sorted by vertex) spread over the movable vertices within
+/// `radius` (edge paths, Euclidean distance at `positions`) with the weight `(1 − (r/R)²)²`,
+/// blended per vertex with its own ([`Blend`]); the vertices reached, in increasing order.
+/// `spread`: buffers kept between rounds.
 fn spread_moves(
     cache: &ObjectCache,
     positions: &[DVec3],
-    moves: &[DVec3],
+    moves: &[(u32, DVec3)],
     slots: &[Option<(u32, u32)>],
     radius: f64,
-) -> Vec<DVec3> {
+    spread: &mut Blends,
+) -> Vec<(u32, DVec3)> {
     if radius <= 0.0 {
         return moves.to_vec();
     }
-    let mut blends = vec![Blend::default(); moves.len()];
-    let mut seen = vec![u32::MAX; moves.len()];
     let mut stack = Vec::new();
-    for (source, m) in moves.iter().enumerate() {
-        if *m == DVec3::ZERO {
+    for &(source, m) in moves {
+        if m == DVec3::ZERO {
             continue;
         }
-        blends[source].add(*m);
-        let origin = positions[source];
+        spread.add(source, m);
+        let origin = positions[source as usize];
+        let stamp = spread.next_stamp();
         stack.clear();
-        stack.push(source as u32);
-        seen[source] = source as u32;
+        stack.push(source);
+        spread.seen[source as usize] = stamp;
         while let Some(v) = stack.pop() {
             for w in cache.topology.vertex_neighbors(v) {
-                if seen[w as usize] == source as u32 || slots[w as usize].is_none() {
+                if spread.seen[w as usize] == stamp || slots[w as usize].is_none() {
                     continue;
                 }
-                seen[w as usize] = source as u32;
+                spread.seen[w as usize] = stamp;
                 let r = (positions[w as usize] - origin).length() / radius;
                 if r >= 1.0 {
                     continue;
                 }
-                blends[w as usize].add((1.0 - r * r).powi(2) * *m);
+                spread.add(w, (1.0 - r * r).powi(2) * m);
                 stack.push(w);
             }
         }
     }
-    blends.iter().map(Blend::result).collect()
+    spread.take()
+}
+
+/// The moves asked of every vertex of one object ([`Blend`] per vertex), with the vertices asked
+/// so far: a round's work grows with the vertices asked, not with the object. `seen`: per vertex,
+/// the last spread source that reached it ([`spread_moves`]).
+struct Blends {
+    blends: Vec<Blend>,
+    touched: Vec<u32>,
+    seen: Vec<u32>,
+    stamp: u32,
+}
+
+impl Blends {
+    fn new(vertices: usize) -> Self {
+        Self { blends: vec![Blend::default(); vertices], touched: Vec::new(), seen: Vec::new(), stamp: 0 }
+    }
+
+    /// Asks vertex `v` for the move `m`.
+    fn add(&mut self, v: u32, m: DVec3) {
+        let blend = &mut self.blends[v as usize];
+        let first = blend.weight <= 0.0;
+        blend.add(m);
+        if first && blend.weight > 0.0 {
+            self.touched.push(v);
+        }
+    }
+
+    /// The blended move of every vertex asked (sorted by vertex; the others' are zero), the
+    /// asks cleared.
+    fn take(&mut self) -> Vec<(u32, DVec3)> {
+        self.touched.sort_unstable();
+        let moves = self.touched.iter().map(|&v| (v, self.blends[v as usize].result())).collect();
+        for &v in &self.touched {
+            self.blends[v as usize] = Blend::default();
+        }
+        self.touched.clear();
+        moves
+    }
+
+    /// A new mark for [`Self::seen`] (the marks restart, cleared, when they run out).
+    fn next_stamp(&mut self) -> u32 {
+        if self.seen.len() != self.blends.len() || self.stamp == u32::MAX {
+            self.seen.clear();
+            self.seen.resize(self.blends.len(), 0);
+            self.stamp = 0;
+        }
+        self.stamp += 1;
+        self.stamp
+    }
 }
 
 /// Applies object `i`'s whole correction to its deformed regions, each solving its bulge height
@@ -1312,6 +1378,41 @@ mod tests {
             }
         }
         assert!(behind > 50 && skipped > 100, "{behind} answered behind, {skipped} in front within the band");
+    }
+
+    /// The spread of a round's moves does not depend on what the buffers kept from the rounds
+    /// before: the same moves spread with used buffers and with new ones give the same bits, and
+    /// a vertex reaches only movable vertices within the radius.
+    #[test]
+    fn a_spread_with_kept_buffers_is_a_spread_with_new_ones() {
+        let mesh = shapes::icosphere(1.0, 3);
+        let cache = ObjectCache::new("ball", &mesh).unwrap();
+        let n = mesh.num_vertices();
+        let slots: Vec<Option<(u32, u32)>> =
+            (0..n).map(|v| (mesh.positions[v].z > -0.2).then_some((0, v as u32))).collect();
+        let mut rng = Lcg::new(41);
+        let mut kept = Blends::new(n);
+        for round in 0..6 {
+            let mut asks = Blends::new(n);
+            for _ in 0..(5 + 7 * round) {
+                let v = (rng.next_signed().abs() * n as f64) as u32 % n as u32;
+                asks.add(v, 0.01 * DVec3::new(rng.next_signed(), rng.next_signed(), rng.next_signed()));
+            }
+            let moves = asks.take();
+            let radius = 0.3;
+            let with_kept = spread_moves(&cache, &mesh.positions, &moves, &slots, radius, &mut kept);
+            let fresh = spread_moves(&cache, &mesh.positions, &moves, &slots, radius, &mut Blends::new(n));
+            let bits =
+                |m: &[(u32, DVec3)]| m.iter().map(|(v, d)| (*v, d.to_array().map(f64::to_bits))).collect::<Vec<_>>();
+            assert_eq!(bits(&with_kept), bits(&fresh), "round {round}");
+            assert!(with_kept.windows(2).all(|w| w[0].0 < w[1].0));
+            for (v, _) in &with_kept {
+                let near = moves
+                    .iter()
+                    .any(|(s, _)| (mesh.positions[*s as usize] - mesh.positions[*v as usize]).length() < radius);
+                assert!(near && (slots[*v as usize].is_some() || moves.iter().any(|(s, _)| s == v)));
+            }
+        }
     }
 
     /// The distance bounds after a round never exceed the true distance, whatever the moves:

@@ -213,8 +213,12 @@ impl TriangleBvh {
             for &k in &moved {
                 let k = k as usize;
                 for &leaf in &links.leaves[links.offsets[k] as usize..links.offsets[k + 1] as usize] {
-                    self.corners[leaf as usize] = self.indices[leaf as usize].map(|i| positions[i as usize]);
                     let mut node = links.leaf_node[leaf as usize];
+                    // A leaf met again through another of its corners is already done.
+                    if node != u32::MAX && links.marked[node as usize] {
+                        continue;
+                    }
+                    self.corners[leaf as usize] = self.indices[leaf as usize].map(|i| positions[i as usize]);
                     while node != u32::MAX && !links.marked[node as usize] {
                         links.marked[node as usize] = true;
                         dirty.push(node);
