@@ -31,8 +31,9 @@
 //! edge lengths inside an open surface are left alone (they are behind it, not near the
 //! contact). What a vertex learns of its winding number about an open surface is carried to the
 //! next rounds and passes with a bound on how far it can move ([`super::rim`]): it is evaluated
-//! again only when that no longer settles the side. Only vertices of deformed regions move — those of the parametrization domain 𝒫 or the contact set (§5.1), never on a
-//! cut border (their faces outside would move out of the volume balance).
+//! again only when that no longer settles the side. Only vertices of deformed regions move —
+//! those of the parametrization domain 𝒫 or the contact set (§5.1), never on a cut border (their
+//! faces outside would move out of the volume balance).
 //!
 //! **Volume.** The moves accumulate into a correction added to the fixed part of the region's
 //! affine displacement, and the bulge height is solved again with it
@@ -227,9 +228,9 @@ impl Surface<'_> {
         (exact > OPEN_INSIDE_WINDING, exact)
     }
 
-    /// Whether `q` is behind the open surface ([`Self::winding_side`]), from what is known of `q`'s winding number when that settles it
-    /// ([`WindingKnown`]), else evaluated and `known` set to what was learnt (`None` without the
-    /// surface's rim).
+    /// Whether `q` is behind the open surface ([`Self::winding_side`]): from what is known of
+    /// its winding number when that settles it ([`WindingKnown`]), else evaluated, and `known`
+    /// set to what was learnt.
     fn behind_open_known(&self, open: &OpenSide, q: DVec3, known: &mut Option<WindingKnown>) -> bool {
         if let Some(behind) = known.and_then(|k| k.settled(OPEN_INSIDE_WINDING)) {
             return behind;
